@@ -1,0 +1,217 @@
+"""``Camera``: an immutable calibrated pinhole camera with OpenCV distortion, and its frame conversions."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ray3d.errors import InputError
+from ray3d.geometry import transforms as tf
+from ray3d.geometry.arrays import Array, check_points, like
+
+ORTHONORMAL_TOLERANCE = 1e-6
+DICT_FIELDS = ("fx", "fy", "cx", "cy", "dist", "R", "t", "width", "height")
+
+
+def _frozen(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"camera field {name}: not numeric ({value!r})") from None
+    if array.shape != shape:
+        raise InputError(f"camera field {name}: expected shape {shape}, got {array.shape}")
+    if not np.isfinite(array).all():
+        raise InputError(f"camera field {name}: contains NaN or infinite values")
+    array.setflags(write=False)
+    return array
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Camera:
+    """A calibrated camera: ``X_c = R X_w + t`` (metres), pixels ``K distort(X_c / z_c)``.
+
+    Attributes:
+        K: (3, 3) intrinsics [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in pixels (no skew).
+        dist: (5,) OpenCV distortion k1, k2, p1, p2, k3 (4 values are accepted and k3 taken as 0).
+        R: (3, 3) world->camera rotation (orthonormal, det +1).
+        t: (3,) world->camera translation in metres.
+        image_size: (width, height) in pixels.
+        name: a stable identifier, e.g. ``h36m:S1:54138969``.
+
+    The world is z up with the floor at z = 0, so the camera centre must be above the floor.
+    Every method accepts numpy arrays or torch tensors of any leading shape and returns the same kind
+    (torch keeps autograd and device).
+    """
+
+    K: np.ndarray
+    dist: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    image_size: tuple[int, int]
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        K = _frozen(self.K, (3, 3), "K")
+        fx, fy = K[0, 0], K[1, 1]
+        if fx <= 0 or fy <= 0:
+            raise InputError(f"camera field K: singular or flipped intrinsics (fx={fx}, fy={fy}); both must be > 0")
+        if K[0, 1] != 0 or K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+            raise InputError(f"camera field K: must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {K.tolist()}")
+        n_dist = np.size(self.dist)
+        dist = _frozen(self.dist, (n_dist,) if n_dist in (4, 5) else (5,), "dist")
+        if n_dist == 4:
+            dist = _frozen(np.append(dist, 0.0), (5,), "dist")
+        R = _frozen(self.R, (3, 3), "R")
+        error = np.abs(R @ R.T - np.eye(3)).max()
+        if error > ORTHONORMAL_TOLERANCE or np.linalg.det(R) < 0:
+            raise InputError(
+                f"camera field R: not a rotation (|R R^T - I| = {error:.2e}, det = {np.linalg.det(R):.4f})")
+        t = _frozen(self.t, (3,), "t")
+        try:
+            width, height = (int(v) for v in self.image_size)
+        except (TypeError, ValueError):
+            raise InputError(f"camera field image_size: expected (width, height), got {self.image_size!r}") from None
+        if width <= 0 or height <= 0:
+            raise InputError(f"camera field image_size: width and height must be positive, got {(width, height)}")
+        for field, value in (("K", K), ("dist", dist), ("R", R), ("t", t), ("image_size", (width, height))):
+            object.__setattr__(self, field, value)
+        center_z = tf.camera_center(R, t)[2]
+        if center_z <= 0:
+            raise InputError(
+                f"camera {self.name or '(unnamed)'}: centre is at z = {center_z:.3f} m, at or below the ground "
+                "plane z = 0; the world frame must be z up with the floor at z = 0")
+
+    # ----------------------------------------------------------------------------------------- construction
+    @classmethod
+    def from_intrinsics(cls, fx: float, fy: float, cx: float, cy: float, dist: Sequence[float] | None,
+                        R: Any, t: Any, image_size: tuple[int, int], name: str = "") -> Camera:
+        """Build from scalar intrinsics; ``dist=None`` means no distortion."""
+        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]], dtype=np.float64)
+        return cls(K, np.zeros(5) if dist is None else dist, R, t, image_size, name)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], name: str = "") -> Camera:
+        """Build from the documented JSON form.
+
+        Keys: ``fx, fy, cx, cy`` (pixels), ``dist`` (k1, k2, p1, p2, k3), ``R`` (3x3 world->camera),
+        ``t`` (3, metres), ``width, height`` (pixels); optional ``name``.
+        """
+        if not isinstance(d, Mapping):
+            raise InputError(f"camera: expected a JSON object, got {type(d).__name__}")
+        missing = [key for key in DICT_FIELDS if key not in d]
+        if missing:
+            label = d.get("name") or name
+            raise InputError(f"camera{' ' + label if label else ''}: missing field(s) {', '.join(missing)}")
+        return cls.from_intrinsics(d["fx"], d["fy"], d["cx"], d["cy"], d["dist"], d["R"], d["t"],
+                                   (d["width"], d["height"]), str(d.get("name", name)))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form read by :meth:`from_dict`."""
+        return {
+            "name": self.name,
+            "fx": float(self.K[0, 0]), "fy": float(self.K[1, 1]), "cx": float(self.K[0, 2]), "cy": float(self.K[1, 2]),
+            "dist": self.dist.tolist(), "R": self.R.tolist(), "t": self.t.tolist(),
+            "width": self.image_size[0], "height": self.image_size[1],
+        }
+
+    @classmethod
+    def from_center_quaternion(cls, quaternion_wxyz: Sequence[float], center: Sequence[float], fx: float, fy: float,
+                               cx: float, cy: float, dist: Sequence[float] | None, image_size: tuple[int, int],
+                               name: str = "") -> Camera:
+        """Build from the camera->world orientation quaternion (w, x, y, z) and the camera centre in metres.
+
+        This is the convention of VideoPose3D-style camera files: ``X_w = q X_c q* + C``, hence
+        ``R = rot(q)^T`` and ``t = -R C``. (Those files store the centre in millimetres: divide by 1000 first.)
+        """
+        quaternion = _frozen(quaternion_wxyz, (4,), "quaternion")
+        if abs(np.linalg.norm(quaternion) - 1) > 1e-3:
+            raise InputError(f"camera field quaternion: not a unit quaternion (norm {np.linalg.norm(quaternion):.4f})")
+        R = Rotation.from_quat(quaternion, scalar_first=True).as_matrix().T
+        return cls.from_intrinsics(fx, fy, cx, cy, dist, R, -R @ _frozen(center, (3,), "center"), image_size, name)
+
+    # ---------------------------------------------------------------------------------------------- pose
+    @property
+    def intrinsics(self) -> np.ndarray:
+        """(4,) fx, fy, cx, cy."""
+        return np.array([self.K[0, 0], self.K[1, 1], self.K[0, 2], self.K[1, 2]])
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) camera centre in the world, metres."""
+        return tf.camera_center(self.R, self.t)
+
+    @property
+    def camera_height(self) -> float:
+        """Height of the camera centre above the floor, metres."""
+        return float(self.center[2])
+
+    @property
+    def pitch(self) -> float:
+        """Angle of the optical axis below the horizontal, radians (positive looking down)."""
+        return float(tf.camera_pitch(self.R))
+
+    @property
+    def roll(self) -> float:
+        """Rotation about the optical axis relative to the world vertical, radians (ignored by the method)."""
+        return float(tf.camera_roll(self.R))
+
+    @property
+    def has_distortion(self) -> bool:
+        return bool(np.any(self.dist != 0))
+
+    # ------------------------------------------------------------------------------------------ frames
+    def world_to_camera(self, points_world: Array) -> Array:
+        """(..., 3) world points -> camera frame."""
+        p = check_points(points_world, 3, "points_world")
+        return tf.world_to_camera(p, like(self.R, p), like(self.t, p))
+
+    def camera_to_world(self, points_camera: Array) -> Array:
+        """(..., 3) camera-frame points -> world."""
+        p = check_points(points_camera, 3, "points_camera")
+        return tf.camera_to_world(p, like(self.R, p), like(self.t, p))
+
+    def camera_to_normalized(self, points_camera: Array) -> Array:
+        """(..., 3) camera-frame points -> NCS."""
+        p = check_points(points_camera, 3, "points_camera")
+        return tf.camera_to_normalized(p, like(self.camera_height, p), like(self.pitch, p))
+
+    def normalized_to_camera(self, points_normalized: Array) -> Array:
+        """(..., 3) NCS points -> camera frame."""
+        p = check_points(points_normalized, 3, "points_normalized")
+        return tf.normalized_to_camera(p, like(self.camera_height, p), like(self.pitch, p))
+
+    def world_to_normalized(self, points_world: Array) -> Array:
+        """(..., 3) world points -> NCS."""
+        return self.camera_to_normalized(self.world_to_camera(points_world))
+
+    def normalized_to_world(self, points_normalized: Array) -> Array:
+        """(..., 3) NCS points -> world."""
+        return self.camera_to_world(self.normalized_to_camera(points_normalized))
+
+    # ----------------------------------------------------------------------------------------- pixels
+    def project(self, points_world: Array) -> Array:
+        """(..., 3) world points -> (..., 2) pixels, lens distortion included; points behind the camera -> NaN."""
+        p = self.world_to_camera(points_world)
+        return tf.camera_to_pixels(p, like(self.intrinsics, p), like(self.dist, p) if self.has_distortion else None)
+
+    def pixels_to_rays(self, pixels: Array, frame: str = "normalized") -> Array:
+        """(..., 2) pixels -> (..., 3) rays through them, undistorted.
+
+        ``frame="camera"`` gives ``(x, y, 1)``; ``frame="normalized"`` gives that ray rotated into NCS (the
+        Ray3D network input; not unit length). A point at camera depth z_c on the ray of pixel p satisfies
+        ``X_n = z_c * ray_n + (0, -h, 0)``. Pixels where the lens model cannot be inverted give NaN rays.
+        """
+        if frame not in ("normalized", "camera"):
+            raise InputError(f"pixels_to_rays: frame must be 'normalized' or 'camera', got {frame!r}")
+        uv = check_points(pixels, 2, "pixels")
+        rays = tf.pixels_to_camera_rays(uv, like(self.intrinsics, uv), like(self.dist, uv) if self.has_distortion else None)
+        return rays if frame == "camera" else tf.rays_camera_to_normalized(rays, like(self.pitch, uv))
+
+    def __repr__(self) -> str:
+        fx, fy, cx, cy = self.intrinsics
+        return (f"Camera({self.name or 'unnamed'}: f=({fx:.1f}, {fy:.1f}) c=({cx:.1f}, {cy:.1f}) "
+                f"size={self.image_size} height={self.camera_height:.3f} m pitch={np.degrees(self.pitch):.2f} deg)")

@@ -1,0 +1,118 @@
+"""Pure, vectorised transforms between the world, camera and normalized (NCS) frames, and pixels <-> rays.
+
+Frames (brief section 2):
+- world: metres, right-handed, z up, floor z = 0;
+- camera: OpenCV, x right, y down, z forward; ``X_c = R X_w + t``;
+- normalized (NCS): the camera frame rotated about its x axis by the pitch and moved so the origin lies on
+  the floor below the camera: ``X_n = R_c2n(pitch) X_c + (0, -height, 0)``. y_n points down (for zero
+  roll), z_n is the horizontal heading, and the camera centre sits at (0, -height, 0).
+
+Every function takes numpy arrays or torch tensors. Camera parameters broadcast against the points' leading
+axes, so one call can transform a batch of samples seen by a batch of different cameras.
+"""
+
+from __future__ import annotations
+
+from ray3d.geometry.arrays import Array, namespace, stack_last
+from ray3d.geometry.distortion import distort, undistort
+
+
+def _rotate(R: Array, points: Array) -> Array:
+    """(..., 3, 3) @ (..., 3) -> (..., 3)."""
+    return (R @ points[..., None])[..., 0]
+
+
+def world_to_camera(points_world: Array, R: Array, t: Array) -> Array:
+    """(..., 3) world points to the camera frame, with ``R`` (..., 3, 3) and ``t`` (..., 3) world->camera."""
+    return _rotate(R, points_world) + t
+
+
+def camera_to_world(points_camera: Array, R: Array, t: Array) -> Array:
+    """Inverse of :func:`world_to_camera`: ``X_w = R^T (X_c - t)``."""
+    return _rotate(R.swapaxes(-1, -2), points_camera - t)
+
+
+def _rotate_about_x(points: Array, pitch: Array) -> Array:
+    """Rotate (..., 3) points by ``R_c2n(pitch)`` = [[1,0,0],[0,c,s],[0,-s,c]]; ``pitch`` broadcasts to (...)."""
+    xp = namespace(points)
+    c, s = xp.cos(pitch), xp.sin(pitch)
+    x, y, z = points[..., 0], points[..., 1], points[..., 2]
+    return stack_last([x, c * y + s * z, c * z - s * y])
+
+
+def camera_to_normalized(points_camera: Array, height: Array, pitch: Array) -> Array:
+    """(..., 3) camera-frame points to NCS; ``height`` (metres) and ``pitch`` (radians) broadcast to (...)."""
+    rotated = _rotate_about_x(points_camera, pitch)
+    return stack_last([rotated[..., 0], rotated[..., 1] - height, rotated[..., 2]])
+
+
+def normalized_to_camera(points_normalized: Array, height: Array, pitch: Array) -> Array:
+    """Inverse of :func:`camera_to_normalized`."""
+    p = points_normalized
+    return _rotate_about_x(stack_last([p[..., 0], p[..., 1] + height, p[..., 2]]), -pitch)
+
+
+def rays_camera_to_normalized(rays_camera: Array, pitch: Array) -> Array:
+    """Rotate (..., 3) camera-frame ray directions into NCS (directions: no translation)."""
+    return _rotate_about_x(rays_camera, pitch)
+
+
+def pixels_to_camera_rays(pixels: Array, intrinsics: Array, dist: Array | None = None) -> Array:
+    """Back-project pixels to camera-frame rays ``(x, y, 1)`` (intrinsic decoupling).
+
+    Args:
+        pixels: (..., 2) pixel coordinates (u, v).
+        intrinsics: (..., 4) fx, fy, cx, cy in pixels, broadcastable against the leading axes.
+        dist: optional (..., 5) OpenCV coefficients; the pixels are undistorted first.
+
+    Returns:
+        (..., 3) rays with unit z: every point on the ray is ``depth * ray``.
+    """
+    xy = stack_last([
+        (pixels[..., 0] - intrinsics[..., 2]) / intrinsics[..., 0],
+        (pixels[..., 1] - intrinsics[..., 3]) / intrinsics[..., 1],
+    ])
+    if dist is not None:
+        xy = undistort(xy, dist)
+    return stack_last([xy[..., 0], xy[..., 1], namespace(xy).ones_like(xy[..., 0])])
+
+
+def camera_to_pixels(points_camera: Array, intrinsics: Array, dist: Array | None = None) -> Array:
+    """Project (..., 3) camera-frame points to (..., 2) pixels, with lens distortion when ``dist`` is given.
+
+    Points at or behind the camera (z <= 0) have no image and come out as NaN.
+    """
+    xp = namespace(points_camera)
+    z = points_camera[..., 2]
+    in_front = z > 0
+    safe_z = xp.where(in_front, z, xp.ones_like(z))
+    xy = points_camera[..., :2] / safe_z[..., None]
+    if dist is not None:
+        xy = distort(xy, dist)
+    u = intrinsics[..., 0] * xy[..., 0] + intrinsics[..., 2]
+    v = intrinsics[..., 1] * xy[..., 1] + intrinsics[..., 3]
+    nan = xp.full_like(u, float("nan"))
+    return stack_last([xp.where(in_front, u, nan), xp.where(in_front, v, nan)])
+
+
+def camera_center(R: Array, t: Array) -> Array:
+    """(..., 3) camera centre in the world, ``C = -R^T t``."""
+    return -_rotate(R.swapaxes(-1, -2), t)
+
+
+def camera_pitch(R: Array) -> Array:
+    """(...) pitch in radians from (..., 3, 3) world->camera rotations: the optical axis' angle below horizontal.
+
+    The optical axis in the world is ``R^T (0, 0, 1)`` (the third row of R); pitch = acos(axis_z) - pi/2.
+    """
+    xp = namespace(R)
+    return -xp.arcsin(xp.clip(R[..., 2, 2], -1.0, 1.0))
+
+
+def camera_roll(R: Array) -> Array:
+    """(...) roll in radians: rotation of the image about the optical axis relative to the world's vertical.
+
+    With world up expressed in the camera frame ``u = R (0, 0, 1)``, roll = atan2(u_x, -u_y); zero when the
+    camera's x axis is horizontal, positive when world up leans towards +x (image right).
+    """
+    return namespace(R).arctan2(R[..., 0, 2], -R[..., 1, 2])

@@ -1,0 +1,114 @@
+"""Pose metrics (brief section 5) for numpy and torch, in the input's units (multiply metres by 1000 for mm).
+
+Every metric takes predictions and ground truth of shape (..., J, 3) and returns the mean over all frames, or
+with ``reduction="none"`` one value per frame (shape (...)), ready for :func:`grouped_mean`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Sequence
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.geometry.arrays import Array, as_float, namespace, to_numpy
+
+ROOT = 0
+
+
+def _pair(predicted: Array, target: Array) -> tuple[Array, Array]:
+    predicted, target = as_float(predicted), as_float(target)
+    if predicted.shape != target.shape or predicted.ndim < 2:
+        raise InputError(f"metrics: predicted {tuple(predicted.shape)} and target {tuple(target.shape)} must "
+                         "have the same shape (..., J, 3)")
+    return predicted, target
+
+
+def _reduce(per_frame: Array, reduction: str) -> Array:
+    if reduction == "none":
+        return per_frame
+    if reduction == "mean":
+        return per_frame.mean()
+    raise InputError(f"metrics: reduction must be 'mean' or 'none', got {reduction!r}")
+
+
+def _joint_distance(a: Array, b: Array) -> Array:
+    d = a - b
+    return np.linalg.norm(d, axis=-1) if isinstance(d, np.ndarray) else d.norm(dim=-1)
+
+
+def abs_mpjpe(predicted: Array, target: Array, reduction: str = "mean") -> Array:
+    """Absolute MPJPE: mean joint distance in the world frame, no alignment."""
+    predicted, target = _pair(predicted, target)
+    return _reduce(_joint_distance(predicted, target).mean(-1), reduction)
+
+
+def mpjpe(predicted: Array, target: Array, reduction: str = "mean") -> Array:
+    """MPJPE: mean joint distance after subtracting each pose's root (joint 0) from it."""
+    predicted, target = _pair(predicted, target)
+    return abs_mpjpe(predicted - predicted[..., ROOT:ROOT + 1, :], target - target[..., ROOT:ROOT + 1, :], reduction)
+
+
+def mrpe(predicted: Array, target: Array, reduction: str = "mean") -> Array:
+    """MRPE: distance of the root joint (joint 0 only) in the world frame."""
+    predicted, target = _pair(predicted, target)
+    return _reduce(_joint_distance(predicted[..., ROOT, :], target[..., ROOT, :]), reduction)
+
+
+def procrustes_align(predicted: Array, target: Array) -> Array:
+    """Align each (..., J, 3) pose to its target by the best similarity (scale, rotation, translation).
+
+    Least squares (Umeyama); reflections are excluded so the result is a proper rotation.
+    """
+    predicted, target = _pair(predicted, target)
+    xp = namespace(predicted)
+    mu_p, mu_t = predicted.mean(-2, keepdims=True), target.mean(-2, keepdims=True)
+    p, t = predicted - mu_p, target - mu_t
+    covariance = p.swapaxes(-1, -2) @ t  # (..., 3, 3)
+    u, s, vt = xp.linalg.svd(covariance)
+    # Flip the last singular direction where u v^T would be a reflection.
+    det_sign = xp.sign(xp.linalg.det(u @ vt))
+    correction = xp.ones_like(s)
+    correction[..., -1] = det_sign
+    s = s * correction
+    u = u * correction[..., None, :]
+    rotation = u @ vt  # maps rows: p @ rotation ~ t
+    variance = (p * p).sum((-1, -2))
+    scale = s.sum(-1) / xp.where(variance > 0, variance, xp.ones_like(variance))
+    return scale[..., None, None] * (p @ rotation) + mu_t
+
+
+def p_mpjpe(predicted: Array, target: Array, reduction: str = "mean") -> Array:
+    """P-MPJPE: MPJPE after per-frame similarity Procrustes alignment to the target."""
+    return abs_mpjpe(procrustes_align(predicted, target), as_float(target), reduction)
+
+
+def mpjve(predicted: Array, target: Array, reduction: str = "mean") -> Array:
+    """MPJVE: mean joint distance between frame-to-frame velocities; time is axis -3, so (..., T, J, 3) gives
+    (..., T - 1) values. Units per frame (multiply by fps for per second)."""
+    predicted, target = _pair(predicted, target)
+    if predicted.ndim < 3 or predicted.shape[-3] < 2:
+        raise InputError(f"mpjve: need (..., T, J, 3) with T >= 2, got {tuple(predicted.shape)}")
+    velocity_p = predicted[..., 1:, :, :] - predicted[..., :-1, :, :]
+    velocity_t = target[..., 1:, :, :] - target[..., :-1, :, :]
+    return abs_mpjpe(velocity_p, velocity_t, reduction)
+
+
+def grouped_mean(per_frame: Array, groups: Sequence[Hashable]) -> tuple[float, dict[Hashable, float]]:
+    """Average per-frame values within each group (frame-weighted), then over groups (each group equal).
+
+    This is the Human3.6M protocol's "average over actions"; use it per action, per camera or per clip.
+
+    Returns:
+        (mean over groups, {group: mean within group}) with groups in order of first appearance.
+    """
+    values = to_numpy(per_frame).astype(np.float64).reshape(-1)
+    if len(groups) != len(values):
+        raise InputError(f"grouped_mean: {len(values)} values but {len(groups)} group labels")
+    if len(values) == 0:
+        raise InputError("grouped_mean: no values")
+    by_group: dict[Hashable, list[int]] = {}
+    for i, g in enumerate(groups):
+        by_group.setdefault(g, []).append(i)
+    means = {g: float(values[idx].mean()) for g, idx in by_group.items()}
+    return float(np.mean(list(means.values()))), means

@@ -1,0 +1,201 @@
+"""Joint layouts, converters between them, and the left/right flip.
+
+Everything structural is derived from joint NAMES: a side prefix ``l_`` / ``r_`` gives left/right and the
+flip permutation; the limb words give the five RIE groups (torso, two arms, two legs). Converters are linear
+maps (a (J_target, J_source) weight matrix) so they apply to 2D pixels, 3D points, numpy and torch alike.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.geometry.arrays import Array, like, namespace
+
+ARM_PARTS = ("shoulder", "elbow", "wrist")
+LEG_PARTS = ("hip", "knee", "ankle")
+GROUP_NAMES = ("torso", "left_arm", "right_arm", "left_leg", "right_leg")
+
+
+def _side(name: str) -> str | None:
+    return {"l_": "left", "r_": "right"}.get(name[:2])
+
+
+@dataclasses.dataclass(frozen=True)
+class Skeleton:
+    """A joint layout: ordered joint names and each joint's parent index (-1 for the root)."""
+
+    name: str
+    joint_names: tuple[str, ...]
+    parents: tuple[int, ...]
+
+    def __post_init__(self) -> None:
+        assert len(self.joint_names) == len(self.parents), self.name
+        assert len(set(self.joint_names)) == len(self.joint_names), self.name
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.joint_names)
+
+    def index(self, joint: str) -> int:
+        try:
+            return self.joint_names.index(joint)
+        except ValueError:
+            raise InputError(f"layout {self.name}: no joint named {joint!r}") from None
+
+    @functools.cached_property
+    def left(self) -> tuple[int, ...]:
+        return tuple(i for i, n in enumerate(self.joint_names) if _side(n) == "left")
+
+    @functools.cached_property
+    def right(self) -> tuple[int, ...]:
+        return tuple(i for i, n in enumerate(self.joint_names) if _side(n) == "right")
+
+    @functools.cached_property
+    def flip_permutation(self) -> tuple[int, ...]:
+        """Index of each joint's mirror image (itself for central joints)."""
+        swap = {"l_": "r_", "r_": "l_"}
+        return tuple(self.index(swap[n[:2]] + n[2:]) if _side(n) else i for i, n in enumerate(self.joint_names))
+
+    @functools.cached_property
+    def groups(self) -> dict[str, tuple[int, ...]]:
+        """The five RIE joint groups by name; hips belong to the legs, shoulders to the arms."""
+        groups: dict[str, list[int]] = {g: [] for g in GROUP_NAMES}
+        for i, n in enumerate(self.joint_names):
+            side, part = _side(n), n[2:]
+            limb = "arm" if side and part in ARM_PARTS else "leg" if side and part in LEG_PARTS else None
+            groups[f"{side}_{limb}" if limb else "torso"].append(i)
+        return {g: tuple(v) for g, v in groups.items()}
+
+
+def _subset(source: Skeleton, name: str, keep: list[str]) -> Skeleton:
+    """A layout of some of ``source``'s joints; each keeps its nearest kept ancestor as parent."""
+    kept = [source.index(n) for n in keep]
+    parents = []
+    for i in kept:
+        p = source.parents[i]
+        while p != -1 and p not in kept:
+            p = source.parents[p]
+        parents.append(kept.index(p) if p != -1 else -1)
+    return Skeleton(name, tuple(keep), tuple(parents))
+
+
+H36M17 = Skeleton(
+    "h36m17",
+    ("pelvis", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle", "spine", "thorax", "neck_nose", "head",
+     "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow", "r_wrist"),
+    (-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 9, 8, 11, 12, 8, 14, 15),
+)
+# The cross-dataset layout: H36M-17 without spine, thorax and neck.
+H36M14 = _subset(H36M17, "h36m14", [n for n in H36M17.joint_names if n not in ("spine", "thorax", "neck_nose")])
+HUMANEVA15 = Skeleton(
+    "humaneva15",
+    ("pelvis", "thorax", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow", "r_wrist",
+     "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle", "head"),
+    (-1, 0, 1, 2, 3, 1, 5, 6, 0, 8, 9, 0, 11, 12, 1),
+)
+# MPI-INF-3DHP's 17-joint test layout, in Human3.6M order; its neck and head top differ in name only.
+MPI_INF_3DHP17 = Skeleton(
+    "3dhp17",
+    tuple({"neck_nose": "neck", "head": "head_top"}.get(n, n) for n in H36M17.joint_names),
+    H36M17.parents,
+)
+COCO17 = Skeleton(
+    "coco17",
+    ("nose", "l_eye", "r_eye", "l_ear", "r_ear", "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_wrist",
+     "r_wrist", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle"),
+    (-1, 0, 0, 1, 2, 0, 0, 5, 6, 7, 8, 5, 6, 11, 12, 13, 14),
+)
+BLAZEPOSE33 = Skeleton(
+    "blazepose33",
+    ("nose", "l_eye_inner", "l_eye", "l_eye_outer", "r_eye_inner", "r_eye", "r_eye_outer", "l_ear", "r_ear",
+     "l_mouth", "r_mouth", "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_wrist", "r_wrist", "l_pinky",
+     "r_pinky", "l_index", "r_index", "l_thumb", "r_thumb", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle",
+     "r_ankle", "l_heel", "r_heel", "l_foot_index", "r_foot_index"),
+    (-1, 0, 1, 2, 0, 4, 5, 3, 6, 0, 0, 0, 0, 11, 12, 13, 14, 15, 16, 15, 16, 15, 16, 11, 12, 23, 24, 25, 26,
+     27, 28, 27, 28),
+)
+LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, BLAZEPOSE33)}
+
+# How far the head top lies beyond the mid-ears, as a fraction of the thorax -> mid-ears vector.
+HEAD_TOP_EXTENSION = 0.5
+_HALF = 0.5
+_FACE_TO_H36M: dict[str, dict[str, float]] = {
+    "pelvis": {"l_hip": _HALF, "r_hip": _HALF},
+    "thorax": {"l_shoulder": _HALF, "r_shoulder": _HALF},
+    "spine": {"l_hip": _HALF / 2, "r_hip": _HALF / 2, "l_shoulder": _HALF / 2, "r_shoulder": _HALF / 2},
+    "neck_nose": {"nose": 1.0},
+    "head": {"l_ear": _HALF * (1 + HEAD_TOP_EXTENSION), "r_ear": _HALF * (1 + HEAD_TOP_EXTENSION),
+             "l_shoulder": -_HALF * HEAD_TOP_EXTENSION, "r_shoulder": -_HALF * HEAD_TOP_EXTENSION},
+}
+# Joints of a target layout not found by name in the source: (source, target) -> {target joint: {source joint: w}}.
+_RECIPES: dict[tuple[str, str], dict[str, dict[str, float]]] = {
+    ("coco17", "h36m17"): _FACE_TO_H36M,
+    ("blazepose33", "h36m17"): _FACE_TO_H36M,
+    ("3dhp17", "h36m17"): {"neck_nose": {"neck": 1.0}, "head": {"head_top": 1.0}},
+}
+
+
+def _layout(layout: str | Skeleton) -> Skeleton:
+    if isinstance(layout, Skeleton):
+        return layout
+    if layout not in LAYOUTS:
+        raise InputError(f"unknown joint layout {layout!r}; known: {', '.join(LAYOUTS)}")
+    return LAYOUTS[layout]
+
+
+@functools.cache
+def conversion_matrix(source: str, target: str) -> np.ndarray:
+    """(J_target, J_source) weights taking ``source`` joints to ``target`` joints (rows sum to 1).
+
+    Joints are matched by name; a target joint missing from the source comes from a recipe of derived joints
+    (brief section 8). Raises ``InputError`` when the source lacks what the target needs.
+    """
+    src, dst = _layout(source), _layout(target)
+    recipe = _RECIPES.get((src.name, dst.name), {})
+    matrix = np.zeros((dst.num_joints, src.num_joints))
+    for k, joint in enumerate(dst.joint_names):
+        weights = recipe.get(joint) or ({joint: 1.0} if joint in src.joint_names else None)
+        if weights is None:
+            raise InputError(f"cannot convert {src.name} to {dst.name}: {src.name} has no joint {joint!r} "
+                             f"(HumanEva-15 converts to the 14-joint cross-dataset layout 'h36m14')")
+        for joint_name, weight in weights.items():
+            matrix[k, src.index(joint_name)] = weight
+    matrix.setflags(write=False)
+    return matrix
+
+
+def convert(points: Array, source: str | Skeleton, target: str | Skeleton = "h36m17") -> Array:
+    """Convert (..., J_source, D) joints (pixels or 3D, numpy or torch) to the ``target`` layout."""
+    src, dst = _layout(source), _layout(target)
+    if points.shape[-2] != src.num_joints:
+        raise InputError(f"layout {src.name}: expected {src.num_joints} joints on axis -2, got shape "
+                         f"{tuple(points.shape)}")
+    weights = conversion_matrix(src.name, dst.name)
+    return namespace(points).einsum("kj,...jd->...kd", like(weights, points), points)
+
+
+def convert_confidences(confidences: Array, source: str | Skeleton, target: str | Skeleton = "h36m17") -> Array:
+    """(..., J_source) confidences -> (..., J_target): a derived joint is as sure as its least sure source."""
+    src, dst = _layout(source), _layout(target)
+    if confidences.shape[-1] != src.num_joints:
+        raise InputError(f"layout {src.name}: expected {src.num_joints} confidences on the last axis, got shape "
+                         f"{tuple(confidences.shape)}")
+    xp = namespace(confidences)
+    used = like(conversion_matrix(src.name, dst.name) != 0, confidences) > 0
+    inf = like(np.inf, confidences)
+    return xp.amin(xp.where(used, confidences[..., None, :], inf), -1)
+
+
+def flip(points: Array, layout: str | Skeleton = "h36m17") -> Array:
+    """Mirror (..., J, D) joints: negate the first coordinate and swap left and right joints."""
+    skeleton = _layout(layout)
+    if points.shape[-2] != skeleton.num_joints:
+        raise InputError(f"flip: layout {skeleton.name} has {skeleton.num_joints} joints, got shape "
+                         f"{tuple(points.shape)}")
+    mirrored = points[..., list(skeleton.flip_permutation), :]
+    sign = like(np.array([-1.0] + [1.0] * (points.shape[-1] - 1)), points)
+    return mirrored * sign
