@@ -147,6 +147,11 @@ def _layout(layout: str | Skeleton) -> Skeleton:
     return LAYOUTS[layout]
 
 
+def _missing_joints(src: Skeleton, dst: Skeleton) -> list[str]:
+    recipe = _RECIPES.get((src.name, dst.name), {})
+    return [joint for joint in dst.joint_names if joint not in recipe and joint not in src.joint_names]
+
+
 @functools.cache
 def conversion_matrix(source: str, target: str) -> np.ndarray:
     """(J_target, J_source) weights taking ``source`` joints to ``target`` joints (rows sum to 1).
@@ -155,14 +160,15 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
     (brief section 8). Raises ``InputError`` when the source lacks what the target needs.
     """
     src, dst = _layout(source), _layout(target)
+    missing = _missing_joints(src, dst)
+    if missing:
+        reachable = [name for name, layout in LAYOUTS.items() if not _missing_joints(src, layout)]
+        raise InputError(f"cannot convert {src.name} to {dst.name}: {src.name} has no joint {missing[0]!r}; "
+                         f"it converts to: {', '.join(reachable)}")
     recipe = _RECIPES.get((src.name, dst.name), {})
     matrix = np.zeros((dst.num_joints, src.num_joints))
     for k, joint in enumerate(dst.joint_names):
-        weights = recipe.get(joint) or ({joint: 1.0} if joint in src.joint_names else None)
-        if weights is None:
-            raise InputError(f"cannot convert {src.name} to {dst.name}: {src.name} has no joint {joint!r} "
-                             f"(HumanEva-15 converts to the 14-joint cross-dataset layout 'h36m14')")
-        for joint_name, weight in weights.items():
+        for joint_name, weight in recipe.get(joint, {joint: 1.0}).items():
             matrix[k, src.index(joint_name)] = weight
     matrix.setflags(write=False)
     return matrix

@@ -37,6 +37,8 @@ def to_numpy(x: Array) -> np.ndarray:
 def like(value: Array, ref: Array) -> Array:
     """``value`` (numpy or torch) converted to the library, dtype and device of ``ref``."""
     if isinstance(ref, torch.Tensor):
+        if isinstance(value, np.ndarray) and not value.flags.writeable:
+            value = value.copy()  # torch cannot wrap read-only memory (our frozen camera arrays)
         return torch.as_tensor(value, dtype=ref.dtype, device=ref.device)
     return np.asarray(value, dtype=ref.dtype)
 

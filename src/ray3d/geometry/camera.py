@@ -133,6 +133,15 @@ class Camera:
         R = Rotation.from_quat(quaternion, scalar_first=True).as_matrix().T
         return cls.from_intrinsics(fx, fy, cx, cy, dist, R, -R @ _frozen(center, (3,), "center"), image_size, name)
 
+    @classmethod
+    def from_pose(cls, center: Sequence[float], yaw: float, pitch: float, roll: float, fx: float, fy: float,
+                  cx: float, cy: float, image_size: tuple[int, int], dist: Sequence[float] | None = None,
+                  name: str = "") -> Camera:
+        """Build from the camera centre (world, metres) and yaw, pitch, roll (radians, see
+        :func:`ray3d.geometry.rotation_from_angles`)."""
+        R = tf.rotation_from_angles(yaw, pitch, roll)
+        return cls.from_intrinsics(fx, fy, cx, cy, dist, R, -R @ _frozen(center, (3,), "center"), image_size, name)
+
     # ---------------------------------------------------------------------------------------------- pose
     @property
     def intrinsics(self) -> np.ndarray:

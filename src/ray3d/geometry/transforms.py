@@ -13,6 +13,8 @@ axes, so one call can transform a batch of samples seen by a batch of different 
 
 from __future__ import annotations
 
+import numpy as np
+
 from ray3d.geometry.arrays import Array, namespace, stack_last
 from ray3d.geometry.distortion import distort, undistort
 
@@ -74,7 +76,8 @@ def pixels_to_camera_rays(pixels: Array, intrinsics: Array, dist: Array | None =
     ])
     if dist is not None:
         xy = undistort(xy, dist)
-    return stack_last([xy[..., 0], xy[..., 1], namespace(xy).ones_like(xy[..., 0])])
+    unit_z = xy[..., 0] * 0 + 1  # NaN where the lens model could not be inverted: the whole ray is undefined
+    return stack_last([xy[..., 0], xy[..., 1], unit_z])
 
 
 def camera_to_pixels(points_camera: Array, intrinsics: Array, dist: Array | None = None) -> Array:
@@ -116,3 +119,18 @@ def camera_roll(R: Array) -> Array:
     camera's x axis is horizontal, positive when world up leans towards +x (image right).
     """
     return namespace(R).arctan2(R[..., 0, 2], -R[..., 1, 2])
+
+
+def rotation_from_angles(yaw: float, pitch: float, roll: float = 0.0) -> np.ndarray:
+    """(3, 3) world->camera rotation of a camera with the given heading, pitch and roll (radians).
+
+    ``yaw`` is the heading of the optical axis in the floor plane, counter-clockwise from +x; ``pitch`` > 0
+    looks down; ``roll`` turns the image about the optical axis with the sign of :func:`camera_roll`.
+    Inverse of (:func:`camera_pitch`, :func:`camera_roll`) for the pitch and roll.
+    """
+    forward = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)])
+    right_level = np.array([np.sin(yaw), -np.cos(yaw), 0.0])
+    down_level = np.cross(forward, right_level)
+    right = np.cos(roll) * right_level - np.sin(roll) * down_level
+    down = np.sin(roll) * right_level + np.cos(roll) * down_level
+    return np.stack([right, down, forward])

@@ -1,0 +1,34 @@
+"""Shared fixtures: random but valid cameras and points in front of them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ray3d import Camera
+
+
+def random_camera(rng: np.random.Generator, distortion: bool = False, roll: bool = True) -> Camera:
+    """A camera 0.5-4 m high, pitch -10..60 deg, any yaw, up to 8 deg roll, looking at the capture area."""
+    dist = None
+    if distortion:
+        dist = [rng.uniform(-0.25, -0.1), rng.uniform(0.05, 0.25), rng.uniform(-3e-3, 3e-3),
+                rng.uniform(-3e-3, 3e-3), rng.uniform(-0.01, 0.01)]
+    return Camera.from_pose(
+        center=[rng.uniform(-6, 6), rng.uniform(-6, 6), rng.uniform(0.5, 4.0)],
+        yaw=rng.uniform(-np.pi, np.pi), pitch=np.radians(rng.uniform(-10, 60)),
+        roll=np.radians(rng.uniform(-8, 8)) if roll else 0.0,
+        fx=rng.uniform(500, 2000), fy=rng.uniform(500, 2000), cx=rng.uniform(300, 700), cy=rng.uniform(300, 700),
+        image_size=(1000, 1000), dist=dist)
+
+
+def points_in_front(camera: Camera, rng: np.random.Generator, n: int, max_xy: float = 0.6) -> np.ndarray:
+    """(n, 3) world points 1-12 m in front of ``camera`` within a modest field of view."""
+    depth = rng.uniform(1, 12, n)
+    xy = rng.uniform(-max_xy, max_xy, (n, 2)) * depth[:, None]
+    return camera.camera_to_world(np.column_stack([xy, depth]))
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(1234)

@@ -1,0 +1,294 @@
+"""Camera model: frame round trips, the NCS identities, Human3.6M values, lens model vs OpenCV, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ray3d import Camera, InputError, cameras
+from ray3d.geometry import camera_pitch, camera_roll, rotation_from_angles
+
+from conftest import points_in_front, random_camera
+
+
+def _seeds(n: int) -> list[int]:
+    return list(range(n))
+
+
+# ------------------------------------------------------------------------------------------ round trips
+@pytest.mark.parametrize("seed", _seeds(20))
+def test_world_camera_normalized_round_trips(seed):
+    rng = np.random.default_rng(seed)
+    camera = random_camera(rng)
+    points = rng.normal(0, 3, (4, 5, 3))
+    np.testing.assert_allclose(camera.camera_to_world(camera.world_to_camera(points)), points, atol=1e-9)
+    np.testing.assert_allclose(camera.normalized_to_camera(camera.camera_to_normalized(points)), points, atol=1e-9)
+    np.testing.assert_allclose(camera.normalized_to_world(camera.world_to_normalized(points)), points, atol=1e-9)
+    composed = camera.camera_to_normalized(camera.world_to_camera(points))
+    np.testing.assert_allclose(camera.world_to_normalized(points), composed, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", _seeds(20))
+def test_normalized_point_is_depth_times_ray_minus_height(seed):
+    rng = np.random.default_rng(seed)
+    camera = random_camera(rng, distortion=seed % 2 == 0)
+    points = points_in_front(camera, rng, 200)
+    depth = camera.world_to_camera(points)[:, 2:3]
+    rays = camera.pixels_to_rays(camera.project(points), frame="normalized")
+    expected = depth * rays + np.array([0.0, -camera.camera_height, 0.0])
+    np.testing.assert_allclose(camera.world_to_normalized(points), expected, atol=1e-8)
+
+
+@pytest.mark.parametrize("seed", _seeds(10))
+def test_world_up_is_minus_y_and_centre_is_below_origin_without_roll(seed):
+    rng = np.random.default_rng(seed)
+    camera = random_camera(rng, roll=False)
+    up = camera.world_to_normalized(camera.center + np.array([0.0, 0.0, 1.0])) - camera.world_to_normalized(
+        camera.center)
+    np.testing.assert_allclose(up, [0.0, -1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(camera.world_to_normalized(camera.center), [0.0, -camera.camera_height, 0.0],
+                               atol=1e-12)
+    # The point on the floor below the camera is the NCS origin.
+    floor = camera.center * np.array([1.0, 1.0, 0.0])
+    np.testing.assert_allclose(camera.world_to_normalized(floor), [0.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_centre_maps_to_minus_height_even_with_roll(rng):
+    camera = random_camera(rng, roll=True)
+    np.testing.assert_allclose(camera.world_to_normalized(camera.center), [0.0, -camera.camera_height, 0.0],
+                               atol=1e-12)
+
+
+@given(yaw=st.floats(-np.pi, np.pi), pitch=st.floats(-1.4, 1.4), roll=st.floats(-0.5, 0.5))
+@settings(max_examples=200, deadline=None)
+def test_rotation_from_angles_inverts_pitch_and_roll(yaw, pitch, roll):
+    R = rotation_from_angles(yaw, pitch, roll)
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    assert camera_pitch(R) == pytest.approx(pitch, abs=1e-9)
+    assert camera_roll(R) == pytest.approx(roll, abs=1e-9)
+
+
+# ---------------------------------------------------------------------------------------- Human3.6M
+def test_h36m_s1_54138969_known_values():
+    camera = cameras.h36m("S1", "54138969")
+    assert camera.camera_height == pytest.approx(1.5634, abs=1e-4)
+    assert np.degrees(camera.pitch) == pytest.approx(10.709, abs=1e-3)
+    assert camera.name == "h36m:S1:54138969"
+    assert camera.image_size == (1000, 1002)
+
+
+def test_every_h36m_camera_reproduces_the_table():
+    table = cameras.h36m_table()["extrinsics"]
+    all_cameras = cameras.h36m_all()
+    assert len(all_cameras) == 28
+    for camera in all_cameras:
+        _, subject, camera_id = camera.name.split(":")
+        assert camera.camera_height == pytest.approx(table[subject][camera_id]["derived_height_m"], abs=1e-3)
+        assert np.degrees(camera.pitch) == pytest.approx(table[subject][camera_id]["derived_pitch_deg"], abs=1e-2)
+        assert 1.46 <= camera.camera_height <= 1.64 and 10.5 <= np.degrees(camera.pitch) <= 16.01
+        assert abs(np.degrees(camera.roll)) < 6.0
+
+
+def _image_grid(camera: Camera, step: int = 20) -> np.ndarray:
+    width, height = camera.image_size
+    u, v = np.meshgrid(np.arange(0, width + 1, step, dtype=float), np.arange(0, height + 1, step, dtype=float))
+    return np.stack([u, v], -1).reshape(-1, 2)
+
+
+@pytest.mark.parametrize("camera", cameras.h36m_all(), ids=lambda c: c.name)
+def test_pixels_to_rays_inverts_project_over_the_whole_image(camera):
+    pixels = _image_grid(camera)
+    rays = camera.pixels_to_rays(pixels, frame="camera")
+    assert np.isfinite(rays).all()
+    reprojected = camera.project(camera.camera_to_world(2.5 * rays))
+    assert np.abs(reprojected - pixels).max() < 1e-3
+
+
+@pytest.mark.parametrize("camera", cameras.h36m_all()[:4], ids=lambda c: c.name)
+def test_lens_model_matches_opencv(camera):
+    rng = np.random.default_rng(0)
+    points = rng.uniform([-2, -2, 0], [2, 2, 2], (500, 3))
+    rvec, _ = cv2.Rodrigues(camera.R)
+    expected, _ = cv2.projectPoints(points, rvec, camera.t, camera.K, camera.dist)
+    np.testing.assert_allclose(camera.project(points), expected[:, 0], atol=1e-6)
+    # OpenCV's iterative undistortion, run to convergence, is the oracle for our Newton inverse.
+    pixels = _image_grid(camera, 50)
+    criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-14)
+    undistorted = cv2.undistortPoints(pixels[:, None], camera.K, camera.dist, criteria=criteria)[:, 0]
+    np.testing.assert_allclose(camera.pixels_to_rays(pixels, frame="camera")[:, :2], undistorted, atol=1e-7)
+
+
+def test_pixels_beyond_the_invertible_lens_region_give_nan():
+    camera = cameras.h36m("S1", "54138969")
+    rays = camera.pixels_to_rays(np.array([[500.0, 500.0], [60000.0, 60000.0]]), frame="camera")
+    assert np.isfinite(rays[0]).all() and np.isnan(rays[1]).all()
+
+
+@given(dfx=st.floats(-300, 300), dfy=st.floats(-300, 300), dcx=st.floats(-200, 200), dcy=st.floats(-200, 200),
+       seed=st.integers(0, 10_000))
+@settings(max_examples=100, deadline=None)
+def test_rays_do_not_depend_on_intrinsics(dfx, dfy, dcx, dcy, seed):
+    """Intrinsic decoupling: the same 3D points give the same rays whatever fx, fy, cx, cy are."""
+    rng = np.random.default_rng(seed)
+    camera = random_camera(rng, distortion=True)
+    other = Camera.from_intrinsics(camera.K[0, 0] + dfx, camera.K[1, 1] + dfy, camera.K[0, 2] + dcx,
+                                   camera.K[1, 2] + dcy, camera.dist, camera.R, camera.t, camera.image_size)
+    points = points_in_front(camera, rng, 50, max_xy=0.4)
+    for frame in ("camera", "normalized"):
+        np.testing.assert_allclose(other.pixels_to_rays(other.project(points), frame=frame),
+                                   camera.pixels_to_rays(camera.project(points), frame=frame), atol=1e-9)
+
+
+# -------------------------------------------------------------------------------- numpy / torch / dtypes
+def test_float32_and_torch_agree_with_float64(rng):
+    camera = random_camera(rng, distortion=True)
+    points = points_in_front(camera, rng, 100).reshape(10, 10, 3)
+    reference = camera.world_to_normalized(points)
+    pixels = camera.project(points)
+    rays = camera.pixels_to_rays(pixels)
+
+    out32 = camera.world_to_normalized(points.astype(np.float32))
+    assert out32.dtype == np.float32 and out32.shape == (10, 10, 3)
+    np.testing.assert_allclose(out32, reference, atol=2e-5 * np.abs(reference).max())
+
+    for dtype, atol in ((torch.float64, 1e-9), (torch.float32, 1e-3)):
+        tensor = torch.tensor(points, dtype=dtype)
+        assert camera.world_to_normalized(tensor).dtype == dtype
+        np.testing.assert_allclose(camera.world_to_normalized(tensor).numpy(), reference, atol=atol)
+        np.testing.assert_allclose(camera.project(tensor).numpy(), pixels, atol=atol * 100)
+        np.testing.assert_allclose(camera.pixels_to_rays(torch.tensor(pixels, dtype=dtype)).numpy(), rays,
+                                   atol=atol)
+
+
+def test_torch_keeps_autograd(rng):
+    camera = random_camera(rng, distortion=True)
+    points = torch.tensor(points_in_front(camera, rng, 8), requires_grad=True)
+    pixels = camera.project(points)
+    rays = camera.pixels_to_rays(pixels)
+    (camera.normalized_to_world(camera.world_to_normalized(points)).sum() + rays.sum()).backward()
+    assert points.grad is not None and torch.isfinite(points.grad).all()
+    # Gradient of a round trip world -> NCS -> world is the identity.
+    points.grad = None
+    camera.normalized_to_world(camera.world_to_normalized(points))[:, 0].sum().backward()
+    np.testing.assert_allclose(points.grad.numpy(), np.tile([1.0, 0.0, 0.0], (8, 1)), atol=1e-12)
+
+
+def test_integer_and_list_input_become_float():
+    camera = cameras.h36m("S9", "55011271")
+    assert camera.world_to_camera([[0, 0, 1]]).dtype == np.float64
+    assert camera.world_to_camera(torch.tensor([[0, 0, 1]])).dtype == torch.get_default_dtype()
+
+
+# ------------------------------------------------------------------------------- construction and JSON
+def test_dict_round_trip_and_json(tmp_path):
+    camera = cameras.h36m("S11", "60457274")
+    path = tmp_path / "camera.json"
+    path.write_text(json.dumps(camera.to_dict()))
+    loaded = Camera.from_dict(json.loads(path.read_text()))
+    for field in ("K", "dist", "R", "t"):
+        np.testing.assert_array_equal(getattr(loaded, field), getattr(camera, field))
+    assert loaded.image_size == camera.image_size and loaded.name == camera.name
+
+
+def test_from_center_quaternion_reproduces_h36m_extrinsics():
+    from scipy.spatial.transform import Rotation
+
+    camera = cameras.h36m("S1", "54138969")
+    q = Rotation.from_matrix(camera.R.T).as_quat(scalar_first=True)
+    rebuilt = Camera.from_center_quaternion(q, camera.center, *camera.intrinsics, camera.dist, camera.image_size)
+    np.testing.assert_allclose(rebuilt.R, camera.R, atol=1e-12)
+    np.testing.assert_allclose(rebuilt.t, camera.t, atol=1e-12)
+
+
+def test_from_center_quaternion_known_videopose3d_values():
+    """The published VideoPose3D metadata of S1 / 54138969 (quaternion w, x, y, z; centre in mm)."""
+    camera = Camera.from_center_quaternion(
+        [0.1407056450843811, -0.1500701755285263, -0.755240797996521, 0.6223280429840088],
+        np.array([1841.1070556640625, 4955.28466796875, 1563.4454345703125]) / 1000.0,
+        1145.04940458804, 1143.78109572365, 512.541504956548, 515.4514869776, None, (1000, 1002))
+    reference = cameras.h36m("S1", "54138969")
+    np.testing.assert_allclose(camera.R, reference.R, atol=1e-6)
+    np.testing.assert_allclose(camera.center, reference.center, atol=1e-6)
+
+
+def test_camera_is_immutable():
+    camera = cameras.h36m("S1", "54138969")
+    with pytest.raises(AttributeError):
+        camera.t = np.zeros(3)
+    with pytest.raises(ValueError):
+        camera.R[0, 0] = 2.0
+
+
+# ----------------------------------------------------------------------------------------- bad input
+def _valid(**overrides):
+    fields = dict(K=np.array([[1000.0, 0, 500], [0, 1000, 500], [0, 0, 1]]), dist=np.zeros(5),
+                  R=rotation_from_angles(0.0, 0.2), t=None, image_size=(1000, 1000))
+    fields["t"] = -fields["R"] @ np.array([0.0, 0.0, 1.5])
+    fields.update(overrides)
+    return fields
+
+
+@pytest.mark.parametrize("overrides, message", [
+    (dict(K=np.array([[0.0, 0, 500], [0, 1000, 500], [0, 0, 1]])), "singular"),
+    (dict(K=np.array([[1000.0, 3, 500], [0, 1000, 500], [0, 0, 1]])), "skew"),
+    (dict(K=np.eye(4)), "K: expected shape"),
+    (dict(R=np.diag([1.0, 1.0, 1.2])), "not a rotation"),
+    (dict(R=np.diag([1.0, 1.0, -1.0])), "not a rotation"),
+    (dict(t=[0.0, float("nan"), 0.0]), "t: contains NaN"),
+    (dict(t=[0.0, 0.0]), "t: expected shape"),
+    (dict(dist=[0.1, 0.2, 0.3]), "dist: expected shape"),
+    (dict(dist=["a", 0, 0, 0, 0]), "dist: not numeric"),
+    (dict(image_size=(0, 100)), "image_size"),
+])
+def test_bad_camera_fields_raise(overrides, message):
+    with pytest.raises(InputError, match=message):
+        Camera(**_valid(**overrides))
+
+
+def test_camera_below_the_ground_raises():
+    R = rotation_from_angles(0.0, 0.2)
+    with pytest.raises(InputError, match="below the ground"):
+        Camera(**_valid(R=R, t=-R @ np.array([0.0, 0.0, -0.3])))
+
+
+def test_json_camera_missing_a_field_names_it():
+    d = cameras.h36m("S1", "54138969").to_dict()
+    del d["fy"], d["t"]
+    with pytest.raises(InputError, match="missing field.*fy.*t"):
+        Camera.from_dict(d)
+    with pytest.raises(InputError, match="JSON object"):
+        Camera.from_dict([1, 2, 3])
+
+
+@pytest.mark.parametrize("points, message", [
+    (np.zeros((4, 2)), r"expected shape \(\.\.\., 3\)"),
+    (np.array([[0.0, np.inf, 1.0]]), "NaN or infinite"),
+    (np.float64(3.0), r"expected shape"),
+    ([["x", "y", "z"]], "not a numeric array"),
+    (torch.tensor([[float("nan"), 0.0, 1.0]]), "NaN or infinite"),
+])
+def test_bad_points_raise(points, message):
+    with pytest.raises(InputError, match=message):
+        cameras.h36m("S1", "54138969").world_to_normalized(points)
+
+
+def test_bad_pixels_and_frame_raise():
+    camera = cameras.h36m("S1", "54138969")
+    with pytest.raises(InputError, match=r"pixels: expected shape \(\.\.\., 2\)"):
+        camera.pixels_to_rays(np.zeros((3, 3)))
+    with pytest.raises(InputError, match="frame must be"):
+        camera.pixels_to_rays(np.zeros((3, 2)), frame="world")
+
+
+def test_unknown_h36m_camera_raises():
+    with pytest.raises(InputError, match="unknown subject 'S2'"):
+        cameras.h36m("S2", "54138969")
+    with pytest.raises(InputError, match="unknown camera id"):
+        cameras.h36m("S1", "123")
