@@ -1,0 +1,109 @@
+"""Users' own motion capture (BVH, ASF/AMC) -> H36M-17 joint positions in metres, z up, floor at z = 0.
+
+The steps, in order (mocap README section 7): forward kinematics in file units; mapping to H36M-17; conversion
+to metres; axis change (x, y, z) -> (x, -z, y) from the files' y-up; dropping leading synthetic frames;
+resampling to the chosen frame rate; and (optionally) shifting z so the floor is at 0.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from ray3d.data import asf_amc, bvh, mapping
+from ray3d.data.skeleton_fk import KinematicTree
+from ray3d.errors import InputError
+
+UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254, "cmu": 0.0254 / 0.45}
+DEFAULT_BVH_UNITS = {"cgspeed-motionbuilder": "cmu", "cgspeed-3dsmax": "cmu", "cgspeed-daz": "cm"}
+FLOOR_PERCENTILE = 2.0  # of the per-frame lowest foot point: robust to the odd jump or glitch
+PLAUSIBLE_BODY_HEIGHT_M = (0.5, 2.6)
+
+
+@dataclasses.dataclass
+class ImportedClip:
+    """One imported take: ``positions`` (F, 17, 3) metres, z up, at ``fps``."""
+
+    positions: np.ndarray
+    fps: float
+    native_fps: float
+    native_frames: int
+    dropped_native_frames: int
+    floor_offset_m: float
+    source_file: str
+    naming: str
+
+
+def y_up_to_z_up(points: np.ndarray) -> np.ndarray:
+    """(x, y, z) y-up -> (x, -z, y) z-up: a rotation about x, no mirroring."""
+    return np.stack([points[..., 0], -points[..., 2], points[..., 1]], -1)
+
+
+def resample(positions: np.ndarray, native_fps: float, fps: float) -> np.ndarray:
+    """(F, ...) frames at ``native_fps`` -> ``fps``: every k-th frame when the ratio is a whole number k
+    (no interpolation, as the shipped data), else linear interpolation in time."""
+    ratio = native_fps / fps
+    if abs(ratio - round(ratio)) < 1e-3 and round(ratio) >= 1:  # BVH frame times carry few decimals
+        return positions[:: int(round(ratio))]
+    times = np.arange(0.0, (len(positions) - 1) / native_fps + 1e-9, 1.0 / fps) * native_fps
+    lower = np.floor(times).astype(int)
+    upper = np.minimum(lower + 1, len(positions) - 1)
+    weight = (times - lower).reshape(-1, *([1] * (positions.ndim - 1)))
+    return (1 - weight) * positions[lower] + weight * positions[upper]
+
+
+def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit_m: float, native_fps: float,
+            fps: float, drop_native_frames: int, floor: bool, source: str) -> ImportedClip:
+    if fps <= 0:
+        raise InputError(f"{source}: fps must be positive, got {fps}")
+    if not 0 <= drop_native_frames < len(nodes):
+        raise InputError(f"{source}: cannot drop {drop_native_frames} of {len(nodes)} frames")
+    joints = y_up_to_z_up(mapping.to_h36m17(tree, nodes, naming) * unit_m)
+    feet = y_up_to_z_up(nodes[:, mapping.foot_nodes(tree, naming)] * unit_m)
+    joints, feet = joints[drop_native_frames:], feet[drop_native_frames:]
+    joints, feet = resample(joints, native_fps, fps), resample(feet, native_fps, fps)
+    height = np.median(joints[:, 10, 2] - np.minimum(joints[:, 3, 2], joints[:, 6, 2]))
+    chain = np.median(np.linalg.norm(joints[:, 10] - joints[:, 0], axis=-1) + np.linalg.norm(
+        joints[:, 0] - joints[:, 3], axis=-1))
+    low, high = PLAUSIBLE_BODY_HEIGHT_M
+    if not low <= chain <= high:
+        raise InputError(f"{source}: the body comes out {chain:.2f} m from ankle to head (standing height "
+                         f"{height:.2f} m) with {unit_m} m per file unit; pass the file's units (one of "
+                         f"{', '.join(UNITS_M)})")
+    offset = float(np.percentile(feet[..., 2].min(axis=1), FLOOR_PERCENTILE)) if floor else 0.0
+    joints = joints - np.array([0.0, 0.0, offset])
+    return ImportedClip(joints.astype(np.float32), fps, native_fps, len(nodes), drop_native_frames, offset, source,
+                        naming.name)
+
+
+def import_bvh(path: str | Path, fps: float = 60.0, drop_native_frames: int = 0, floor: bool = True,
+               units: str | None = None) -> ImportedClip:
+    """Import a BVH take (cgspeed MotionBuilder, 3dsMax or Daz naming).
+
+    Args:
+        fps: output frame rate.
+        drop_native_frames: leading frames to discard (e.g. a synthetic T-pose), counted at the file's rate.
+        floor: shift z so the floor (2nd percentile of the lowest foot point) is at 0.
+        units: file length units (``m, cm, mm, inch, cmu``); default by naming (cgspeed: CMU units; Daz: cm).
+    """
+    motion = bvh.read_bvh(path)
+    naming = mapping.detect_naming(motion.tree, str(path))
+    units = units or DEFAULT_BVH_UNITS.get(naming.name, "cm")
+    if units not in UNITS_M:
+        raise InputError(f"{path}: unknown units {units!r}; one of {', '.join(UNITS_M)}")
+    return _finish(motion.tree, motion.positions(), naming, UNITS_M[units], motion.fps, fps, drop_native_frames,
+                   floor, str(path))
+
+
+def import_amc(asf_path: str | Path, amc_path: str | Path, fps: float = 60.0, native_fps: float = 120.0,
+               drop_native_frames: int = 0, floor: bool = True) -> ImportedClip:
+    """Import an ASF/AMC take (CMU or HDM05 conventions). AMC files do not state their rate: ``native_fps``
+    (120 for CMU and HDM05)."""
+    skeleton = asf_amc.read_asf(asf_path)
+    motion = asf_amc.read_amc(amc_path, skeleton)
+    tree, nodes = asf_amc.asf_positions(skeleton, motion)
+    naming = mapping.detect_naming(tree, str(asf_path))
+    return _finish(tree, nodes, naming, skeleton.metres_per_unit, native_fps, fps, drop_native_frames, floor,
+                   str(amc_path))
