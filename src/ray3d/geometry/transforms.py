@@ -59,13 +59,15 @@ def rays_camera_to_normalized(rays_camera: Array, pitch: Array) -> Array:
     return _rotate_about_x(rays_camera, pitch)
 
 
-def pixels_to_camera_rays(pixels: Array, intrinsics: Array, dist: Array | None = None) -> Array:
+def pixels_to_camera_rays(pixels: Array, intrinsics: Array, dist: Array | None = None,
+                          initial_rays: Array | None = None) -> Array:
     """Back-project pixels to camera-frame rays ``(x, y, 1)`` (intrinsic decoupling).
 
     Args:
         pixels: (..., 2) pixel coordinates (u, v).
         intrinsics: (..., 4) fx, fy, cx, cy in pixels, broadcastable against the leading axes.
         dist: optional (..., 5) OpenCV coefficients; the pixels are undistorted first.
+        initial_rays: optional (..., 3) rays close to the answer, to start the undistortion from.
 
     Returns:
         (..., 3) rays with unit z: every point on the ray is ``depth * ray``.
@@ -75,7 +77,7 @@ def pixels_to_camera_rays(pixels: Array, intrinsics: Array, dist: Array | None =
         (pixels[..., 1] - intrinsics[..., 3]) / intrinsics[..., 1],
     ])
     if dist is not None:
-        xy = undistort(xy, dist)
+        xy = undistort(xy, dist) if initial_rays is None else undistort(xy, dist, initial_rays[..., :2], iterations=4)
     unit_z = xy[..., 0] * 0 + 1  # NaN where the lens model could not be inverted: the whole ray is undefined
     return stack_last([xy[..., 0], xy[..., 1], unit_z])
 
@@ -121,16 +123,16 @@ def camera_roll(R: Array) -> Array:
     return namespace(R).arctan2(R[..., 0, 2], -R[..., 1, 2])
 
 
-def rotation_from_angles(yaw: float, pitch: float, roll: float = 0.0) -> np.ndarray:
-    """(3, 3) world->camera rotation of a camera with the given heading, pitch and roll (radians).
+def rotation_from_angles(yaw: Array, pitch: Array, roll: Array = 0.0) -> np.ndarray:
+    """(..., 3, 3) world->camera rotations of cameras with the given heading, pitch and roll (radians, numpy).
 
     ``yaw`` is the heading of the optical axis in the floor plane, counter-clockwise from +x; ``pitch`` > 0
     looks down; ``roll`` turns the image about the optical axis with the sign of :func:`camera_roll`.
-    Inverse of (:func:`camera_pitch`, :func:`camera_roll`) for the pitch and roll.
+    Inverse of (:func:`camera_pitch`, :func:`camera_roll`) for the pitch and roll. Angles broadcast.
     """
-    forward = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)])
-    right_level = np.array([np.sin(yaw), -np.cos(yaw), 0.0])
+    yaw, pitch, roll = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (yaw, pitch, roll)))
+    forward = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], -1)
+    right_level = np.stack([np.sin(yaw), -np.cos(yaw), np.zeros_like(yaw)], -1)
     down_level = np.cross(forward, right_level)
-    right = np.cos(roll) * right_level - np.sin(roll) * down_level
-    down = np.sin(roll) * right_level + np.cos(roll) * down_level
-    return np.stack([right, down, forward])
+    c, s = np.cos(roll)[..., None], np.sin(roll)[..., None]
+    return np.stack([c * right_level - s * down_level, s * right_level + c * down_level, forward], -2)

@@ -1,0 +1,166 @@
+"""Training and evaluation samples: windows of world motion seen through cameras, as the networks see them.
+
+For each (clip, frame, camera): the centred window of ``frames`` frames (edge-replicated at clip ends) of
+pixels and of rays in the NCS, the camera's (height, pitch), and the centre frame's targets in the NCS (the
+root-relative pose and the root). Everything is vectorised over the batch; nothing loops over frames.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ray3d.data.motion import MotionSet
+from ray3d.data.virtual_cameras import CameraBatch, CameraRanges, sample_cameras
+from ray3d.errors import InputError
+from ray3d.geometry import transforms as tf
+from ray3d.skeleton import H36M17, Skeleton
+
+
+@dataclasses.dataclass(frozen=True)
+class SampleConfig:
+    """How samples are made. ``frames`` is the receptive field (odd)."""
+
+    frames: int = 9
+    flip_probability: float = 0.5
+    bone_scale: tuple[float, float] = (0.9, 1.1)   # whole-body factor per sample
+    bone_jitter: float = 0.04                      # extra per-bone factor sd (left/right kept equal)
+    noise_px: float = 0.0                          # Gaussian 2D noise, like a detector's
+    drop_probability: float = 0.0                  # a dropped joint collapses onto its parent (a detector miss)
+    cameras: CameraRanges = CameraRanges()
+
+    def __post_init__(self) -> None:
+        if self.frames < 1 or self.frames % 2 == 0:
+            raise InputError(f"SampleConfig.frames must be odd and positive, got {self.frames}")
+
+
+@dataclasses.dataclass
+class Batch:
+    """One batch (B samples, F frames, J joints), float32 numpy arrays.
+
+    pixels (B, F, J, 2); rays (B, F, J, 3) in the NCS; camera_params (B, 2) = (height m, pitch rad);
+    pose (B, J, 3) root-relative NCS pose of the centre frame (row 0 is zero); root (B, 3) NCS root;
+    visible (B, F, J) False where a joint was dropped; cameras and world (B, J, 3): the cameras and the
+    centre frame's world joints, to go back to the world (they describe the scene before any flip).
+    """
+
+    pixels: np.ndarray
+    rays: np.ndarray
+    camera_params: np.ndarray
+    pose: np.ndarray
+    root: np.ndarray
+    visible: np.ndarray
+    cameras: CameraBatch
+    world: np.ndarray
+
+
+def window_indices(centres: np.ndarray, clip_first: np.ndarray, clip_last: np.ndarray, frames: int) -> np.ndarray:
+    """(B, frames) frame indices of windows centred on ``centres``, clamped into each sample's clip
+    [first, last] so the edges replicate the clip's first or last frame."""
+    offsets = np.arange(frames) - frames // 2
+    return np.clip(centres[:, None] + offsets, clip_first[:, None], clip_last[:, None])
+
+
+def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton = H36M17) -> np.ndarray:
+    """Scale every bone of (..., J, 3) poses by (..., J) ``factors`` (factor of the bone ending at each joint),
+    keeping bone directions and the root; then re-ground so the lowest ankle stays at its height."""
+    scaled = np.empty_like(positions)
+    scaled[..., 0, :] = positions[..., 0, :]
+    for joint, parent in enumerate(skeleton.parents):
+        if parent >= 0:
+            bone = positions[..., joint, :] - positions[..., parent, :]
+            scaled[..., joint, :] = scaled[..., parent, :] + factors[..., joint, None] * bone
+    ankles = [skeleton.index("l_ankle"), skeleton.index("r_ankle")]
+    lift = positions[..., ankles, 2].min(-1) - scaled[..., ankles, 2].min(-1)
+    scaled[..., 2] += lift[..., None]
+    return scaled
+
+
+def flip_batch(batch: Batch, mask: np.ndarray, skeleton: Skeleton = H36M17) -> Batch:
+    """Mirror the samples where (B,) ``mask`` is True: negate x of rays and NCS targets, swap left and right,
+    mirror pixels about the principal point; (height, pitch) are unchanged. Flipping twice is the identity."""
+    perm = list(skeleton.flip_permutation)
+    sign = np.array([-1.0, 1.0, 1.0], dtype=np.float32)
+
+    def mirror(x: np.ndarray, axis_sign: np.ndarray) -> np.ndarray:
+        out = x.copy()
+        out[mask] = x[mask][..., perm, :] * axis_sign
+        return out
+
+    cx = batch.cameras.intrinsics[:, 2].astype(np.float32)
+    pixels = batch.pixels.copy()
+    pixels[mask] = batch.pixels[mask][..., perm, :]
+    pixels[mask, ..., 0] = 2 * cx[mask, None, None] - pixels[mask, ..., 0]
+    visible = batch.visible.copy()
+    visible[mask] = batch.visible[mask][..., perm]
+    return dataclasses.replace(batch, pixels=pixels, rays=mirror(batch.rays, sign), pose=mirror(batch.pose, sign),
+                               root=np.where(mask[:, None], batch.root * sign, batch.root), visible=visible)
+
+
+def observe(windows: np.ndarray, cameras: CameraBatch, rng: np.random.Generator | None = None,
+            config: SampleConfig = SampleConfig()) -> Batch:
+    """See (B, F, J, 3) world windows through one camera each and build the network's inputs and targets.
+
+    With ``rng`` None nothing random happens (evaluation); otherwise the 2D noise and dropped joints of
+    ``config`` are applied (flip and bone scaling are the generator's).
+    """
+    count, frames, joints, _ = windows.shape
+    R, t = cameras.R[:, None, None], cameras.t[:, None, None]
+    intrinsics, dist = cameras.intrinsics[:, None, None], cameras.dist[:, None, None]
+    has_distortion = bool(np.any(cameras.dist != 0))
+    points_camera = tf.world_to_camera(windows, R, t)
+    pixels = tf.camera_to_pixels(points_camera, intrinsics, dist if has_distortion else None)
+    rays_camera = points_camera / points_camera[..., 2:3]  # exact, no round trip through the lens
+    visible = np.ones((count, frames, joints), dtype=bool)
+    if rng is not None and config.drop_probability > 0:
+        visible = rng.random(visible.shape) >= config.drop_probability
+        visible[..., 0] = True  # the root has no parent to collapse onto
+        parents = [max(p, 0) for p in H36M17.parents]
+        pixels = np.where(visible[..., None], pixels, pixels[..., parents, :])
+        rays_camera = np.where(visible[..., None], rays_camera, rays_camera[..., parents, :])
+    if rng is not None and config.noise_px > 0:
+        pixels = pixels + rng.normal(0.0, config.noise_px, pixels.shape)
+        # The clean ray is a close start for undistorting the noisy pixel.
+        rays_camera = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
+                                               initial_rays=rays_camera)
+    rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None])
+    centre = windows[:, frames // 2]
+    target = tf.camera_to_normalized(points_camera[:, frames // 2], cameras.height[:, None], cameras.pitch[:, None])
+    return Batch(
+        pixels=pixels.astype(np.float32), rays=rays.astype(np.float32),
+        camera_params=np.stack([cameras.height, cameras.pitch], -1).astype(np.float32),
+        pose=(target - target[:, :1]).astype(np.float32), root=target[:, 0].astype(np.float32),
+        visible=visible, cameras=cameras, world=centre.astype(np.float32))
+
+
+class SampleGenerator:
+    """Random training batches from a motion set: uniform (clip, frame) draws, a random camera per sample,
+    bone scaling, flips and detector-like 2D noise, all vectorised."""
+
+    def __init__(self, motion: MotionSet, config: SampleConfig = SampleConfig(), seed: int = 0):
+        if motion.num_frames == 0:
+            raise InputError("SampleGenerator: the motion set has no frames")
+        self.motion, self.config = motion, config
+        self.rng = np.random.default_rng(seed)
+        clip_of_frame = np.repeat(np.arange(motion.num_clips), motion.clip_lengths())
+        self.first = motion.clip_start[:-1][clip_of_frame]
+        self.last = motion.clip_start[1:][clip_of_frame] - 1
+
+    def batch(self, size: int) -> Batch:
+        rng, config = self.rng, self.config
+        centres = rng.integers(0, self.motion.num_frames, size)
+        indices = window_indices(centres, self.first[centres], self.last[centres], config.frames)
+        windows = self.motion.positions[indices].astype(np.float64)  # (B, F, J, 3)
+        factors = rng.uniform(*config.bone_scale, (size, 1)) * np.exp(rng.normal(0, config.bone_jitter, (size, 17)))
+        factors[:, H36M17.left] = factors[:, list(H36M17.flip_permutation[i] for i in H36M17.left)]
+        windows = scale_bones(windows, factors[:, None])
+        cameras = sample_cameras(windows[:, config.frames // 2, 0], rng, config.cameras)
+        batch = observe(windows, cameras, rng, config)
+        return flip_batch(batch, rng.random(size) < config.flip_probability)
+
+
+def clip_windows(clip: np.ndarray, frames: int) -> np.ndarray:
+    """(T, frames, J, 3): every frame of a (T, J, 3) clip with its edge-replicated centred window."""
+    centres = np.arange(len(clip))
+    return clip[window_indices(centres, np.zeros_like(centres), np.full_like(centres, len(clip) - 1), frames)]

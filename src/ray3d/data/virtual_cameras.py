@@ -1,0 +1,191 @@
+"""Virtual calibrated cameras: the paper's benchmark grids as named sets, the real Human3.6M calibrations, and
+a random sampler for training.
+
+Grid geometry (brief section 7): the base camera has the intrinsics of Human3.6M camera 55011271 (pinhole,
+1000 x 1000 px) and orbits the world point (0, 0, 1.8) m, looking at it: a camera with yaw psi, pitch theta
+and distance d sits at ``target - d * forward(psi, theta)``. Clips are centred on the world origin (mean pelvis
+in the floor plane) before they are seen. Every camera has a stable name that encodes its parameters.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ray3d import cameras as camera_tables
+from ray3d.errors import InputError
+from ray3d.geometry import Camera, rotation_from_angles
+
+ORBIT_TARGET = np.array([0.0, 0.0, 1.8])
+BASE_CAMERA_ID = "55011271"
+IMAGE_SIZE = (1000, 1000)
+
+TRAIN_YAWS_DEG = (60.0, 180.0, 300.0)
+TRAIN_PITCHES_DEG = tuple(float(p) for p in range(2, 39, 2))
+TRAIN_DISTANCES_M = tuple(np.round(np.linspace(9.05, 11.70, 6), 3))
+
+# Extrinsic test: one factor swept at a time around the base (yaw, pitch, distance); the pitch and distance
+# sweeps run at three yaws the training grid never uses.
+TEST_BASE_PITCH_DEG, TEST_BASE_DISTANCE_M = 15.0, 10.5
+TEST_SWEEP_YAWS_DEG = (30.0, 150.0, 270.0)
+ROTATION_SWEEP_YAWS_DEG = tuple(float(y) for y in range(0, 331, 30))
+PITCH_SWEEP_DEG = tuple(float(p) for p in range(1, 60, 2))
+DISTANCE_SWEEP_M = tuple(np.round(np.arange(9.4, 13.21, 0.76), 2))
+INTRINSIC_OFFSETS_PX = tuple(float(o) for o in range(-50, 41, 10))
+SCALE_TEST_FACTORS = (0.6, 0.7, 0.8, 0.9, 1.1)
+SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m")
+
+
+def base_intrinsics() -> tuple[float, float, float, float]:
+    table = camera_tables.h36m_table()["intrinsics"][BASE_CAMERA_ID]
+    return table["fx"], table["fy"], table["cx"], table["cy"]
+
+
+def orbit_camera(yaw_deg: float, pitch_deg: float, distance_m: float, name: str,
+                 intrinsics: tuple[float, float, float, float] | None = None) -> Camera:
+    """A pinhole camera looking at ORBIT_TARGET from ``distance_m`` away at the given yaw and pitch."""
+    fx, fy, cx, cy = intrinsics or base_intrinsics()
+    yaw, pitch = np.radians(yaw_deg), np.radians(pitch_deg)
+    forward = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)])
+    return Camera.from_pose(ORBIT_TARGET - distance_m * forward, yaw, pitch, 0.0, fx, fy, cx, cy, IMAGE_SIZE,
+                            name=name)
+
+
+def _orbit_name(prefix: str, yaw: float, pitch: float, distance: float) -> str:
+    return f"{prefix}:yaw{yaw:03.0f}:pitch{pitch:02.0f}:dist{distance:05.2f}"
+
+
+def _unique(cams: list[Camera]) -> list[Camera]:
+    seen, kept = set(), []
+    for camera in cams:
+        key = (tuple(np.round(camera.center, 6)), tuple(np.round(camera.R.ravel(), 9)),
+               tuple(np.round(camera.intrinsics, 6)))
+        if key not in seen:
+            seen.add(key)
+            kept.append(camera)
+    return kept
+
+
+def grid(set_name: str) -> list[Camera]:
+    """The named camera set, before the in-image filter."""
+    if set_name == "train":
+        return [orbit_camera(y, p, d, _orbit_name("train", y, p, d))
+                for y in TRAIN_YAWS_DEG for p in TRAIN_PITCHES_DEG for d in TRAIN_DISTANCES_M]
+    if set_name == "extrinsic-test":
+        p0, d0 = TEST_BASE_PITCH_DEG, TEST_BASE_DISTANCE_M
+        rotation = [orbit_camera(y, p0, d0, _orbit_name("rotation", y, p0, d0)) for y in ROTATION_SWEEP_YAWS_DEG]
+        pitch = [orbit_camera(y, p, d0, _orbit_name("pitch", y, p, d0))
+                 for y in TEST_SWEEP_YAWS_DEG for p in PITCH_SWEEP_DEG]
+        distance = [orbit_camera(y, p0, d, _orbit_name("distance", y, p0, d))
+                    for y in TEST_SWEEP_YAWS_DEG for d in DISTANCE_SWEEP_M]
+        return _unique(rotation + pitch + distance)
+    if set_name == "intrinsic-test":
+        fx, fy, cx, cy = base_intrinsics()
+        y, p, d = TEST_SWEEP_YAWS_DEG[0], TEST_BASE_PITCH_DEG, TEST_BASE_DISTANCE_M
+        return [orbit_camera(y, p, d, f"intrinsic:focal{df:+04.0f}:centre{dc:+04.0f}", (fx + df, fy + df, cx + dc, cy + dc))
+                for df in INTRINSIC_OFFSETS_PX for dc in INTRINSIC_OFFSETS_PX]
+    if set_name == "scale-test":
+        # The bodies change (SCALE_TEST_FACTORS), not the cameras: the rotation sweep sees every scale.
+        return [c for c in grid("extrinsic-test") if c.name.startswith("rotation:")]
+    if set_name == "h36m":
+        return camera_tables.h36m_all()
+    raise InputError(f"unknown camera set {set_name!r}; one of {', '.join(SET_NAMES)}")
+
+
+def centre_clip(positions: np.ndarray) -> np.ndarray:
+    """(T, J, 3) clip moved in the floor plane so its mean pelvis position is over the world origin."""
+    offset = positions[:, 0, :2].mean(axis=0)
+    return positions - np.array([offset[0], offset[1], 0.0], dtype=positions.dtype)
+
+
+def in_image(camera: Camera, positions: np.ndarray) -> bool:
+    """Whether every joint of every frame projects inside the image (and in front of the camera)."""
+    pixels = camera.project(positions.reshape(-1, 3))
+    width, height = camera.image_size
+    return bool(np.all(np.isfinite(pixels)) and np.all((pixels >= 0) & (pixels <= [width - 1, height - 1])))
+
+
+def visibility(cams: list[Camera], clips: list[np.ndarray]) -> np.ndarray:
+    """(cameras, clips) bool: camera i sees every joint of every frame of clip j."""
+    return np.array([[in_image(camera, clip) for clip in clips] for camera in cams], dtype=bool)
+
+
+def camera_set(set_name: str, clips: list[np.ndarray] | None = None) -> list[Camera]:
+    """The named set, keeping only cameras that see every given (already centred) clip entirely."""
+    cams = grid(set_name)
+    if clips is None:
+        return cams
+    return [c for c, sees_all in zip(cams, visibility(cams, clips).all(axis=1)) if sees_all]
+
+
+@dataclasses.dataclass(frozen=True)
+class CameraRanges:
+    """Ranges of the random training cameras (degrees and metres at the edges, as users think of them).
+
+    The camera looks at a point near the person (``aim_jitter_m``), from ``distance_m`` away at a pitch in
+    ``pitch_deg`` and any yaw; focal length and principal point vary so the model cannot learn one lens.
+    """
+
+    distance_m: tuple[float, float] = (3.5, 14.0)
+    pitch_deg: tuple[float, float] = (0.0, 45.0)
+    min_height_m: float = 0.3
+    roll_deg: float = 0.0
+    focal_px: tuple[float, float] = (800.0, 1800.0)
+    aspect_jitter: float = 0.01
+    principal_offset_px: float = 60.0
+    image_size: tuple[int, int] = IMAGE_SIZE
+    distortion_k1: tuple[float, float] = (0.0, 0.0)
+    aim_jitter_m: float = 0.3
+
+
+@dataclasses.dataclass
+class CameraBatch:
+    """A batch of cameras as arrays (B leading): what the sample generator consumes."""
+
+    R: np.ndarray           # (B, 3, 3)
+    t: np.ndarray           # (B, 3)
+    intrinsics: np.ndarray  # (B, 4) fx, fy, cx, cy
+    dist: np.ndarray        # (B, 5)
+    height: np.ndarray      # (B,)
+    pitch: np.ndarray       # (B,)
+    image_size: tuple[int, int]
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @classmethod
+    def from_cameras(cls, cams: list[Camera]) -> CameraBatch:
+        if len({c.image_size for c in cams}) > 1:
+            raise InputError("CameraBatch: all cameras must share one image size")
+        return cls(np.stack([c.R for c in cams]), np.stack([c.t for c in cams]),
+                   np.stack([c.intrinsics for c in cams]), np.stack([c.dist for c in cams]),
+                   np.array([c.camera_height for c in cams]), np.array([c.pitch for c in cams]), cams[0].image_size)
+
+    def camera(self, i: int, name: str = "") -> Camera:
+        fx, fy, cx, cy = self.intrinsics[i]
+        return Camera.from_intrinsics(fx, fy, cx, cy, self.dist[i], self.R[i], self.t[i], self.image_size, name)
+
+
+def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: CameraRanges = CameraRanges()) -> CameraBatch:
+    """One random camera per (B, 3) world target point (e.g. each sample's centre-frame pelvis)."""
+    count = len(targets)
+    yaw = rng.uniform(-np.pi, np.pi, count)
+    pitch = np.radians(rng.uniform(*ranges.pitch_deg, count))
+    roll = np.radians(rng.uniform(-ranges.roll_deg, ranges.roll_deg, count))
+    distance = rng.uniform(*ranges.distance_m, count)
+    aim = targets + rng.normal(0.0, ranges.aim_jitter_m, (count, 3))
+    forward = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], -1)
+    centre = aim - distance[:, None] * forward
+    centre[:, 2] = np.maximum(centre[:, 2], ranges.min_height_m)
+    R = rotation_from_angles(yaw, pitch, roll)
+    focal = rng.uniform(*ranges.focal_px, count)
+    aspect = 1 + rng.uniform(-ranges.aspect_jitter, ranges.aspect_jitter, count)
+    width, height = ranges.image_size
+    principal = np.array([width / 2, height / 2]) + rng.uniform(-ranges.principal_offset_px,
+                                                                 ranges.principal_offset_px, (count, 2))
+    dist = np.zeros((count, 5))
+    dist[:, 0] = rng.uniform(*ranges.distortion_k1, count)
+    t = -(R @ centre[:, :, None])[..., 0]
+    return CameraBatch(R, t, np.column_stack([focal, focal * aspect, principal]), dist, centre[:, 2], pitch,
+                       ranges.image_size)
