@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -32,3 +34,21 @@ def points_in_front(camera: Camera, rng: np.random.Generator, n: int, max_xy: fl
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(1234)
+
+
+SHARED_MOCAP = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "mocap"
+
+
+@pytest.fixture(scope="session")
+def mocap_dir() -> Path:
+    """The shipped mocap folder beside the repository (CI has it); tests that need it skip without it."""
+    if not (SHARED_MOCAP / "cmu_h36m17.npz").is_file():
+        pytest.skip(f"shared mocap data not found at {SHARED_MOCAP}")
+    return SHARED_MOCAP.resolve()
+
+
+@pytest.fixture(scope="session")
+def test_motion(mocap_dir):
+    from ray3d.data.motion import load_shipped
+
+    return load_shipped(mocap_dir, "test")

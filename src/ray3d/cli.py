@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import ray3d
 from ray3d.errors import InputError
@@ -16,7 +17,81 @@ def _demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _data_info(args: argparse.Namespace) -> int:
+    from ray3d.data import motion
+    from ray3d.data.virtual_cameras import SET_NAMES, grid
+
+    data_dir = motion.resolve_data_dir(args.data_dir)
+    info = motion.summary(motion.load_shipped(data_dir))
+    print(f"motion data: {data_dir}")
+    print(f"  {info['clips']} clips, {info['frames']:,} frames, {info['minutes']:.1f} minutes (H36M-17, 60 fps)")
+    for title, key in (("split (by performer)", "splits"), ("performer", "performers"), ("body", "bodies")):
+        print(f"\n  {title:<22}{'clips':>7}{'frames':>10}{'minutes':>9}")
+        for name, row in sorted(info[key].items()):
+            print(f"  {name:<22}{row['clips']:>7}{row['frames']:>10,}{row['minutes']:>9.1f}")
+    print("\n  test performers: " + ", ".join(motion.SPLITS["test"]) + "; validation: "
+          + ", ".join(motion.SPLITS["validation"]))
+    print("\ncamera sets (before the in-image filter): "
+          + ", ".join(f"{name} {len(grid(name))}" for name in SET_NAMES))
+    return 0
+
+
+def _import_common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, type=Path, help="output motion npz (the shipped format)")
+    parser.add_argument("--fps", type=float, default=60.0, help="output frame rate (default 60)")
+    parser.add_argument("--drop-frames", type=int, default=0, metavar="N",
+                        help="leading native frames to discard, e.g. a synthetic T-pose")
+    parser.add_argument("--no-floor", action="store_true", help="keep z as in the file (no floor at z = 0)")
+    parser.add_argument("--subject", default="user", help="performer name stored with the clips")
+    parser.add_argument("--force", action="store_true", help="replace OUT if it exists")
+
+
+def _write_imported(args: argparse.Namespace, clips, files: list[Path], source: str) -> int:
+    from ray3d.data.importers import clips_to_motion_set
+
+    motion = clips_to_motion_set(clips, [f.stem for f in files], args.subject, source)
+    motion.save(args.out, overwrite=args.force)
+    minutes = motion.num_frames / args.fps / 60
+    print(f"wrote {args.out}: {motion.num_clips} clip(s), {motion.num_frames} frames ({minutes:.2f} min) at "
+          f"{args.fps:g} fps; floor offsets {', '.join(f'{c.floor_offset_m:+.3f}' for c in clips)} m")
+    return 0
+
+
+def _import_bvh(args: argparse.Namespace) -> int:
+    from ray3d.data.importers import import_bvh
+
+    clips = [import_bvh(f, args.fps, args.drop_frames, not args.no_floor, args.units) for f in args.files]
+    return _write_imported(args, clips, args.files, "user_bvh")
+
+
+def _import_amc(args: argparse.Namespace) -> int:
+    from ray3d.data.importers import import_amc
+
+    clips = [import_amc(args.asf, f, args.fps, args.native_fps, args.drop_frames, not args.no_floor)
+             for f in args.amc]
+    return _write_imported(args, clips, args.amc, "user_amc")
+
+
+def _cameras(args: argparse.Namespace) -> int:
+    from ray3d.data import motion
+    from ray3d.data.virtual_cameras import camera_set, centre_clip, grid
+    from ray3d.io.camera_files import save_cameras
+
+    if args.no_filter:
+        cams, note = grid(args.set), "not filtered"
+    else:
+        clips = motion.load_shipped(args.data_dir, args.split)
+        centred = [centre_clip(clips.clip(i)) for i in range(clips.num_clips)]
+        cams = camera_set(args.set, centred)
+        note = f"kept cameras that see every joint of all {clips.num_clips} {args.split} clips (centred)"
+    save_cameras(args.out, cams, overwrite=args.force, set=args.set, filter=note)
+    print(f"wrote {args.out}: {len(cams)} of {len(grid(args.set))} '{args.set}' cameras ({note})")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from ray3d.data.virtual_cameras import SET_NAMES
+
     parser = argparse.ArgumentParser(
         prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
     parser.add_argument("--version", action="version", version=f"ray3d {ray3d.__version__}")
@@ -24,6 +99,38 @@ def build_parser() -> argparse.ArgumentParser:
     demo = commands.add_parser(
         "demo", help="the main job (for now: a geometry check of every bundled Human3.6M camera)")
     demo.set_defaults(handler=_demo)
+
+    data = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
+    data_commands = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
+    data_dir_help = "folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR or ../shared/data/mocap)"
+
+    info = data_commands.add_parser("info", help="what motion data is available: clips, frames, minutes, splits")
+    info.add_argument("--data-dir", help=data_dir_help)
+    info.set_defaults(handler=_data_info)
+
+    bvh = data_commands.add_parser("import-bvh", help="BVH takes -> a motion npz (H36M-17, metres, z up)")
+    bvh.add_argument("files", nargs="+", type=Path, metavar="FILE")
+    bvh.add_argument("--units", choices=["m", "cm", "mm", "inch", "cmu"],
+                     help="file length units (default: CMU units for cgspeed namings, cm for Daz)")
+    _import_common(bvh)
+    bvh.set_defaults(handler=_import_bvh)
+
+    amc = data_commands.add_parser("import-amc", help="an ASF skeleton and AMC takes -> a motion npz")
+    amc.add_argument("asf", type=Path, metavar="ASF")
+    amc.add_argument("amc", nargs="+", type=Path, metavar="AMC")
+    amc.add_argument("--native-fps", type=float, default=120.0, help="the AMC files' frame rate (default 120)")
+    _import_common(amc)
+    amc.set_defaults(handler=_import_amc)
+
+    cams = data_commands.add_parser("cameras", help="write a named virtual camera set as JSON")
+    cams.add_argument("--set", required=True, choices=SET_NAMES)
+    cams.add_argument("--out", required=True, type=Path)
+    cams.add_argument("--split", default="test", choices=["train", "validation", "test", "all"],
+                      help="clips the cameras must see entirely (default: test)")
+    cams.add_argument("--no-filter", action="store_true", help="write the whole grid, without the in-image filter")
+    cams.add_argument("--data-dir", help=data_dir_help)
+    cams.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    cams.set_defaults(handler=_cameras)
     return parser
 
 

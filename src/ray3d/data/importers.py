@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ray3d.data import asf_amc, bvh, mapping
+from ray3d.data.motion import MotionSet
 from ray3d.data.skeleton_fk import KinematicTree
 from ray3d.errors import InputError
 
@@ -107,3 +108,11 @@ def import_amc(asf_path: str | Path, amc_path: str | Path, fps: float = 60.0, na
     naming = mapping.detect_naming(tree, str(asf_path))
     return _finish(tree, nodes, naming, skeleton.metres_per_unit, native_fps, fps, drop_native_frames, floor,
                    str(amc_path))
+
+
+def clips_to_motion_set(clips: list[ImportedClip], names: list[str], subject: str, source: str) -> MotionSet:
+    """Imported takes as a motion set in the shipped npz format (one performer, their own skeleton)."""
+    return MotionSet.from_clips(
+        [c.positions for c in clips], clip_id=names, subject=subject, orig_subject=subject, source=source,
+        retargeted=False, fps=[c.fps for c in clips], native_fps=[c.native_fps for c in clips],
+        description=[c.source_file for c in clips], floor_offset_m=[c.floor_offset_m for c in clips])

@@ -176,3 +176,24 @@ def load_shipped(data_dir: str | Path | None = None, split: str = "all") -> Moti
     path = resolve_data_dir(data_dir)
     sets = [MotionSet.load(path / f) for f in SHIPPED_FILES if (path / f).is_file()]
     return select_split(MotionSet.concatenate(sets), split)
+
+
+def summary(motion: MotionSet) -> dict:
+    """Counts for ``ray3d data info``: clips, frames, minutes, and per performer, body and split."""
+    lengths = motion.clip_lengths()
+    minutes = lengths / motion.clips["fps"] / 60.0
+
+    def by(key_values: np.ndarray) -> dict:
+        table: dict[str, dict] = {}
+        for key, frames, mins in zip(key_values, lengths, minutes):
+            row = table.setdefault(str(key), {"clips": 0, "frames": 0, "minutes": 0.0})
+            row["clips"] += 1
+            row["frames"] += int(frames)
+            row["minutes"] += float(mins)
+        return table
+
+    return {
+        "clips": motion.num_clips, "frames": motion.num_frames, "minutes": float(minutes.sum()),
+        "splits": by(np.array([split_of(s) for s in motion.clips["orig_subject"]])),
+        "performers": by(motion.clips["orig_subject"]), "bodies": by(motion.clips["subject"]),
+    }

@@ -1,0 +1,117 @@
+"""Training samples: window edges, the NCS identity, flips, bone scaling, determinism."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from ray3d.data.motion import MotionSet
+from ray3d.data.samples import (Batch, SampleConfig, SampleGenerator, clip_windows, flip_batch, observe,
+                                scale_bones, window_indices)
+from ray3d.data.virtual_cameras import CameraBatch, CameraRanges, grid
+from ray3d.geometry import transforms as tf
+from ray3d.skeleton import H36M17
+
+
+def _motion(rng, lengths=(30, 3, 50)) -> MotionSet:
+    clips = []
+    for n in lengths:
+        walk = np.cumsum(rng.normal(0, 0.01, (n, 1, 3)), axis=0) + np.array([0.0, 0.0, 0.0])
+        pose = rng.normal(0, 0.2, (1, 17, 3)) + np.array([0.0, 0.0, 1.0])
+        clips.append((pose + walk).astype(np.float32))
+    return MotionSet.from_clips(clips, clip_id=[f"c{i}" for i in range(len(lengths))], subject="s")
+
+
+def test_windows_replicate_the_clip_edges():
+    clip = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 17, 3))
+    windows = clip_windows(clip, 5)
+    assert windows[:, :, 0, 0].tolist() == [[0, 0, 0, 1, 2], [0, 0, 1, 2, 3], [0, 1, 2, 3, 4], [1, 2, 3, 4, 4],
+                                            [2, 3, 4, 4, 4]]
+    idx = window_indices(np.array([10, 12]), np.array([10, 10]), np.array([12, 12]), 3)
+    assert idx.tolist() == [[10, 10, 11], [11, 12, 12]]
+
+
+def test_generator_windows_stay_inside_their_clip(rng):
+    motion = _motion(rng)
+    generator = SampleGenerator(motion, SampleConfig(frames=9), seed=1)
+    centres = np.arange(motion.num_frames)
+    idx = window_indices(centres, generator.first[centres], generator.last[centres], 9)
+    clip_of = np.searchsorted(motion.clip_start, idx, side="right") - 1
+    assert np.all(clip_of == clip_of[:, 4:5])
+
+
+def test_rays_and_targets_satisfy_the_ncs_identity(rng):
+    config = SampleConfig(frames=9, flip_probability=0.0, cameras=CameraRanges(distortion_k1=(-0.2, 0.0), roll_deg=4))
+    batch = SampleGenerator(_motion(rng), config, seed=2).batch(64)
+    assert batch.rays.shape == (64, 9, 17, 3) and batch.pixels.shape == (64, 9, 17, 2)
+    assert batch.pose.shape == (64, 17, 3) and batch.root.shape == (64, 3) and batch.camera_params.shape == (64, 2)
+    np.testing.assert_array_equal(batch.pose[:, 0], 0.0)
+    cams = batch.cameras
+    depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]
+    target = batch.pose + batch.root[:, None]
+    expected = depth * batch.rays[:, 4] + np.stack([np.zeros(64), -cams.height, np.zeros(64)], -1)[:, None]
+    np.testing.assert_allclose(target, expected, atol=1e-4)
+    # The rays also come back from the pixels through the (distorted) lens.
+    rays = tf.rays_camera_to_normalized(tf.pixels_to_camera_rays(batch.pixels.astype(np.float64),
+                                                                 cams.intrinsics[:, None, None],
+                                                                 cams.dist[:, None, None]), cams.pitch[:, None, None])
+    np.testing.assert_allclose(rays, batch.rays, atol=1e-5)
+
+
+def test_flip_twice_is_the_identity_and_flip_mirrors(rng):
+    batch = SampleGenerator(_motion(rng), SampleConfig(flip_probability=0.0), seed=3).batch(16)
+    mask = np.arange(16) % 2 == 0
+    twice = flip_batch(flip_batch(batch, mask), mask)
+    for field in ("pixels", "rays", "pose", "root", "visible"):
+        np.testing.assert_allclose(getattr(twice, field), getattr(batch, field), atol=1e-4)
+    once = flip_batch(batch, mask)
+    np.testing.assert_array_equal(once.rays[mask][..., H36M17.index("l_wrist"), 0],
+                                  -batch.rays[mask][..., H36M17.index("r_wrist"), 0])
+    np.testing.assert_array_equal(once.rays[~mask], batch.rays[~mask])
+    np.testing.assert_array_equal(once.camera_params, batch.camera_params)
+
+
+def test_bone_scaling_keeps_directions_and_regrounds(rng):
+    pose = rng.normal(0, 0.3, (4, 17, 3)) + np.array([0, 0, 1.0])
+    np.testing.assert_allclose(scale_bones(pose, np.ones((4, 17))), pose, atol=1e-12)
+    scaled = scale_bones(pose, np.full((4, 17), 0.8))
+    for joint, parent in enumerate(H36M17.parents[1:], start=1):
+        before, after = pose[:, joint] - pose[:, parent], scaled[:, joint] - scaled[:, parent]
+        np.testing.assert_allclose(after, 0.8 * before, atol=1e-12)
+    np.testing.assert_allclose(scaled[:, [3, 6], 2].min(-1), pose[:, [3, 6], 2].min(-1), atol=1e-12)
+
+
+def test_noise_and_dropped_joints(rng):
+    config = SampleConfig(noise_px=3.0, drop_probability=0.2, flip_probability=0.0)
+    batch = SampleGenerator(_motion(rng), config, seed=4).batch(512)
+    cams = batch.cameras
+    clean = tf.camera_to_pixels(tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None]),
+                                cams.intrinsics[:, None])
+    observed, visible = batch.pixels[:, 4], batch.visible[:, 4]
+    assert 0.15 < 1 - batch.visible.mean() < 0.25 and batch.visible[..., 0].all()
+    residual = observed - clean
+    assert np.std(residual[visible]) == pytest.approx(3.0, rel=0.1)
+    parents = np.array([max(p, 0) for p in H36M17.parents])
+    to_parent = observed - clean[:, parents]
+    assert np.std(to_parent[~visible]) == pytest.approx(3.0, rel=0.15)  # a dropped joint sits on its parent
+    assert np.isfinite(batch.rays).all()
+
+
+def test_same_seed_same_batches(rng):
+    motion = _motion(rng)
+    a, b = (SampleGenerator(motion, SampleConfig(noise_px=1.0), seed=7).batch(32) for _ in range(2))
+    np.testing.assert_array_equal(a.rays, b.rays)
+    np.testing.assert_array_equal(a.root, b.root)
+
+
+def test_observe_without_rng_is_exact_for_fixed_cameras(rng):
+    camera = grid("extrinsic-test")[0]
+    clip = _motion(rng).clip(0).astype(np.float64)
+    windows = clip_windows(clip, 9)
+    cams = CameraBatch.from_cameras([camera] * len(windows))
+    batch = observe(windows, cams)
+    np.testing.assert_allclose(batch.root, camera.world_to_normalized(clip[:, 0]), atol=1e-5)
+    np.testing.assert_allclose(batch.rays[:, 4], camera.pixels_to_rays(camera.project(clip)), atol=1e-6)
+    assert isinstance(batch, Batch)
