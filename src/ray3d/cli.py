@@ -89,6 +89,25 @@ def _cameras(args: argparse.Namespace) -> int:
     return 0
 
 
+def _samples_speed(args: argparse.Namespace) -> int:
+    from ray3d.data import motion
+    from ray3d.data.samples import SampleConfig, measure_throughput
+    from ray3d.data.virtual_cameras import CameraRanges
+
+    train = motion.load_shipped(args.data_dir, "train")
+    configs = {
+        "pinhole, clean 2D": SampleConfig(frames=args.frames),
+        "pinhole, 2 px noise + 5% dropped": SampleConfig(frames=args.frames, noise_px=2.0, drop_probability=0.05),
+        "distortion + roll, 2 px noise": SampleConfig(frames=args.frames, noise_px=2.0, cameras=CameraRanges(
+            distortion_k1=(-0.25, 0.0), roll_deg=5.0)),
+    }
+    print(f"training-sample generator: batch {args.batch} windows of {args.frames} frames, median of {args.repeats}")
+    for name, config in configs.items():
+        result = measure_throughput(train, config, args.batch, args.repeats)
+        print(f"  {name:<36}{result['ms_per_batch']:8.1f} ms/batch{result['samples_per_s']:10,.0f} samples/s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.data.virtual_cameras import SET_NAMES
 
@@ -131,6 +150,13 @@ def build_parser() -> argparse.ArgumentParser:
     cams.add_argument("--data-dir", help=data_dir_help)
     cams.add_argument("--force", action="store_true", help="replace OUT if it exists")
     cams.set_defaults(handler=_cameras)
+
+    speed = data_commands.add_parser("samples-speed", help="measure the training-sample generator's throughput")
+    speed.add_argument("--batch", type=int, default=1024)
+    speed.add_argument("--frames", type=int, default=9)
+    speed.add_argument("--repeats", type=int, default=20)
+    speed.add_argument("--data-dir", help=data_dir_help)
+    speed.set_defaults(handler=_samples_speed)
     return parser
 
 

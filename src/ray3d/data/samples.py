@@ -164,3 +164,19 @@ def clip_windows(clip: np.ndarray, frames: int) -> np.ndarray:
     """(T, frames, J, 3): every frame of a (T, J, 3) clip with its edge-replicated centred window."""
     centres = np.arange(len(clip))
     return clip[window_indices(centres, np.zeros_like(centres), np.full_like(centres, len(clip) - 1), frames)]
+
+
+def measure_throughput(motion: MotionSet, config: SampleConfig, batch_size: int = 1024, repeats: int = 20,
+                       seed: int = 0) -> dict:
+    """Median time of ``repeats`` batches after one warm-up batch: {"ms_per_batch", "samples_per_s"}."""
+    import time
+
+    generator = SampleGenerator(motion, config, seed)
+    generator.batch(batch_size)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        generator.batch(batch_size)
+        times.append(time.perf_counter() - start)
+    median = float(np.median(times))
+    return {"ms_per_batch": 1e3 * median, "samples_per_s": batch_size / median}
