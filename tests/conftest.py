@@ -52,3 +52,18 @@ def test_motion(mocap_dir):
     from ray3d.data.motion import load_shipped
 
     return load_shipped(mocap_dir, "test")
+
+
+@pytest.fixture(scope="session")
+def tiny_data_dir(mocap_dir, tmp_path_factory) -> Path:
+    """A small copy of the shipped CMU file: a few short clips of each split, for training tests."""
+    from ray3d.data.motion import MotionSet, split_of
+
+    motion = MotionSet.load(mocap_dir / "cmu_h36m17.npz")
+    splits = np.array([split_of(s) for s in motion.clips["orig_subject"]])
+    keep = np.zeros(motion.num_clips, dtype=bool)
+    for split in ("train", "validation", "test"):
+        keep[np.flatnonzero((splits == split) & (motion.clip_lengths() < 400))[:3]] = True
+    folder = tmp_path_factory.mktemp("tiny_mocap")
+    motion.select(keep).save(folder / "cmu_h36m17.npz")
+    return folder

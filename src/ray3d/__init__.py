@@ -5,10 +5,11 @@ from importlib.metadata import PackageNotFoundError, version
 from ray3d import cameras, metrics, skeleton
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.lift import Lifter
 
 try:
     __version__ = version("ray3d")
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["Camera", "InputError", "cameras", "metrics", "skeleton", "__version__"]
+__all__ = ["Camera", "InputError", "Lifter", "cameras", "metrics", "skeleton", "__version__"]

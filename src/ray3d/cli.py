@@ -108,6 +108,71 @@ def _samples_speed(args: argparse.Namespace) -> int:
     return 0
 
 
+def _train(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from ray3d.models import preset
+    from ray3d.train import TrainConfig, train
+
+    config = TrainConfig.from_json(args.config) if args.config else TrainConfig()
+    if args.preset:
+        config = dataclasses.replace(config, model=preset(args.preset))
+        config.__post_init__()
+    overrides = {k: v for k, v in (("epochs", args.epochs), ("batches_per_epoch", args.batches_per_epoch),
+                                   ("batch_size", args.batch_size), ("seed", args.seed), ("threads", args.threads),
+                                   ("data_dir", args.data_dir)) if v is not None}
+    config = dataclasses.replace(config, **overrides)
+    state = train(config, args.out, resume=args.resume, progress=not args.quiet)
+    best = state["best"]
+    if best is None:  # a data-parallel worker other than rank 0: it neither validates nor reports
+        return 0
+    print(f"best epoch {best['epoch']}: validation Abs-MPJPE {best['abs_mpjpe_mm']:.1f} mm, MPJPE "
+          f"{best['mpjpe_mm']:.1f} mm, MRPE {best['mrpe_mm']:.1f} mm -> {Path(args.out) / 'best.safetensors'}")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    import json
+
+    from ray3d.data import motion as motion_data
+    from ray3d.data.virtual_cameras import SET_NAMES, grid
+    from ray3d.evaluate import METRICS, evaluate
+    from ray3d.io.atomic import atomic_path
+    from ray3d.io.camera_files import load_cameras
+
+    if args.mocap is None:
+        clips = motion_data.load_shipped(args.data_dir, args.split or "test")
+        source = f"shipped mocap, {args.split or 'test'} performers"
+    else:
+        clips = motion_data.MotionSet.load(args.mocap)
+        shipped = args.mocap.name in motion_data.SHIPPED_FILES
+        split = args.split or ("test" if shipped else "all")
+        clips = motion_data.select_split(clips, split)
+        source = f"{args.mocap} ({split} clips)"
+    if clips.num_clips == 0:
+        raise InputError(f"{source}: no clips to evaluate")
+    cameras = grid(args.cameras) if args.cameras in SET_NAMES else load_cameras(args.cameras)
+    result = evaluate(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride)
+    result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, **result}
+    print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
+          f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
+    header = "".join(f"{k.removesuffix('_mm'):>12}" for k in METRICS)
+    print(f"{'camera':<36}{header}{'frames':>10}")
+
+    def row(name: str, values: dict) -> str:
+        cells = "".join(f"{values[k]:>12.1f}" if values[k] is not None else f"{'-':>12}" for k in METRICS)
+        return f"{name:<36}{cells}{values['frames']:>10,}"
+
+    for name, values in result["per_camera"].items():
+        print(row(name, values))
+    print(row("overall (mm)", result))
+    if args.json:
+        with atomic_path(args.json, overwrite=args.force) as temporary:
+            temporary.write_text(json.dumps(result, indent=1))
+        print(f"wrote {args.json}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.data.virtual_cameras import SET_NAMES
 
@@ -150,6 +215,34 @@ def build_parser() -> argparse.ArgumentParser:
     cams.add_argument("--data-dir", help=data_dir_help)
     cams.add_argument("--force", action="store_true", help="replace OUT if it exists")
     cams.set_defaults(handler=_cameras)
+
+    train = commands.add_parser("train", help="train a model on the training performers with random cameras")
+    train.add_argument("--config", type=Path, help="training config JSON (see configs/); default: Ray3D lite")
+    train.add_argument("--preset", help="model preset replacing the config's model (ray3d, videopose3d, rie, ...)")
+    train.add_argument("--out", required=True, type=Path, help="run folder: best.*, last.*, config.json")
+    train.add_argument("--resume", action="store_true", help="continue the run in --out from its last epoch")
+    train.add_argument("--epochs", type=int)
+    train.add_argument("--batches-per-epoch", type=int)
+    train.add_argument("--batch-size", type=int)
+    train.add_argument("--seed", type=int)
+    train.add_argument("--threads", type=int, help="torch CPU threads per process")
+    train.add_argument("--data-dir", help=data_dir_help)
+    train.add_argument("--quiet", action="store_true", help="no progress bar or per-epoch lines")
+    train.set_defaults(handler=_train)
+
+    evaluation = commands.add_parser("evaluate", help="MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
+    evaluation.add_argument("--checkpoint", default="ray3d",
+                            help="a checkpoint path or a shipped model name (ray3d, videopose3d, rie, ...) or rfrh")
+    evaluation.add_argument("--mocap", type=Path, help="a motion npz (default: the shipped mocap's test performers)")
+    evaluation.add_argument("--split", choices=["train", "validation", "test", "all"],
+                            help="clips to use (default: test for the shipped files, all for any other npz)")
+    evaluation.add_argument("--cameras", required=True, help=f"a camera set ({', '.join(SET_NAMES)}) or a cameras JSON")
+    evaluation.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
+    evaluation.add_argument("--json", type=Path, help="write the results here")
+    evaluation.add_argument("--force", action="store_true", help="replace --json if it exists")
+    evaluation.add_argument("--data-dir", help=data_dir_help)
+    evaluation.set_defaults(handler=_evaluate)
 
     speed = data_commands.add_parser("samples-speed", help="measure the training-sample generator's throughput")
     speed.add_argument("--batch", type=int, default=1024)

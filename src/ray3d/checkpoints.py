@@ -1,0 +1,89 @@
+"""Checkpoints: weights as safetensors beside a JSON document (the configs that built them, and provenance).
+Nothing is ever unpickled."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import torch
+from safetensors.torch import load_file, save_file
+
+from ray3d.errors import InputError
+from ray3d.io.atomic import atomic_path
+from ray3d.models.network import LiftingNetwork, ModelConfig
+
+SHIPPED_DIR = "assets/models"
+RFRH = "rfrh"
+
+
+def save_checkpoint(path: str | Path, tensors: dict[str, torch.Tensor], document: dict[str, Any]) -> None:
+    """Write ``path`` (.safetensors) and its .json atomically, replacing earlier versions."""
+    path = Path(path)
+    with atomic_path(path, overwrite=True) as temporary:
+        save_file({k: v.detach().contiguous().cpu() for k, v in tensors.items()}, str(temporary))
+    with atomic_path(path.with_suffix(".json"), overwrite=True) as temporary:
+        temporary.write_text(json.dumps(document, indent=1, default=_json_default))
+
+
+def _json_default(value: Any) -> Any:
+    if dataclasses.is_dataclass(value):
+        return dataclasses.asdict(value)
+    if isinstance(value, tuple):
+        return list(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
+    path = Path(path)
+    if path.suffix != ".safetensors":
+        path = path.with_suffix(".safetensors")
+    meta = path.with_suffix(".json")
+    if not path.is_file() or not meta.is_file():
+        raise InputError(f"{path}: a checkpoint is a .safetensors file with its .json beside it; not found")
+    try:
+        tensors = load_file(str(path))
+    except Exception as err:  # safetensors raises its own error types for corrupt files
+        raise InputError(f"{path}: not a valid safetensors file ({err})") from None
+    try:
+        document = json.loads(meta.read_text())
+    except json.JSONDecodeError as err:
+        raise InputError(f"{meta}: not valid JSON ({err.msg})") from None
+    return tensors, document
+
+
+def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, Any]) -> LiftingNetwork:
+    if "model" not in document:
+        raise InputError("checkpoint JSON has no 'model' configuration")
+    model = LiftingNetwork(ModelConfig(**document["model"]))
+    weights = {k.removeprefix("model."): v for k, v in tensors.items() if k.startswith("model.")}
+    missing, unexpected = model.load_state_dict(weights, strict=False)
+    if missing or unexpected:
+        raise InputError(f"checkpoint does not fit its configuration (missing {missing[:3]}, unexpected {unexpected[:3]})")
+    return model.eval()
+
+
+def shipped_models() -> list[str]:
+    folder = resources.files("ray3d").joinpath(SHIPPED_DIR)
+    return sorted(p.name.removesuffix(".safetensors") for p in folder.iterdir() if p.name.endswith(".safetensors"))
+
+
+def resolve(name_or_path: str | Path) -> Path:
+    """A shipped model's name (``ray3d``, ``videopose3d``, ...) or a checkpoint path -> the .safetensors path."""
+    path = Path(name_or_path)
+    if path.suffix in (".safetensors", ".json") or path.exists():
+        return path.with_suffix(".safetensors")
+    shipped = resources.files("ray3d").joinpath(SHIPPED_DIR, f"{name_or_path}.safetensors")
+    if not shipped.is_file():
+        raise InputError(f"no checkpoint {name_or_path!r}: not a file, and not a shipped model "
+                         f"({', '.join(shipped_models() + [RFRH]) or 'none shipped'})")
+    return Path(str(shipped))
+
+
+def load_model(name_or_path: str | Path = "ray3d") -> tuple[LiftingNetwork, dict[str, Any]]:
+    """A model in eval mode and its checkpoint document."""
+    tensors, document = read_checkpoint(resolve(name_or_path))
+    return model_from_checkpoint(tensors, document), document

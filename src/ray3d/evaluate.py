@@ -1,0 +1,101 @@
+"""The evaluation protocol: a model (or RFRH) on clips seen through cameras, GT 2D, per camera, per clip and
+overall, in millimetres.
+
+Clips are centred on the world origin in the floor plane (as the virtual grids expect). A (camera, clip) pair
+is evaluated only if the camera sees every joint of every frame of the clip; skipped pairs are counted.
+Overall values are frame-weighted over all evaluated (camera, clip, frame) triples.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import defaultdict
+
+import numpy as np
+import torch
+
+from ray3d import metrics
+from ray3d.baselines.rfrh import rfrh_root
+from ray3d.checkpoints import RFRH, load_model
+from ray3d.data.motion import MotionSet
+from ray3d.data.samples import clip_windows, observe
+from ray3d.data.virtual_cameras import CameraBatch, centre_clip, in_image
+from ray3d.geometry import Camera
+from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world
+
+METRICS = ("mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm")
+
+
+@torch.no_grad()
+def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
+                  chunk: int = 8192) -> np.ndarray:
+    """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the centre
+    frames; for RFRH only the root (joint 0) is predicted and the other joints are NaN."""
+    out = []
+    for start in range(0, len(windows), chunk):
+        part = windows[start:start + chunk]
+        cams = CameraBatch.from_cameras([camera])
+        cams = dataclasses.replace(cams, **{f: np.repeat(getattr(cams, f), len(part), axis=0)
+                                            for f in ("R", "t", "intrinsics", "dist", "height", "pitch")})
+        batch = observe(part, cams)
+        if model == RFRH:
+            predicted = np.full(part.shape[:1] + part.shape[2:], np.nan)
+            predicted[:, 0] = rfrh_root(batch.pixels[:, part.shape[1] // 2, 0].astype(np.float64), camera)
+        else:
+            tensors = TensorBatch.from_batch(batch)
+            pose, root = model.predict(tensors, flip_test)
+            predicted = frame_to_world(pose + root[:, None], model.config.output_frame, cams,
+                                       tensors.camera_params).numpy()
+        out.append(predicted)
+    return np.concatenate(out)
+
+
+def _per_frame(predicted: np.ndarray, target: np.ndarray) -> dict[str, np.ndarray]:
+    mm = {"mrpe_mm": 1e3 * metrics.mrpe(predicted, target, reduction="none")}
+    if not np.isnan(predicted[:, 1:]).all():
+        mm["mpjpe_mm"] = 1e3 * metrics.mpjpe(predicted, target, reduction="none")
+        mm["p_mpjpe_mm"] = 1e3 * metrics.p_mpjpe(predicted, target, reduction="none")
+        mm["abs_mpjpe_mm"] = 1e3 * metrics.abs_mpjpe(predicted, target, reduction="none")
+    return mm
+
+
+def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
+    frames = sum(len(p["mrpe_mm"]) for p in parts)
+    summary = {"frames": int(frames)}
+    for key in METRICS:
+        values = [p[key] for p in parts if key in p]
+        summary[key] = float(np.concatenate(values).mean()) if values else None
+    return summary
+
+
+def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
+             frame_stride: int = 1) -> dict:
+    """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip)."""
+    if isinstance(model, str) and model != RFRH:
+        model = load_model(model)[0]
+    frames = 1 if model == RFRH else model.receptive_field
+    per_camera: dict[str, list] = defaultdict(list)
+    per_clip: dict[str, list] = defaultdict(list)
+    clips = [centre_clip(motion.clip(i).astype(np.float64)) for i in range(motion.num_clips)]
+    windows = [clip_windows(clip, frames)[::frame_stride] for clip in clips]
+    skipped = 0
+    for camera in cameras:
+        # All clips this camera sees go through the network together; errors are split back per clip.
+        seen = [i for i, clip in enumerate(clips) if in_image(camera, clip)]
+        skipped += len(clips) - len(seen)
+        if not seen:
+            continue
+        stacked = np.concatenate([windows[i] for i in seen])
+        errors = _per_frame(predict_world(model, stacked, camera, flip_test), stacked[:, frames // 2])
+        bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
+        for k, i in enumerate(seen):
+            part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}
+            per_camera[camera.name].append(part)
+            per_clip[str(motion.clips["clip_id"][i])].append(part)
+    if not per_camera:
+        raise ValueError("no camera sees any clip entirely: nothing to evaluate")
+    everything = [e for parts in per_camera.values() for e in parts]
+    return {**_summarise(everything), "pairs": len(everything), "skipped_pairs": skipped, "flip_test": flip_test,
+            "frame_stride": frame_stride,
+            "per_camera": {name: _summarise(parts) for name, parts in per_camera.items()},
+            "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}

@@ -1,0 +1,70 @@
+"""Building blocks: strided temporal convolutions with computed receptive field, MLPs, camera embedding."""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import nn
+
+
+def receptive_field(kernels: tuple[int, ...]) -> int:
+    """Frames seen by a stack of stride-equals-kernel convolutions: the product of the kernel widths."""
+    return math.prod(kernels)
+
+
+def _conv_unit(in_channels: int, out_channels: int, kernel: int, dropout: float) -> nn.Sequential:
+    return nn.Sequential(nn.Conv1d(in_channels, out_channels, kernel, stride=kernel, bias=False),
+                         nn.BatchNorm1d(out_channels, momentum=0.1), nn.LeakyReLU(0.2), nn.Dropout(dropout))
+
+
+class TemporalEncoder(nn.Module):
+    """(B, features, F) -> (B, channels): an expanding conv of width kernels[0], then one residual block per
+    further kernel (a width-k stride-k conv and a 1x1 conv), each shortening time by k, down to one frame.
+
+    The residual path takes the centre frame of every k-frame stride window, so the output is aligned with
+    the centre of the receptive field.
+    """
+
+    def __init__(self, in_features: int, channels: int, kernels: tuple[int, ...], dropout: float):
+        super().__init__()
+        self.kernels = tuple(kernels)
+        self.receptive_field = receptive_field(self.kernels)
+        self.expand = _conv_unit(in_features, channels, self.kernels[0], dropout)
+        self.blocks = nn.ModuleList(
+            nn.Sequential(_conv_unit(channels, channels, k, dropout), _conv_unit(channels, channels, 1, dropout))
+            for k in self.kernels[1:])
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if x.shape[-1] != self.receptive_field:
+            raise ValueError(f"TemporalEncoder: expected {self.receptive_field} frames, got {x.shape[-1]}")
+        x = self.expand(x)
+        for k, block in zip(self.kernels[1:], self.blocks):
+            x = x[..., k // 2::k] + block(x)
+        return x[..., 0]
+
+
+def mlp(in_features: int, hidden: int, out_features: int, depth: int, dropout: float) -> nn.Sequential:
+    """``depth`` hidden Linear-BN-LeakyReLU-Dropout layers, then a linear output layer."""
+    layers: list[nn.Module] = []
+    width = in_features
+    for _ in range(depth):
+        layers += [nn.Linear(width, hidden, bias=False), nn.BatchNorm1d(hidden), nn.LeakyReLU(0.2), nn.Dropout(dropout)]
+        width = hidden
+    layers.append(nn.Linear(width, out_features))
+    return nn.Sequential(*layers)
+
+
+class CameraEmbedding(nn.Module):
+    """(B, 2) camera (height m, pitch rad) -> (B, 64): the paper's Linear(2, 32) and Linear(32, 64) MLP."""
+
+    out_features = 64
+
+    def __init__(self, dropout: float):
+        super().__init__()
+        self.net = nn.Sequential(
+            nn.Linear(2, 32), nn.BatchNorm1d(32), nn.LeakyReLU(0.2), nn.Dropout(dropout),
+            nn.Linear(32, self.out_features), nn.BatchNorm1d(self.out_features), nn.LeakyReLU(0.2), nn.Dropout(dropout))
+
+    def forward(self, camera_params: torch.Tensor) -> torch.Tensor:
+        return self.net(camera_params)

@@ -1,0 +1,267 @@
+"""``LiftingNetwork``: Ray3D, its ablations and the paper's learned baselines as one configurable module.
+
+A network has a pose branch (root-relative joints) and a trajectory branch (the root), each with its own
+backbone, and predicts in its ``output_frame`` (the NCS for Ray3D, the camera frame for the baselines).
+What differs between the methods is only configuration (see ``presets.py``):
+
+- input: ``ncs_rays`` (Ray3D), ``camera_rays`` (intrinsic decoupling only), ``pixels`` (normalised by the
+  image width, VideoPose3D-style) or ``pixels_centred`` (principal point removed, PoseLifter-style);
+- backbone: ``rie`` (grouped, RIE), ``tcn`` (one temporal conv stack, VideoPose3D) or ``mlp`` (single frame);
+- camera embedding of (height, pitch) concatenated to every decoder input, or not;
+- root: ``xyz`` (regressed directly, the paper), ``ray_depth`` (the depth along the root's observed ray,
+  regressed in log space: the root's direction is known from its pixel, only its distance is not) or
+  ``focal_depth`` (PoseLifter: a canonical depth times the focal length);
+- ground features: the inverse depth at which each joint's ray meets the floor, ``ray_y / h`` in the NCS,
+  given to the encoders (the ground-plane cue that camera height and pitch make available).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import torch
+from torch import nn
+
+from ray3d.data.samples import Batch
+from ray3d.geometry import transforms as tf
+from ray3d.models.blocks import CameraEmbedding, TemporalEncoder, mlp, receptive_field
+from ray3d.models.rie import RIEBackbone
+from ray3d.skeleton import LAYOUTS, Skeleton
+
+INPUTS = ("ncs_rays", "camera_rays", "pixels", "pixels_centred")
+BACKBONES = ("rie", "tcn", "mlp")
+ROOTS = ("xyz", "ray_depth", "focal_depth")
+DEPTH_SCALE_M = 5.0      # log-depth outputs are relative to this
+CANONICAL_FOCAL_PX = 1000.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelConfig:
+    name: str = "ray3d"
+    layout: str = "h36m17"
+    input: str = "ncs_rays"
+    backbone: str = "rie"
+    camera_embedding: bool = True
+    output_frame: str = "ncs"
+    root: str = "ray_depth"
+    ground_features: bool = True
+    kernels: tuple[int, ...] = (3, 3)
+    channels: int = 128
+    hidden: int = 256
+    dropout: float = 0.1
+    fusion: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kernels", tuple(self.kernels))
+        checks = [
+            (self.input in INPUTS, f"input must be one of {INPUTS}"),
+            (self.backbone in BACKBONES, f"backbone must be one of {BACKBONES}"),
+            (self.root in ROOTS, f"root must be one of {ROOTS}"),
+            (self.output_frame in ("ncs", "camera"), "output_frame must be 'ncs' or 'camera'"),
+            (self.output_frame == "camera" or self.input == "ncs_rays", "an NCS output needs ncs_rays input"),
+            (not self.ground_features or self.input == "ncs_rays", "ground features need ncs_rays input"),
+            (self.root != "ray_depth" or self.input.endswith("rays"), "ray_depth needs ray input"),
+            (self.root != "focal_depth" or self.output_frame == "camera", "focal_depth predicts in the camera frame"),
+            (self.backbone != "mlp" or self.frames == 1, "the mlp backbone sees a single frame: kernels (1,)"),
+            (self.layout in LAYOUTS, f"layout must be one of {tuple(LAYOUTS)}"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise ValueError(f"ModelConfig {self.name}: {message}")
+
+    @property
+    def frames(self) -> int:
+        return receptive_field(self.kernels)
+
+    @property
+    def input_channels(self) -> int:
+        return 3 if self.input.endswith("rays") else 2
+
+
+@dataclasses.dataclass
+class TensorBatch:
+    """A batch as torch tensors: pixels (B, F, J, 2), rays (B, F, J, 3) in the NCS, camera_params (B, 2),
+    intrinsics (B, 4), image width (pixels are normalised by it)."""
+
+    pixels: torch.Tensor
+    rays: torch.Tensor
+    camera_params: torch.Tensor
+    intrinsics: torch.Tensor
+    image_width: float
+
+    @classmethod
+    def from_batch(cls, batch: Batch, device: str | torch.device = "cpu") -> TensorBatch:
+        def tensor(array: np.ndarray) -> torch.Tensor:
+            return torch.from_numpy(np.ascontiguousarray(array, dtype=np.float32)).to(device)
+
+        return cls(tensor(batch.pixels), tensor(batch.rays), tensor(batch.camera_params),
+                   tensor(batch.cameras.intrinsics), float(batch.cameras.image_size[0]))
+
+    def flipped(self, skeleton: Skeleton) -> TensorBatch:
+        """The mirrored input (see ``ray3d.data.samples.flip_batch``)."""
+        perm = list(skeleton.flip_permutation)
+        rays = self.rays[:, :, perm] * self.rays.new_tensor([-1.0, 1.0, 1.0])
+        pixels = self.pixels[:, :, perm].clone()
+        pixels[..., 0] = 2 * self.intrinsics[:, None, None, 2] - pixels[..., 0]
+        return dataclasses.replace(self, pixels=pixels, rays=rays)
+
+
+class _Branch(nn.Module):
+    """A backbone and its decoder(s): outputs (B, out_per_joint * J) for the pose or (B, k) for the root."""
+
+    def __init__(self, config: ModelConfig, skeleton: Skeleton, outputs: str, root_outputs: int):
+        super().__init__()
+        self.config, self.skeleton, self.outputs = config, skeleton, outputs
+        camera = CameraEmbedding.out_features if config.camera_embedding else 0
+        extra = skeleton.num_joints if config.ground_features else 0
+        c, h = config.channels, config.hidden
+        if config.backbone == "rie":
+            self.backbone = RIEBackbone(skeleton, config.input_channels, c, h, config.kernels, config.dropout,
+                                        config.fusion, extra)
+            groups = self.backbone.groups
+            if outputs == "pose":
+                self.decoders = nn.ModuleDict({g: mlp(2 * c + camera, h, 3 * len(j), 1, config.dropout)
+                                               for g, j in groups.items()})
+            else:
+                self.head = mlp(c * (len(groups) + 1) + camera, h, root_outputs, 1, config.dropout)
+        else:
+            features = config.input_channels * skeleton.num_joints + extra
+            self.backbone = (TemporalEncoder(features, c, config.kernels, config.dropout) if config.backbone == "tcn"
+                             else mlp(features, h, c, 2, config.dropout))
+            self.head = mlp(c + camera, h, 3 * skeleton.num_joints if outputs == "pose" else root_outputs, 1,
+                            config.dropout)
+
+    def forward(self, x: torch.Tensor, extra: torch.Tensor | None, camera: torch.Tensor | None) -> torch.Tensor:
+        batch = x.shape[0]
+        tail = [camera] if camera is not None else []
+        if self.config.backbone == "rie":
+            features, global_feature = self.backbone(x, extra)
+            if self.outputs == "pose":
+                pose = x.new_zeros(batch, self.skeleton.num_joints, 3)
+                for g, joints in self.backbone.groups.items():
+                    decoded = self.decoders[g](torch.cat([features[g], global_feature, *tail], dim=-1))
+                    pose[:, joints] = decoded.view(batch, len(joints), 3)
+                return pose
+            return self.head(torch.cat([*features.values(), global_feature, *tail], dim=-1))
+        flat = x.reshape(batch, x.shape[1], -1)
+        if extra is not None:
+            flat = torch.cat([flat, extra], dim=-1)
+        feature = self.backbone(flat.transpose(1, 2)) if self.config.backbone == "tcn" else self.backbone(flat[:, 0])
+        out = self.head(torch.cat([feature, *tail], dim=-1))
+        return out.view(batch, self.skeleton.num_joints, 3) if self.outputs == "pose" else out
+
+
+class LiftingNetwork(nn.Module):
+    """Pose and trajectory branches; ``forward`` returns (pose (B, J, 3) root-relative, root (B, 3)) in the
+    configured output frame."""
+
+    def __init__(self, config: ModelConfig):
+        super().__init__()
+        self.config = config
+        self.skeleton = LAYOUTS[config.layout]
+        self.receptive_field = config.frames
+        root_outputs = 3 if config.root == "xyz" else 1
+        self.pose_net = _Branch(config, self.skeleton, "pose", root_outputs)
+        self.trajectory_net = _Branch(config, self.skeleton, "root", root_outputs)
+        self.pose_camera = CameraEmbedding(config.dropout) if config.camera_embedding else None
+        self.trajectory_camera = CameraEmbedding(config.dropout) if config.camera_embedding else None
+
+    def network_input(self, batch: TensorBatch) -> torch.Tensor:
+        kind = self.config.input
+        if kind == "ncs_rays":
+            return batch.rays
+        if kind == "camera_rays":
+            return tf.rays_camera_to_normalized(batch.rays, -batch.camera_params[:, 1, None, None])
+        width = batch.image_width
+        if kind == "pixels":
+            return torch.stack([batch.pixels[..., 0] / width * 2 - 1, batch.pixels[..., 1] / width * 2], -1)
+        principal = batch.intrinsics[:, None, None, 2:]
+        return (batch.pixels - principal) / width * 2
+
+    def forward(self, batch: TensorBatch) -> tuple[torch.Tensor, torch.Tensor]:
+        x = self.network_input(batch)
+        if x.shape[1] != self.receptive_field:
+            raise ValueError(f"{self.config.name}: expected windows of {self.receptive_field} frames, got {x.shape[1]}")
+        extra = batch.rays[..., 1] / batch.camera_params[:, None, None, 0] if self.config.ground_features else None
+        cameras = [None, None] if self.pose_camera is None else [
+            self.pose_camera(batch.camera_params), self.trajectory_camera(batch.camera_params)]
+        pose = self.pose_net(x, extra, cameras[0])
+        pose = pose - pose[:, :1]  # root-relative: the root row is exactly zero
+        return pose, self._root(self.trajectory_net(x, extra, cameras[1]), batch)
+
+    def _root(self, out: torch.Tensor, batch: TensorBatch) -> torch.Tensor:
+        if self.config.root == "xyz":
+            return out
+        depth = torch.exp(out[:, 0]) * DEPTH_SCALE_M
+        centre = batch.rays.shape[1] // 2
+        if self.config.root == "focal_depth":
+            depth = depth * batch.intrinsics[:, 0] / CANONICAL_FOCAL_PX
+            pixel = batch.pixels[:, centre, 0]
+            xy = (pixel - batch.intrinsics[:, 2:]) / batch.intrinsics[:, :2]
+            return torch.cat([xy * depth[:, None], depth[:, None]], dim=-1)
+        ray = batch.rays[:, centre, 0]
+        if self.config.output_frame == "camera":
+            ray = tf.rays_camera_to_normalized(ray, -batch.camera_params[:, 1])
+            return depth[:, None] * ray
+        origin = torch.stack([torch.zeros_like(depth), -batch.camera_params[:, 0], torch.zeros_like(depth)], -1)
+        return depth[:, None] * ray + origin
+
+    def predict(self, batch: TensorBatch, flip_test: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+        """``forward``, optionally averaged with the mirrored input's mirrored prediction."""
+        pose, root = self(batch)
+        if flip_test:
+            perm = list(self.skeleton.flip_permutation)
+            mirror = pose.new_tensor([-1.0, 1.0, 1.0])
+            flipped_pose, flipped_root = self(batch.flipped(self.skeleton))
+            pose = (pose + flipped_pose[:, perm] * mirror) / 2
+            root = (root + flipped_root * mirror) / 2
+        return pose, root
+
+
+def frame_to_world(points: torch.Tensor, frame: str, cameras, camera_params: torch.Tensor) -> torch.Tensor:
+    """(B, ..., 3) points in a model's output frame -> world, with the batch's cameras (a ``CameraBatch``)."""
+    R = torch.as_tensor(cameras.R, dtype=points.dtype, device=points.device)
+    t = torch.as_tensor(cameras.t, dtype=points.dtype, device=points.device)
+    extra_axes = (None,) * (points.ndim - 2)
+    if frame == "ncs":
+        points = tf.normalized_to_camera(points, camera_params[(slice(None), 0, *extra_axes)],
+                                         camera_params[(slice(None), 1, *extra_axes)])
+    return tf.camera_to_world(points, R[(slice(None), *extra_axes)], t[(slice(None), *extra_axes)])
+
+
+def targets_in_frame(batch: TensorBatch, pose_ncs: torch.Tensor, root_ncs: torch.Tensor, frame: str):
+    """The NCS targets of a batch expressed in ``frame`` (rotating back by the pitch for the camera frame)."""
+    if frame == "ncs":
+        return pose_ncs, root_ncs
+    pitch = -batch.camera_params[:, 1]
+    root = tf.normalized_to_camera(root_ncs, batch.camera_params[:, 0], batch.camera_params[:, 1])
+    return tf.rays_camera_to_normalized(pose_ncs, pitch[:, None]), root
+
+
+def lifting_loss(pose: torch.Tensor, root: torch.Tensor, target_pose: torch.Tensor, target_root: torch.Tensor):
+    """The brief's loss: MPJPE of the root-relative pose + the root error weighted per sample by 1 / |z|."""
+    pose_error = (pose - target_pose).norm(dim=-1).mean()
+    root_error = ((root - target_root).norm(dim=-1) / target_root[:, 2].abs().clamp(min=0.5)).mean()
+    return pose_error + root_error, pose_error.detach(), root_error.detach()
+
+
+def count_parameters(module: nn.Module) -> int:
+    return sum(p.numel() for p in module.parameters())
+
+
+def flops_per_frame(model: LiftingNetwork) -> float:
+    """Floating-point operations (multiply-adds x 2) for one output frame, counted by torch."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    frames, joints = model.receptive_field, model.skeleton.num_joints
+    batch = TensorBatch(torch.rand(2, frames, joints, 2) * 1000, torch.rand(2, frames, joints, 3),
+                        torch.tensor([[1.5, 0.2], [2.0, 0.3]]), torch.tensor([[1000.0, 1000, 500, 500]] * 2), 1000.0)
+    was_training = model.training
+    model.eval()
+    with FlopCounterMode(display=False) as counter, torch.no_grad():
+        model(batch)
+    model.train(was_training)
+    return counter.get_total_flops() / 2
+
+

@@ -1,0 +1,62 @@
+"""The RIE backbone (Shan et al. 2021), written from the description in the brief: per joint group a temporal
+encoder over the group's inputs plus positional (joint minus root) and temporal (frame minus centre frame)
+encodings; a global branch over the centre frame of all joints; optional feature fusion between groups."""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from ray3d.models.blocks import TemporalEncoder, mlp
+from ray3d.skeleton import GROUP_NAMES, Skeleton
+
+
+class RIEBackbone(nn.Module):
+    """(B, F, J, C) per-joint inputs -> per-group features {group: (B, channels)} and a global feature.
+
+    Groups come from the skeleton's joint names (``Skeleton.groups``), so 17-, 14- and 15-joint layouts work.
+    The centre frame is ``F // 2``, the true middle of the (odd) receptive field.
+    """
+
+    def __init__(self, skeleton: Skeleton, in_channels: int, channels: int, hidden: int, kernels: tuple[int, ...],
+                 dropout: float, fusion: bool, extra_features: int = 0):
+        super().__init__()
+        self.skeleton = skeleton
+        self.groups = {g: list(skeleton.groups[g]) for g in GROUP_NAMES if skeleton.groups[g]}
+        per_joint = 3 * in_channels  # input, positional encoding, temporal encoding
+        self.encoders = nn.ModuleDict({
+            g: TemporalEncoder(per_joint * len(joints) + extra_features, channels, kernels, dropout)
+            for g, joints in self.groups.items()})
+        self.receptive_field = next(iter(self.encoders.values())).receptive_field
+        self.global_branch = mlp(in_channels * skeleton.num_joints + extra_features, hidden, channels, 1, dropout)
+        self.fusion = nn.ModuleDict({
+            g: nn.Sequential(nn.Linear(channels * (len(self.groups) - 1), channels), nn.LeakyReLU(0.2))
+            for g in self.groups}) if fusion else None
+        self.channels = channels
+
+    def encodings(self, x: torch.Tensor) -> torch.Tensor:
+        """(B, F, J, C) -> (B, F, J, 3C): the input with its positional and temporal encodings."""
+        centre = x.shape[1] // 2
+        positional = x - x[:, :, :1]
+        temporal = x - x[:, centre:centre + 1]
+        return torch.cat([x, positional, temporal], dim=-1)
+
+    def forward(self, x: torch.Tensor, extra: torch.Tensor | None = None) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
+        """``extra``: optional (B, F, E) per-frame features given to every group and the global branch."""
+        batch, frames = x.shape[:2]
+        encoded = self.encodings(x)
+        features = {}
+        for g, joints in self.groups.items():
+            group_input = encoded[:, :, joints].reshape(batch, frames, -1)
+            if extra is not None:
+                group_input = torch.cat([group_input, extra], dim=-1)
+            features[g] = self.encoders[g](group_input.transpose(1, 2))
+        centre = frames // 2
+        global_input = x[:, centre].reshape(batch, -1)
+        if extra is not None:
+            global_input = torch.cat([global_input, extra[:, centre]], dim=-1)
+        global_feature = self.global_branch(global_input)
+        if self.fusion is not None:
+            features = {g: f + self.fusion[g](torch.cat([features[o] for o in self.groups if o != g], dim=-1))
+                        for g, f in features.items()}
+        return features, global_feature

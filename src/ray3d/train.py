@@ -1,0 +1,211 @@
+"""One training loop for every model: random virtual cameras per sample, validation every epoch on the
+validation performers (the best epoch is kept), safetensors checkpoints written atomically, resumable,
+deterministic with a seed, and data-parallel over processes with ``torch.distributed`` (torchrun; gloo on
+CPU, nccl on GPUs)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from ray3d.checkpoints import read_checkpoint, save_checkpoint
+from ray3d.data.motion import load_shipped
+from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
+from ray3d.data.virtual_cameras import CameraRanges
+from ray3d.errors import InputError
+from ray3d.models.network import LiftingNetwork, ModelConfig, TensorBatch, frame_to_world, lifting_loss, targets_in_frame
+
+DATA_PROVENANCE = ("CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu; free for research and commercial "
+                   "use, not for resale; created with funding from NSF EIA-0196217) and HDM05 (Mueller et al. 2007, "
+                   "CC BY-SA 3.0), training performers only; see LICENSE-DATA.md of the mocap data")
+
+
+@dataclasses.dataclass
+class TrainConfig:
+    model: ModelConfig = ModelConfig()
+    samples: SampleConfig = SampleConfig()
+    epochs: int = 30
+    batches_per_epoch: int = 100
+    batch_size: int = 1024
+    learning_rate: float = 1e-3
+    lr_decay: float = 0.95            # per epoch
+    seed: int = 0
+    validation_samples: int = 4096
+    data_dir: str | None = None
+    threads: int | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.model, dict):
+            self.model = ModelConfig(**self.model)
+        if isinstance(self.samples, dict):
+            samples = dict(self.samples)
+            if isinstance(samples.get("cameras"), dict):
+                samples["cameras"] = CameraRanges(**{k: tuple(v) if isinstance(v, list) else v
+                                                     for k, v in samples["cameras"].items()})
+            self.samples = SampleConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in samples.items()})
+        if self.samples.frames != self.model.frames:
+            self.samples = dataclasses.replace(self.samples, frames=self.model.frames)
+
+    @classmethod
+    def from_json(cls, path: str | Path) -> TrainConfig:
+        try:
+            document = json.loads(Path(path).read_text())
+            return cls(**document)
+        except (OSError, json.JSONDecodeError, TypeError) as err:
+            raise InputError(f"{path}: not a training config ({err})") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        return json.loads(json.dumps(dataclasses.asdict(self)))
+
+
+def _distributed() -> tuple[int, int]:
+    """(rank, world size), starting the process group when launched by torchrun."""
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    if world > 1 and not torch.distributed.is_initialized():
+        torch.distributed.init_process_group("nccl" if torch.cuda.is_available() else "gloo")
+    return (torch.distributed.get_rank(), world) if world > 1 else (0, 1)
+
+
+def validation_batch(config: TrainConfig) -> Batch:
+    """A fixed batch from the validation performers: same windows and cameras for every epoch and run."""
+    motion = load_shipped(config.data_dir, "validation")
+    clean = dataclasses.replace(config.samples, flip_probability=0.0, noise_px=0.0, drop_probability=0.0,
+                                bone_scale=(1.0, 1.0), bone_jitter=0.0)
+    return SampleGenerator(motion, clean, seed=10_000 + config.seed).batch(config.validation_samples)
+
+
+@torch.no_grad()
+def world_errors_mm(model: LiftingNetwork, batch: Batch, device: torch.device, chunk: int = 4096) -> dict[str, float]:
+    """Mean Abs-MPJPE, MPJPE and MRPE (mm) of ``model`` on a batch, in the world frame."""
+    from ray3d import metrics
+
+    model.eval()
+    predictions = []
+    for start in range(0, len(batch.root), chunk):
+        part = _slice(batch, slice(start, start + chunk))
+        tensors = TensorBatch.from_batch(part, device)
+        pose, root = model(tensors)
+        world = frame_to_world(pose + root[:, None], model.config.output_frame, part.cameras, tensors.camera_params)
+        predictions.append(world.cpu().numpy())
+    predicted = np.concatenate(predictions).astype(np.float64)
+    target = batch.world.astype(np.float64)
+    return {"abs_mpjpe_mm": 1e3 * float(metrics.abs_mpjpe(predicted, target)),
+            "mpjpe_mm": 1e3 * float(metrics.mpjpe(predicted, target)),
+            "mrpe_mm": 1e3 * float(metrics.mrpe(predicted, target))}
+
+
+def _slice(batch: Batch, index: slice) -> Batch:
+    cams = batch.cameras
+    sliced_cams = dataclasses.replace(cams, R=cams.R[index], t=cams.t[index], intrinsics=cams.intrinsics[index],
+                                      dist=cams.dist[index], height=cams.height[index], pitch=cams.pitch[index])
+    return Batch(batch.pixels[index], batch.rays[index], batch.camera_params[index], batch.pose[index],
+                 batch.root[index], batch.visible[index], sliced_cams, batch.world[index])
+
+
+def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, torch.Tensor], list[dict]]:
+    state = optimizer.state_dict()
+    tensors = {f"optimizer.{index}.{name}": (value if torch.is_tensor(value) else torch.tensor(value))
+               for index, entries in state["state"].items() for name, value in entries.items()}
+    return tensors, state["param_groups"]
+
+
+def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: dict[str, torch.Tensor], groups: list[dict]) -> None:
+    state: dict[int, dict[str, torch.Tensor]] = {}
+    for key, value in tensors.items():
+        if key.startswith("optimizer."):
+            _, index, name = key.split(".", 2)
+            state.setdefault(int(index), {})[name] = value
+    optimizer.load_state_dict({"state": state, "param_groups": groups})
+
+
+def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: bool = True) -> dict[str, Any]:
+    """Train, writing ``out/best.*`` (best validation epoch) and ``out/last.*`` (to resume).
+
+    Returns {"epoch", "best", "history"}; on data-parallel ranks other than 0, "best" is None and the history
+    empty (rank 0 alone validates and writes).
+    """
+    out = Path(out)
+    rank, world = _distributed()
+    if config.threads:
+        torch.set_num_threads(config.threads)
+    if (out / "last.json").exists() and not resume:
+        raise InputError(f"{out}: holds a run already; pass --resume to continue it or choose another --out")
+    if config.batch_size % world:
+        raise InputError(f"batch size {config.batch_size} does not split over {world} processes")
+    device = torch.device(f"cuda:{rank % torch.cuda.device_count()}" if torch.cuda.is_available() else "cpu")
+    torch.manual_seed(config.seed)
+    model = LiftingNetwork(config.model).to(device)
+    optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
+    generator = SampleGenerator(load_shipped(config.data_dir, "train"), config.samples, seed=config.seed + 1000 * rank)
+    state = {"epoch": 0, "best": None, "history": []}
+    if resume and (out / "last.json").exists():
+        tensors, document = read_checkpoint(out / "last.safetensors")
+        model.load_state_dict({k.removeprefix("model."): v for k, v in tensors.items() if k.startswith("model.")})
+        _load_optimizer(optimizer, tensors, document["optimizer_param_groups"])
+        state = {k: document[k] for k in ("epoch", "best", "history")}
+        generator.rng.bit_generator.state = document["generator_state"][str(rank)] if str(rank) in document[
+            "generator_state"] else generator.rng.bit_generator.state
+        torch.set_rng_state(tensors["torch_rng_state"])
+    if rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "config.json").write_text(json.dumps(config.to_dict(), indent=1))
+    trained = torch.nn.parallel.DistributedDataParallel(model) if world > 1 else model
+    validation = validation_batch(config) if rank == 0 else None
+    local_batch = config.batch_size // world
+
+    for epoch in range(state["epoch"], config.epochs):
+        for group in optimizer.param_groups:
+            group["lr"] = config.learning_rate * config.lr_decay ** epoch
+        model.train()
+        started, totals = time.perf_counter(), np.zeros(3)
+        bar = tqdm(range(config.batches_per_epoch), desc=f"epoch {epoch + 1}/{config.epochs}",
+                   disable=not progress or rank != 0, leave=False)
+        for step in bar:
+            batch = generator.batch(local_batch)
+            tensors = TensorBatch.from_batch(batch, device)
+            target_pose, target_root = targets_in_frame(tensors, torch.from_numpy(batch.pose).to(device),
+                                                        torch.from_numpy(batch.root).to(device),
+                                                        config.model.output_frame)
+            pose, root = trained(tensors)
+            loss, pose_error, root_error = lifting_loss(pose, root, target_pose, target_root)
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            optimizer.step()
+            totals += [loss.item(), pose_error.item(), root_error.item()]
+            rate = (step + 1) * config.batch_size / (time.perf_counter() - started)
+            bar.set_postfix(loss=f"{totals[0] / (step + 1):.4f}", samples_s=f"{rate:,.0f}")
+        if rank == 0:
+            record = {"epoch": epoch + 1, "loss": totals[0] / config.batches_per_epoch,
+                      "train_pose_m": totals[1] / config.batches_per_epoch,
+                      "train_root_rel": totals[2] / config.batches_per_epoch,
+                      "samples_per_s": config.batches_per_epoch * config.batch_size / (time.perf_counter() - started),
+                      "lr": optimizer.param_groups[0]["lr"], **world_errors_mm(model, validation, device)}
+            state["history"].append(record)
+            state["epoch"] = epoch + 1
+            if progress:
+                print(f"epoch {epoch + 1}: loss {record['loss']:.4f}  validation Abs-MPJPE {record['abs_mpjpe_mm']:.1f} "
+                      f"MPJPE {record['mpjpe_mm']:.1f} MRPE {record['mrpe_mm']:.1f} mm  "
+                      f"({record['samples_per_s']:,.0f} samples/s)", flush=True)
+            weights = {f"model.{k}": v for k, v in model.state_dict().items()}
+            provenance = {"model": config.model, "train_config": config.to_dict(), "trained_on": DATA_PROVENANCE}
+            if state["best"] is None or record["abs_mpjpe_mm"] < state["best"]["abs_mpjpe_mm"]:
+                state["best"] = record
+                save_checkpoint(out / "best.safetensors", weights, {**provenance, "epoch": epoch + 1,
+                                                                     "validation": record})
+            optimizer_tensors, groups = _optimizer_tensors(optimizer)
+            save_checkpoint(out / "last.safetensors", {**weights, **optimizer_tensors,
+                                                       "torch_rng_state": torch.get_rng_state()},
+                            {**provenance, **state, "optimizer_param_groups": groups,
+                             "generator_state": {str(rank): generator.rng.bit_generator.state}})
+    if world > 1:
+        torch.distributed.barrier()
+        torch.distributed.destroy_process_group()
+    return state

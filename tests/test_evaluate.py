@@ -1,0 +1,58 @@
+"""The evaluation protocol: exact predictions score 0 mm, RFRH at the true height scores 0, JSON keys."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from ray3d import evaluate as evaluation
+from ray3d.cli import main
+from ray3d.data.motion import MotionSet
+from ray3d.data.virtual_cameras import grid
+
+
+def _standing_clip(frames=20, pelvis_height=0.9395):
+    rng = np.random.default_rng(0)
+    pose = rng.normal(0, 0.15, (17, 3))
+    pose[0] = 0.0
+    clip = np.tile(pose, (frames, 1, 1)) + np.array([0.0, 0.0, pelvis_height])
+    clip[:, :, 0] += np.linspace(-0.5, 0.5, frames)[:, None]
+    return clip.astype(np.float32)
+
+
+def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch):
+    monkeypatch.setattr(evaluation, "predict_world",
+                        lambda model, windows, camera, flip_test=False: windows[:, windows.shape[1] // 2])
+
+    class Oracle:
+        receptive_field = 9
+
+    motion = MotionSet.from_clips([_standing_clip(), _standing_clip(30)], clip_id=["a", "b"])
+    result = evaluation.evaluate(Oracle(), motion, grid("extrinsic-test")[:3])
+    for key in evaluation.METRICS:
+        assert result[key] == pytest.approx(0.0, abs=1e-9)
+        assert all(v[key] == pytest.approx(0.0, abs=1e-9) for v in result["per_camera"].values())
+    assert result["frames"] == 3 * 50 and set(result["per_clip"]) == {"a", "b"}
+
+
+def test_rfrh_is_exact_when_the_pelvis_is_at_its_height():
+    motion = MotionSet.from_clips([_standing_clip()], clip_id=["stand"])
+    result = evaluation.evaluate("rfrh", motion, grid("h36m")[:4])
+    assert result["mrpe_mm"] == pytest.approx(0.0, abs=1e-3)
+    assert result["abs_mpjpe_mm"] is None  # RFRH places the root only
+
+
+def test_evaluate_cli_writes_the_documented_json(tmp_path, capsys):
+    motion = MotionSet.from_clips([_standing_clip(), _standing_clip(pelvis_height=0.7)], clip_id=["a", "b"])
+    motion.save(tmp_path / "mine.npz")
+    out = tmp_path / "result.json"
+    assert main(["evaluate", "--checkpoint", "rfrh", "--mocap", str(tmp_path / "mine.npz"), "--cameras", "h36m",
+                 "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert {"mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm", "frames", "per_camera"} <= set(result)
+    assert result["frames"] == 40 * len(result["per_camera"]) and result["mrpe_mm"] > 10
+    assert "overall" in capsys.readouterr().out
+    assert main(["evaluate", "--checkpoint", "nonexistent-model", "--mocap", str(tmp_path / "mine.npz"),
+                 "--cameras", "h36m"]) == 2

@@ -1,0 +1,114 @@
+"""Networks: shapes, receptive fields, joint layouts, the centre frame, flip equivariance of the plumbing."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+import torch
+
+from ray3d.models import PRESETS, LiftingNetwork, TensorBatch, preset
+from ray3d.models.blocks import TemporalEncoder
+from ray3d.models.network import ModelConfig, count_parameters, flops_per_frame
+from ray3d.models.rie import RIEBackbone
+from ray3d.skeleton import H36M17, LAYOUTS
+
+TINY = dict(channels=16, hidden=32)
+
+
+def _batch(frames: int, joints: int = 17, size: int = 4) -> TensorBatch:
+    torch.manual_seed(0)
+    rays = torch.randn(size, frames, joints, 3) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
+    pixels = torch.rand(size, frames, joints, 2) * 1000
+    return TensorBatch(pixels, rays, torch.tensor([[1.5, 0.2]] * size), torch.tensor([[1000.0, 1000, 500, 500]] * size),
+                       1000.0)
+
+
+@pytest.mark.parametrize("name", list(PRESETS))
+def test_every_preset_outputs_pose_and_root(name):
+    model = LiftingNetwork(dataclasses.replace(PRESETS[name], **TINY)).eval()
+    pose, root = model(_batch(model.receptive_field))
+    assert pose.shape == (4, 17, 3) and root.shape == (4, 3)
+    assert torch.all(pose[:, 0] == 0)
+    assert count_parameters(model) > 0 and flops_per_frame(model) > 0
+
+
+@pytest.mark.parametrize("kernels, frames", [((1,), 1), ((3, 3), 9), ((3, 3, 3), 27), ((3, 3, 3, 3), 81),
+                                             ((3, 3, 3, 3, 3), 243)])
+def test_receptive_field_is_the_product_of_kernel_widths(kernels, frames):
+    model = LiftingNetwork(preset("ray3d", kernels=kernels, **TINY)).eval()
+    assert model.receptive_field == frames
+    assert model(_batch(frames, size=2))[0].shape == (2, 17, 3)
+    with pytest.raises(ValueError, match=f"expected windows of {frames} frames"):
+        model(_batch(frames + 2, size=2))
+
+
+@pytest.mark.parametrize("layout", ["h36m17", "h36m14", "humaneva15"])
+def test_joint_layouts(layout):
+    skeleton = LAYOUTS[layout]
+    for name in ("ray3d", "videopose3d", "rie"):
+        config = preset(name, layout=layout, **TINY)
+        model = LiftingNetwork(config).eval()
+        pose, root = model(_batch(9, skeleton.num_joints))
+        assert pose.shape == (4, skeleton.num_joints, 3) and root.shape == (4, 3)
+    groups = RIEBackbone(skeleton, 3, 8, 8, (3, 3), 0.0, False).groups
+    assert sorted(j for joints in groups.values() for j in joints) == list(range(skeleton.num_joints))
+    assert all(skeleton.joint_names[j].startswith("l_") for j in groups["left_leg"] + groups["left_arm"])
+
+
+def test_group_decoders_write_their_own_joints():
+    """Zeroing one group's decoder zeroes exactly that group's joints (relative to the root)."""
+    model = LiftingNetwork(preset("ray3d", layout="humaneva15", **TINY)).eval()
+    decoder = model.pose_net.decoders["left_arm"][-1]
+    with torch.no_grad():
+        decoder.weight.zero_()
+        decoder.bias.zero_()
+    raw = model.pose_net(model.network_input(_batch(9, 15)),
+                         _batch(9, 15).rays[..., 1] / 1.5, model.pose_camera(_batch(9, 15).camera_params))
+    for joint in LAYOUTS["humaneva15"].groups["left_arm"]:
+        assert torch.all(raw[:, joint] == 0)
+    others = [j for j in range(15) if j not in LAYOUTS["humaneva15"].groups["left_arm"]]
+    assert torch.all(raw[:, others].abs().sum(-1) > 0)
+
+
+def test_centre_frame_drives_the_global_branch_and_the_temporal_encoding():
+    backbone = RIEBackbone(H36M17, 3, 8, 16, (3, 3), 0.0, False).eval()
+    x = torch.randn(2, 9, 17, 3)
+    perturbed = x.clone()
+    perturbed[:, 0] += 1.0  # a non-centre frame
+    with torch.no_grad():
+        _, global_a = backbone(x)
+        _, global_b = backbone(perturbed)
+    assert torch.equal(global_a, global_b)
+    encoded_a, encoded_b = backbone.encodings(x), backbone.encodings(perturbed)
+    assert not torch.equal(encoded_a[:, 0], encoded_b[:, 0])          # the perturbed frame's encoding changes
+    assert torch.equal(encoded_a[:, 4, :, 6:], torch.zeros_like(encoded_a[:, 4, :, 6:]))  # centre = frame 4 of 9
+    centre = x.clone()
+    centre[:, 4] += 1.0
+    with torch.no_grad():
+        assert not torch.equal(backbone(centre)[1], global_a)
+
+
+def test_temporal_encoder_aligns_its_residual_with_the_centre():
+    encoder = TemporalEncoder(2, 4, (3, 3), 0.0)
+    assert encoder.receptive_field == 9
+    assert encoder(torch.randn(5, 2, 9)).shape == (5, 4)
+
+
+def test_config_rejects_inconsistent_combinations():
+    with pytest.raises(ValueError, match="an NCS output needs ncs_rays input"):
+        ModelConfig(input="pixels", output_frame="ncs", ground_features=False)
+    with pytest.raises(ValueError, match="ray_depth needs ray input"):
+        ModelConfig(input="pixels", output_frame="camera", ground_features=False, root="ray_depth")
+
+
+def test_flip_test_is_consistent_for_a_mirror_symmetric_input():
+    model = LiftingNetwork(preset("ray3d", **TINY)).eval()
+    batch = _batch(9)
+    with torch.no_grad():
+        pose, root = model.predict(batch, flip_test=True)
+        pose_f, root_f = model.predict(batch.flipped(model.skeleton), flip_test=True)
+    perm = list(model.skeleton.flip_permutation)
+    mirror = torch.tensor([-1.0, 1.0, 1.0])
+    torch.testing.assert_close(pose_f, pose[:, perm] * mirror, atol=1e-5, rtol=1e-4)
+    torch.testing.assert_close(root_f, root * mirror, atol=1e-5, rtol=1e-4)

@@ -1,0 +1,71 @@
+"""Training: the loss falls, checkpoints round-trip exactly, resuming continues, two gloo processes run."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from ray3d.checkpoints import load_model, read_checkpoint
+from ray3d.models import preset
+from ray3d.models.network import TensorBatch
+from ray3d.train import TrainConfig, train, validation_batch
+
+
+def _config(data_dir, **overrides) -> TrainConfig:
+    base = dict(model=preset("ray3d", channels=32, hidden=64), epochs=2, batches_per_epoch=8, batch_size=128,
+                validation_samples=256, data_dir=str(data_dir), threads=1)
+    return TrainConfig(**{**base, **overrides})
+
+
+def test_a_few_steps_reduce_the_loss(tiny_data_dir, tmp_path):
+    state = train(_config(tiny_data_dir, epochs=3, batches_per_epoch=15), tmp_path / "run", progress=False)
+    losses = [h["loss"] for h in state["history"]]
+    assert losses[-1] < 0.7 * losses[0]
+    assert state["best"]["abs_mpjpe_mm"] == min(h["abs_mpjpe_mm"] for h in state["history"])
+
+
+def test_save_load_gives_identical_outputs_and_resume_continues(tiny_data_dir, tmp_path):
+    config = _config(tiny_data_dir)
+    run = tmp_path / "run"
+    first = train(config, run, progress=False)
+    assert [h["epoch"] for h in first["history"]] == [1, 2]
+    model, document = load_model(run / "best.safetensors")
+    assert "CMU" in document["trained_on"] and "CC BY-SA 3.0" in document["trained_on"]
+    batch = TensorBatch.from_batch(validation_batch(config))
+    tensors, _ = read_checkpoint(run / "best.safetensors")
+    again, _ = load_model(run / "best.safetensors")
+    with torch.no_grad():
+        torch.testing.assert_close(model(batch), again(batch), rtol=0, atol=0)
+    with pytest.raises(Exception, match="pass --resume"):
+        train(config, run, progress=False)
+    resumed = train(TrainConfig(**{**config.to_dict(), "epochs": 3}), run, resume=True, progress=False)
+    assert [h["epoch"] for h in resumed["history"]] == [1, 2, 3]
+    assert resumed["history"][:2] == first["history"]
+    assert json.loads((run / "last.json").read_text())["epoch"] == 3
+    assert not any(k.startswith("optimizer.") for k in tensors)  # best holds weights only
+
+
+def test_training_is_deterministic_with_a_seed(tiny_data_dir, tmp_path):
+    config = _config(tiny_data_dir, epochs=1, batches_per_epoch=3)
+    a = train(config, tmp_path / "a", progress=False)["history"][0]
+    b = train(config, tmp_path / "b", progress=False)["history"][0]
+    assert a["loss"] == b["loss"] and a["abs_mpjpe_mm"] == b["abs_mpjpe_mm"]
+
+
+def test_two_gloo_processes_complete_an_epoch(tiny_data_dir, tmp_path):
+    config_path = tmp_path / "config.json"
+    config = _config(tiny_data_dir, epochs=1, batches_per_epoch=3)
+    config_path.write_text(json.dumps(config.to_dict()))
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    result = subprocess.run(
+        [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node=2", "--master_port=29533", "-m",
+         "ray3d.cli", "train", "--config", str(config_path), "--out", str(tmp_path / "ddp"), "--quiet"],
+        capture_output=True, text=True, timeout=300, env=env)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "best epoch 1" in result.stdout
+    assert json.loads((tmp_path / "ddp" / "last.json").read_text())["epoch"] == 1
