@@ -69,3 +69,22 @@ def test_two_gloo_processes_complete_an_epoch(tiny_data_dir, tmp_path):
     assert result.returncode == 0, result.stderr[-2000:]
     assert "best epoch 1" in result.stdout
     assert json.loads((tmp_path / "ddp" / "last.json").read_text())["epoch"] == 1
+
+
+def test_export_keeps_weights_and_provenance_only(tiny_data_dir, tmp_path):
+    from ray3d.checkpoints import export
+    from ray3d import InputError
+
+    run = tmp_path / "run"
+    train(_config(tiny_data_dir, epochs=1, batches_per_epoch=2), run, progress=False)
+    target = export(run / "last.safetensors", tmp_path / "shipped" / "mine", training={"command": "ray3d train"})
+    tensors, document = read_checkpoint(target)
+    assert all(k.startswith("model.") for k in tensors)
+    assert document["training"]["command"] == "ray3d train" and "trained_on" in document
+    model, _ = load_model(target)
+    reference, _ = load_model(run / "last.safetensors")
+    batch = TensorBatch.from_batch(validation_batch(_config(tiny_data_dir)))
+    with torch.no_grad():
+        torch.testing.assert_close(model(batch), reference(batch), rtol=0, atol=0)
+    with pytest.raises(InputError, match="already exists"):
+        export(run / "last.safetensors", target)

@@ -87,3 +87,17 @@ def load_model(name_or_path: str | Path = "ray3d") -> tuple[LiftingNetwork, dict
     """A model in eval mode and its checkpoint document."""
     tensors, document = read_checkpoint(resolve(name_or_path))
     return model_from_checkpoint(tensors, document), document
+
+
+def export(source: str | Path, target: str | Path, overwrite: bool = False, **provenance: Any) -> Path:
+    """Copy a checkpoint's weights and configuration to ``target`` (.safetensors + .json), dropping training
+    state (optimizer, RNG), adding ``provenance`` (e.g. the training command and time) to the JSON."""
+    tensors, document = read_checkpoint(source)
+    weights = {k: v for k, v in tensors.items() if k.startswith("model.")}
+    model_from_checkpoint(weights, document)  # refuse to export something that does not load
+    target = Path(target).with_suffix(".safetensors")
+    if target.exists() and not overwrite:
+        raise InputError(f"{target}: already exists; refusing to overwrite it (use --force to replace it)")
+    keep = ("model", "trained_on", "epoch", "validation", "train_config")
+    save_checkpoint(target, weights, {**{k: document[k] for k in keep if k in document}, **provenance})
+    return target

@@ -173,6 +173,32 @@ def _evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _export(args: argparse.Namespace) -> int:
+    from ray3d.checkpoints import export
+
+    provenance = {"training": {"command": args.command_line, "time_s": args.time_s, "machine": args.machine}} \
+        if args.command_line else {}
+    target = export(args.checkpoint, args.out, overwrite=args.force, **provenance)
+    print(f"wrote {target} and {target.with_suffix('.json')}")
+    return 0
+
+
+def _models(args: argparse.Namespace) -> int:
+    from ray3d.checkpoints import shipped_models
+    from ray3d.models import PRESETS, LiftingNetwork
+    from ray3d.models.network import count_parameters, flops_per_frame
+
+    print(f"{'preset':<15}{'frames':>7}{'params':>12}{'MFLOPs/frame':>14}  {'input':<15}{'backbone':<9}{'root':<12}"
+          f"{'camera emb.':<12}shipped")
+    shipped = set(shipped_models())
+    for name, config in PRESETS.items():
+        model = LiftingNetwork(config)
+        print(f"{name:<15}{config.frames:>7}{count_parameters(model):>12,}{flops_per_frame(model) / 1e6:>14.2f}  "
+              f"{config.input:<15}{config.backbone:<9}{config.root:<12}{'yes' if config.camera_embedding else 'no':<12}"
+              f"{'yes' if name in shipped else 'no'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.data.virtual_cameras import SET_NAMES
 
@@ -243,6 +269,18 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--force", action="store_true", help="replace --json if it exists")
     evaluation.add_argument("--data-dir", help=data_dir_help)
     evaluation.set_defaults(handler=_evaluate)
+
+    models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
+    models.set_defaults(handler=_models)
+
+    exporting = commands.add_parser("export", help="a trained checkpoint -> inference weights (.safetensors + .json)")
+    exporting.add_argument("--checkpoint", required=True, type=Path, help="e.g. runs/NAME/best.safetensors")
+    exporting.add_argument("--out", required=True, type=Path, help="target .safetensors (its .json is written beside)")
+    exporting.add_argument("--command-line", help="the training command, recorded with the weights")
+    exporting.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
+    exporting.add_argument("--machine", help="where it was trained, recorded with the weights")
+    exporting.add_argument("--force", action="store_true", help="replace --out if it exists")
+    exporting.set_defaults(handler=_export)
 
     speed = data_commands.add_parser("samples-speed", help="measure the training-sample generator's throughput")
     speed.add_argument("--batch", type=int, default=1024)

@@ -145,12 +145,12 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     model = LiftingNetwork(config.model).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
     generator = SampleGenerator(load_shipped(config.data_dir, "train"), config.samples, seed=config.seed + 1000 * rank)
-    state = {"epoch": 0, "best": None, "history": []}
+    state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")
         model.load_state_dict({k.removeprefix("model."): v for k, v in tensors.items() if k.startswith("model.")})
         _load_optimizer(optimizer, tensors, document["optimizer_param_groups"])
-        state = {k: document[k] for k in ("epoch", "best", "history")}
+        state = {k: document.get(k, 0.0) for k in ("epoch", "best", "history", "train_seconds")}
         generator.rng.bit_generator.state = document["generator_state"][str(rank)] if str(rank) in document[
             "generator_state"] else generator.rng.bit_generator.state
         torch.set_rng_state(tensors["torch_rng_state"])
@@ -182,6 +182,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
             totals += [loss.item(), pose_error.item(), root_error.item()]
             rate = (step + 1) * config.batch_size / (time.perf_counter() - started)
             bar.set_postfix(loss=f"{totals[0] / (step + 1):.4f}", samples_s=f"{rate:,.0f}")
+        state["train_seconds"] += time.perf_counter() - started
         if rank == 0:
             record = {"epoch": epoch + 1, "loss": totals[0] / config.batches_per_epoch,
                       "train_pose_m": totals[1] / config.batches_per_epoch,
