@@ -67,3 +67,19 @@ def tiny_data_dir(mocap_dir, tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("tiny_mocap")
     motion.select(keep).save(folder / "cmu_h36m17.npz")
     return folder
+
+
+@pytest.fixture(scope="session")
+def tiny_checkpoint(tmp_path_factory) -> Path:
+    """An untrained tiny Ray3D checkpoint: enough to exercise the lifting plumbing without shipped weights."""
+    import torch
+
+    from ray3d.checkpoints import save_checkpoint
+    from ray3d.models import LiftingNetwork, preset
+
+    torch.manual_seed(0)
+    model = LiftingNetwork(preset("ray3d", channels=16, hidden=32)).eval()
+    path = tmp_path_factory.mktemp("tiny_model") / "tiny.safetensors"
+    save_checkpoint(path, {f"model.{k}": v for k, v in model.state_dict().items()},
+                    {"model": model.config, "trained_on": "nothing (untrained test model)"})
+    return path

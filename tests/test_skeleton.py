@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from ray3d import InputError, skeleton
-from ray3d.skeleton import BLAZEPOSE33, COCO17, H36M14, H36M17, HUMANEVA15, LAYOUTS
+from ray3d.skeleton import BLAZEPOSE33, BODY25, COCO17, H36M14, H36M17, HUMANEVA15, LAYOUTS
 
 
 def test_h36m17_matches_the_brief():
@@ -42,7 +42,7 @@ def test_3dhp_is_h36m_ordered():
     np.testing.assert_array_equal(skeleton.convert(points, "3dhp17", "h36m17"), points)
 
 
-@pytest.mark.parametrize("layout", [COCO17, BLAZEPOSE33], ids=lambda s: s.name)
+@pytest.mark.parametrize("layout", [COCO17, BLAZEPOSE33, BODY25], ids=lambda s: s.name)
 def test_face_layouts_derive_the_h36m_joints(layout):
     rng = np.random.default_rng(1)
     points = rng.normal(size=(3, layout.num_joints, 2))

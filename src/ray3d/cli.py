@@ -199,6 +199,30 @@ def _models(args: argparse.Namespace) -> int:
     return 0
 
 
+def _lift(args: argparse.Namespace) -> int:
+    from ray3d.io.camera_files import read_camera
+    from ray3d.io.exports import write_world
+    from ray3d.io.keypoints import read_keypoints
+    from ray3d.lift import Lifter
+
+    if args.out.exists() and not args.force:
+        raise InputError(f"{args.out}: already exists; refusing to overwrite it (use --force to replace it)")
+    keypoints = read_keypoints(args.keypoints, args.layout, args.fps, subject=args.subject, action=args.action,
+                               camera_index=args.camera_index)
+    camera = read_camera(args.camera)
+    lifter = Lifter.load(args.checkpoint)
+    results = lifter.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps,
+                                 smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d, flip_test=args.flip_test)
+    write_world(args.out, results, camera, args.checkpoint, overwrite=args.force)
+    frames = sum(len(r.joints) for r in results.values())
+    filled = sum(int(r.interpolated.sum()) for r in results.values())
+    print(f"lifted {len(results)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
+          f"{args.checkpoint} through camera {camera.name or args.camera} -> {args.out} (metres, z up)")
+    if filled:
+        print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.data.virtual_cameras import SET_NAMES
 
@@ -269,6 +293,24 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--force", action="store_true", help="replace --json if it exists")
     evaluation.add_argument("--data-dir", help=data_dir_help)
     evaluation.set_defaults(handler=_evaluate)
+
+    lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
+    lift.add_argument("--keypoints", required=True, type=Path,
+                      help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
+    lift.add_argument("--camera", required=True,
+                      help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
+    lift.add_argument("--out", required=True, type=Path, help="output .json, .csv or .npz")
+    lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
+    lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
+    lift.add_argument("--checkpoint", default="ray3d", help="shipped model name or checkpoint path (default ray3d)")
+    lift.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
+    lift.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
+    lift.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    lift.add_argument("--subject", help="VideoPose3D npz: the subject")
+    lift.add_argument("--action", help="VideoPose3D npz: the action")
+    lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
+    lift.add_argument("--force", action="store_true", help="replace --out if it exists")
+    lift.set_defaults(handler=_lift)
 
     models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
     models.set_defaults(handler=_models)

@@ -96,7 +96,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         raise ValueError("no camera sees any clip entirely: nothing to evaluate")
     everything = [e for parts in per_camera.values() for e in parts]
     geometry = {c.name: {"height_m": c.camera_height, "pitch_deg": float(np.degrees(c.pitch)),
-                         "distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}
+                         "horizontal_distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}
     return {**_summarise(everything), "pairs": len(everything), "skipped_pairs": skipped, "flip_test": flip_test,
             "frame_stride": frame_stride,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},

@@ -1,4 +1,11 @@
-"""``Lifter``: users' 2D keypoints and camera -> 3D joints in metres in the world frame."""
+"""``Lifter``: users' 2D keypoints and calibrated camera -> 3D joints in metres in the world frame.
+
+Handles what real keypoints bring: other joint layouts (COCO-17, BlazePose-33, OpenPose BODY-25), missing
+joints (NaN or confidence 0: interpolated in time and reported), other frame rates (resampled to the model's
+and back), sequences shorter than the receptive field (edge-replicated), several people (each track lifted
+on its own into the same world frame), long sequences (lifted in chunks: memory stays bounded), optional
+smoothing of the 2D input and 3D output, and a GPU when there is one.
+"""
 
 from __future__ import annotations
 
@@ -8,65 +15,161 @@ import numpy as np
 import torch
 
 from ray3d.checkpoints import load_model
+from ray3d.data.importers import resample
 from ray3d.data.samples import window_indices
+from ray3d.data.virtual_cameras import CameraBatch
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.geometry.arrays import check_points
 from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world
-from ray3d.data.virtual_cameras import CameraBatch
-from ray3d.skeleton import convert
+from ray3d.skeleton import H36M17, LAYOUTS, convert, convert_confidences
+from ray3d.smoothing import smooth
+
+MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
 
 
 @dataclasses.dataclass
 class LiftResult:
-    """World joints (T, 17, 3) in metres (z up, floor z = 0) and the root trajectory (T, 3)."""
+    """World joints (T, 17, 3) in metres (z up, floor z = 0, H36M-17 order), the root trajectory (T, 3), and
+    which input joints were missing and filled in from neighbouring frames (T, 17)."""
 
     joints: np.ndarray
     root: np.ndarray
+    interpolated: np.ndarray
+    fps: float
+    frames: np.ndarray
+    joint_names: tuple[str, ...] = H36M17.joint_names
+
+    @property
+    def missing_fraction(self) -> float:
+        return float(self.interpolated.mean())
+
+
+def fill_missing(pixels: np.ndarray, missing: np.ndarray) -> np.ndarray:
+    """Linear interpolation in time of (T, J, 2) pixels where (T, J) ``missing``; held constant at the ends."""
+    filled = pixels.copy()
+    times = np.arange(len(pixels))
+    for joint in range(pixels.shape[1]):
+        valid = ~missing[:, joint]
+        if valid.all():
+            continue
+        for axis in range(2):
+            filled[:, joint, axis] = np.interp(times, times[valid], pixels[valid, joint, axis])
+    return filled
 
 
 class Lifter:
     """A trained network ready to lift. ``Lifter.load()`` gives the shipped Ray3D weights."""
 
-    def __init__(self, model: LiftingNetwork, document: dict):
-        self.model, self.document = model.eval(), document
+    def __init__(self, model: LiftingNetwork, document: dict, device: str | torch.device | None = None):
+        self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
+        self.model, self.document = model.eval().to(self.device), document
 
     @classmethod
-    def load(cls, name_or_path: str = "ray3d") -> Lifter:
-        return cls(*load_model(name_or_path))
+    def load(cls, name_or_path: str = "ray3d", device: str | None = None) -> Lifter:
+        """A shipped model by name (``ray3d``, ``videopose3d``, ``rie``, ...) or a checkpoint path."""
+        return cls(*load_model(name_or_path), device=device)
 
     @property
     def receptive_field(self) -> int:
         return self.model.receptive_field
 
+    def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
+             smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
+             chunk: int = 8192) -> LiftResult | list[LiftResult]:
+        """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
+
+        Args:
+            keypoints: pixels (u, v) in ``layout`` (h36m17, coco17, blazepose33, body25, ...); NaN = missing.
+            confidences: optional (T, J) scores; a joint with confidence 0 counts as missing.
+            fps: the input's frame rate (default: the model's, 60).
+            smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
+        """
+        keypoints = np.asarray(keypoints, dtype=np.float64)
+        if keypoints.ndim == 4:
+            scores = [None] * len(keypoints) if confidences is None else confidences
+            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk)
+                    for k, c in zip(keypoints, scores)]
+        skeleton = LAYOUTS.get(layout)
+        if skeleton is None:
+            raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
+        if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
+            raise InputError(f"keypoints: expected (frames, {skeleton.num_joints}, 2) for layout {layout}, got "
+                             f"{keypoints.shape}")
+        if len(keypoints) == 0:
+            raise InputError("keypoints: no frames")
+        missing = ~np.isfinite(keypoints).all(-1)
+        if confidences is not None:
+            confidences = np.asarray(confidences, dtype=np.float64)
+            if confidences.shape != keypoints.shape[:2]:
+                raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {confidences.shape}")
+            missing |= ~(confidences > 0)
+        # A derived joint (e.g. the pelvis from two hips) is missing when any of its sources is.
+        missing = convert_confidences((~missing).astype(np.float64), skeleton, "h36m17") <= 0
+        pixels = convert(np.where(np.isfinite(keypoints), keypoints, 0.0), skeleton, "h36m17")
+        never_seen = [H36M17.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
+        if never_seen:
+            raise InputError(f"keypoints: joint(s) {', '.join(never_seen)} missing in every frame (NaN or confidence 0)")
+        pixels = smooth(fill_missing(pixels, missing), smooth_2d, fps or MODEL_FPS)
+
+        input_fps = fps or MODEL_FPS
+        resampled = abs(input_fps / MODEL_FPS - 1) > 1e-3
+        model_pixels = resample(pixels, input_fps, MODEL_FPS) if resampled else pixels
+        joints = self._lift_pixels(model_pixels, camera, flip_test, chunk)
+        if resampled:
+            times = np.arange(len(pixels)) / input_fps * MODEL_FPS  # input frames on the model's time axis
+            lower = np.clip(np.floor(times).astype(int), 0, len(joints) - 1)
+            upper = np.minimum(lower + 1, len(joints) - 1)
+            weight = np.clip(times - lower, 0, 1)[:, None, None]
+            joints = (1 - weight) * joints[lower] + weight * joints[upper]
+        joints = smooth(joints, smooth_3d, input_fps)
+        return LiftResult(joints, joints[:, 0].copy(), missing, input_fps, np.arange(len(joints)))
+
+    def lift_tracks(self, tracks: dict, camera: Camera, layout: str = "h36m17", fps: float | None = None,
+                    **options) -> dict:
+        """Several people: {track id: (frame indices (N,), keypoints (N, J, 2)[, confidences (N, J)])} ->
+        {track id: LiftResult} in one world frame. Frames a track skips are filled in like missing joints."""
+        results = {}
+        for track, entry in tracks.items():
+            frames, keypoints, *rest = entry
+            frames = np.asarray(frames, dtype=np.int64)
+            order = np.argsort(frames)
+            span = np.arange(frames[order[0]], frames[order[-1]] + 1)
+            joints = LAYOUTS[layout].num_joints if layout in LAYOUTS else np.shape(keypoints)[1]
+            dense = np.full((len(span), joints, 2), np.nan)
+            dense[frames[order] - span[0]] = np.asarray(keypoints, dtype=np.float64)[order]
+            dense_conf = None
+            if rest and rest[0] is not None:
+                dense_conf = np.zeros((len(span), joints))
+                dense_conf[frames[order] - span[0]] = np.asarray(rest[0], dtype=np.float64)[order]
+            result = self.lift(dense, camera, dense_conf, fps, layout, **options)
+            results[track] = dataclasses.replace(result, frames=span)
+        return results
+
     @torch.no_grad()
-    def lift(self, keypoints: np.ndarray, camera: Camera, layout: str = "h36m17", flip_test: bool = False,
-             chunk: int = 8192) -> LiftResult:
-        """Lift (T, J, 2) pixel keypoints of one person seen by ``camera`` to world joints."""
-        pixels = check_points(keypoints, 2, "keypoints")
-        if pixels.ndim != 3:
-            raise InputError(f"keypoints: expected (frames, joints, 2), got {tuple(pixels.shape)}")
-        pixels = np.asarray(convert(np.asarray(pixels, dtype=np.float64), layout, "h36m17"))
+    def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int) -> np.ndarray:
         rays = camera.pixels_to_rays(pixels)
         if not np.isfinite(rays).all():
-            raise InputError("keypoints: some lie where the camera's lens model cannot be inverted")
+            raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
+                             "(far outside the image?)")
         frames, count = self.receptive_field, len(pixels)
         centres = np.arange(count)
         index = window_indices(centres, np.zeros_like(centres), np.full_like(centres, count - 1), frames)
         cams = CameraBatch.from_cameras([camera])
-        joints = []
+        out = np.empty((count, 17, 3))
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
             n = len(part)
             batch_cams = dataclasses.replace(cams, **{f: np.repeat(getattr(cams, f), n, axis=0)
                                                       for f in ("R", "t", "intrinsics", "dist", "height", "pitch")})
-            tensors = TensorBatch(torch.as_tensor(pixels[part], dtype=torch.float32),
-                                  torch.as_tensor(rays[part], dtype=torch.float32),
-                                  torch.as_tensor(np.stack([batch_cams.height, batch_cams.pitch], -1), dtype=torch.float32),
-                                  torch.as_tensor(batch_cams.intrinsics, dtype=torch.float32), float(camera.image_size[0]))
-            pose, root = self.model.predict(tensors, flip_test)
-            world = frame_to_world(pose + root[:, None], self.model.config.output_frame, batch_cams,
-                                   tensors.camera_params)
-            joints.append(world.numpy().astype(np.float64))
-        world_joints = np.concatenate(joints)
-        return LiftResult(world_joints, world_joints[:, 0])
+
+            def tensor(array):
+                return torch.as_tensor(np.ascontiguousarray(array), dtype=torch.float32, device=self.device)
+
+            batch = TensorBatch(tensor(pixels[part]), tensor(rays[part]),
+                                tensor(np.stack([batch_cams.height, batch_cams.pitch], -1)),
+                                tensor(batch_cams.intrinsics), float(camera.image_size[0]))
+            pose, root = self.model.predict(batch, flip_test)
+            world = frame_to_world(pose.double() + root.double()[:, None], self.model.config.output_frame,
+                                   batch_cams, batch.camera_params.double())
+            out[start:start + n] = world.cpu().numpy()
+        return out

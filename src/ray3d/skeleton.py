@@ -118,7 +118,15 @@ BLAZEPOSE33 = Skeleton(
     (-1, 0, 1, 2, 0, 4, 5, 3, 6, 0, 0, 0, 0, 11, 12, 13, 14, 15, 16, 15, 16, 15, 16, 11, 12, 23, 24, 25, 26,
      27, 28, 27, 28),
 )
-LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, BLAZEPOSE33)}
+# OpenPose BODY_25: its "neck" sits between the shoulders, "mid_hip" between the hips.
+BODY25 = Skeleton(
+    "body25",
+    ("nose", "neck", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow", "l_wrist", "mid_hip", "r_hip",
+     "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle", "r_eye", "l_eye", "r_ear", "l_ear", "l_big_toe",
+     "l_small_toe", "l_heel", "r_big_toe", "r_small_toe", "r_heel"),
+    (1, 8, 1, 2, 3, 1, 5, 6, -1, 8, 9, 10, 8, 12, 13, 0, 0, 15, 16, 14, 19, 14, 11, 22, 11),
+)
+LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, BLAZEPOSE33, BODY25)}
 
 # How far the head top lies beyond the mid-ears, as a fraction of the thorax -> mid-ears vector.
 HEAD_TOP_EXTENSION = 0.5
@@ -135,6 +143,7 @@ _FACE_TO_H36M: dict[str, dict[str, float]] = {
 _RECIPES: dict[tuple[str, str], dict[str, dict[str, float]]] = {
     ("coco17", "h36m17"): _FACE_TO_H36M,
     ("blazepose33", "h36m17"): _FACE_TO_H36M,
+    ("body25", "h36m17"): _FACE_TO_H36M,
     ("3dhp17", "h36m17"): {"neck_nose": {"neck": 1.0}, "head": {"head_top": 1.0}},
 }
 

@@ -6,6 +6,9 @@ import json
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
+
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
@@ -29,6 +32,8 @@ def load_cameras(path: str | Path) -> list[Camera]:
     entries = document.get("cameras", [document]) if isinstance(document, dict) else document
     if not isinstance(entries, list) or not entries:
         raise InputError(f"{path}: expected a camera object or {{\"cameras\": [...]}}")
+    if isinstance(document, dict) and "cameras" not in document and "fx" not in document:
+        raise InputError(f"{path}: camera without intrinsics: expected fx, fy, cx, cy (or an OpenCV camera_matrix)")
     cams = []
     for i, entry in enumerate(entries):
         try:
@@ -36,3 +41,81 @@ def load_cameras(path: str | Path) -> list[Camera]:
         except InputError as err:
             raise InputError(f"{path}: camera {i}: {err}") from None
     return cams
+
+
+def _matrix(value: Any, path: Path, field: str) -> np.ndarray:
+    """A matrix from a nested list, a flat list, or OpenCV's JSON {rows, cols, data}."""
+    if isinstance(value, dict) and "data" in value:
+        data = np.asarray(value["data"], dtype=np.float64)
+        return data.reshape(int(value.get("rows", 1)), int(value.get("cols", data.size)))
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: {field}: not numeric") from None
+
+
+def _from_opencv_fields(fields: dict[str, Any], path: Path) -> Camera:
+    if "camera_matrix" not in fields:
+        raise InputError(f"{path}: camera without intrinsics: expected 'camera_matrix' (or fx, fy, cx, cy)")
+    K = _matrix(fields["camera_matrix"], path, "camera_matrix").reshape(3, 3)
+    dist = _matrix(fields.get("dist_coeffs", fields.get("distortion_coefficients", np.zeros(5))), path,
+                   "dist_coeffs").ravel()
+    if dist.size > 5:
+        if np.any(dist[5:] != 0):
+            raise InputError(f"{path}: dist_coeffs: only k1, k2, p1, p2, k3 are supported; the rational or thin-prism "
+                             "terms beyond are non-zero")
+        dist = dist[:5]
+    if "R" in fields:
+        R = _matrix(fields["R"], path, "R").reshape(3, 3)
+    elif "rvec" in fields:
+        R, _ = cv2.Rodrigues(_matrix(fields["rvec"], path, "rvec").reshape(3, 1))
+    else:
+        raise InputError(f"{path}: camera without extrinsics: expected 'rvec' and 'tvec' or 'R' and 't' "
+                         "(world -> camera, metres)")
+    t_field = "tvec" if "tvec" in fields else "t"
+    if t_field not in fields:
+        raise InputError(f"{path}: camera without translation: expected 'tvec' or 't' (metres)")
+    t = _matrix(fields[t_field], path, t_field).ravel()
+    width = fields.get("image_width", fields.get("width"))
+    height = fields.get("image_height", fields.get("height"))
+    if width is None or height is None:
+        raise InputError(f"{path}: camera without image size: expected image_width and image_height")
+    return Camera(K, dist, R, t, (int(width), int(height)), name=path.stem)
+
+
+def read_camera(spec: str | Path, index: int = 0) -> Camera:
+    """One camera from ``h36m:SUBJECT:CAMERA_ID``, our JSON (one camera or {"cameras": [...]}: ``index``),
+    OpenCV-style JSON (camera_matrix, dist_coeffs, rvec/tvec or R/t, image_width/height) or OpenCV YAML."""
+    text = str(spec)
+    if text.startswith("h36m:"):
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise InputError(f"camera {text!r}: expected h36m:SUBJECT:CAMERA_ID, e.g. h36m:S9:54138969")
+        from ray3d import cameras
+
+        return cameras.h36m(parts[1], parts[2])
+    path = Path(spec)
+    if not path.is_file():
+        raise InputError(f"{path}: no such camera file")
+    if path.suffix.lower() in (".yaml", ".yml", ".xml"):
+        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        if not storage.isOpened():
+            raise InputError(f"{path}: OpenCV cannot read this file")
+        fields: dict[str, Any] = {}
+        for key in ("camera_matrix", "dist_coeffs", "distortion_coefficients", "rvec", "tvec", "R", "t",
+                    "image_width", "image_height", "width", "height"):
+            node = storage.getNode(key)
+            if not node.empty():
+                fields[key] = node.mat() if node.isMap() or node.isSeq() else node.real()
+        storage.release()
+        return _from_opencv_fields({k: v for k, v in fields.items() if v is not None}, path)
+    try:
+        document = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    if isinstance(document, dict) and "camera_matrix" in document:
+        return _from_opencv_fields(document, path)
+    cams = load_cameras(path)
+    if not 0 <= index < len(cams):
+        raise InputError(f"{path}: holds {len(cams)} camera(s); index {index} is out of range")
+    return cams[index]

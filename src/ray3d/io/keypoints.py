@@ -1,0 +1,252 @@
+"""2D keypoint files in: ours (npz / JSON / CSV), COCO-style results JSON (mmpose, detectron2), OpenPose
+per-frame JSON folders (BODY_25), and VideoPose3D-style ``positions_2d`` npz. Every reader returns
+``Keypoints``; every error names the file and what is wrong."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.skeleton import LAYOUTS
+
+
+@dataclasses.dataclass
+class Keypoints:
+    """Detections: pixels (N, J, 2), confidences (N, J) or None, frame index (N,) and track id (N,) per row."""
+
+    pixels: np.ndarray
+    confidences: np.ndarray | None
+    frames: np.ndarray
+    tracks: np.ndarray
+    layout: str
+    fps: float | None
+    source: str
+
+    def by_track(self) -> dict:
+        """{track: (frames, pixels, confidences)} for ``Lifter.lift_tracks``."""
+        out = {}
+        for track in dict.fromkeys(self.tracks.tolist()):
+            rows = self.tracks == track
+            out[track] = (self.frames[rows], self.pixels[rows],
+                          None if self.confidences is None else self.confidences[rows])
+        return out
+
+
+def _layout_for(path: Path, joints: int, layout: str | None) -> str:
+    if layout is not None:
+        if layout not in LAYOUTS:
+            raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
+        if LAYOUTS[layout].num_joints != joints:
+            raise InputError(f"{path}: layout {layout} has {LAYOUTS[layout].num_joints} joints but the file has {joints}")
+        return layout
+    by_count = {17: "h36m17", 33: "blazepose33", 25: "body25"}
+    if joints not in by_count:
+        raise InputError(f"{path}: {joints} joints per detection matches no layout; pass --layout "
+                         f"({', '.join(f'{n}: {s.num_joints}' for n, s in LAYOUTS.items())})")
+    return by_count[joints]
+
+
+def _numeric(path: Path, what: str, value) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: {what}: non-numeric values") from None
+    return array
+
+
+def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source) -> Keypoints:
+    pixels = _numeric(path, "keypoints", pixels)
+    if pixels.ndim != 3 or pixels.shape[-1] != 2 or len(pixels) == 0:
+        raise InputError(f"{path}: keypoints must be (detections, joints, 2) with at least one detection, got "
+                         f"{pixels.shape}")
+    layout = _layout_for(path, pixels.shape[1], layout)
+    frames = np.arange(len(pixels)) if frames is None else _numeric(path, "frames", frames).astype(np.int64)
+    tracks = np.zeros(len(pixels), dtype=np.int64) if tracks is None else np.asarray(tracks)
+    if confidences is not None:
+        confidences = _numeric(path, "confidences", confidences)
+        if confidences.shape != pixels.shape[:2]:
+            raise InputError(f"{path}: confidences must be {pixels.shape[:2]}, got {confidences.shape}")
+    if len(frames) != len(pixels) or len(tracks) != len(pixels):
+        raise InputError(f"{path}: frames and tracks need one entry per detection ({len(pixels)})")
+    return Keypoints(pixels, confidences, frames, tracks, layout, fps, source)
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except OSError as err:
+        raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file") from None
+
+
+def _split_scores(path: Path, rows: np.ndarray, joints: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Flat or nested (x, y[, score]) rows -> ((N, J, 2), (N, J) or None)."""
+    if rows.ndim == 2:  # flat lists: x1 y1 s1 x2 y2 s2 ...
+        if joints is None or rows.shape[1] != 3 * joints:
+            raise InputError(f"{path}: keypoint lists of {rows.shape[1]} numbers; expected {joints} joints x (x, y, score)")
+        rows = rows.reshape(len(rows), joints, 3)
+    if rows.ndim != 3 or rows.shape[-1] not in (2, 3):
+        raise InputError(f"{path}: each keypoint needs (x, y) or (x, y, score), got shape {rows.shape}")
+    return rows[..., :2], rows[..., 2] if rows.shape[-1] == 3 else None
+
+
+def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
+    detections = document.get("detections")
+    if not isinstance(detections, list) or not detections:
+        raise InputError(f"{path}: field 'detections' must be a non-empty list")
+    try:
+        rows = _numeric(path, "detections[].keypoints", [d["keypoints"] for d in detections])
+        frames = [d.get("frame", i) for i, d in enumerate(detections)]
+        tracks = [d.get("track", 0) for d in detections]
+    except (KeyError, TypeError):
+        raise InputError(f"{path}: every detection needs a 'keypoints' list") from None
+    pixels, scores = _split_scores(path, rows)
+    return _finish(path, pixels, scores, frames, tracks, layout or document.get("layout"),
+                   fps or document.get("fps"), "ray3d json")
+
+
+def read_coco_results(path: Path, document: list, layout, fps) -> Keypoints:
+    if not all(isinstance(d, dict) and "keypoints" in d for d in document):
+        raise InputError(f"{path}: a COCO results list needs 'keypoints' in every entry")
+    joints = LAYOUTS[layout or "coco17"].num_joints
+    rows = _numeric(path, "keypoints", [d["keypoints"] for d in document])
+    pixels, scores = _split_scores(path, rows, joints)
+    try:
+        frames = np.array([d.get("frame_index", d.get("image_id")) for d in document], dtype=np.int64)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: every entry needs an integer 'image_id' or 'frame_index'") from None
+    tracks = np.array([d.get("track_id", -1) for d in document])
+    if (tracks == -1).all():
+        # One person per frame without tracking: keep each frame's most confident detection.
+        score = np.array([d.get("score", 1.0) for d in document], dtype=np.float64)
+        best = {}
+        for i, frame in enumerate(frames):
+            if frame not in best or score[i] > score[best[frame]]:
+                best[frame] = i
+        keep = np.array(sorted(best.values()))
+        pixels, frames, tracks = pixels[keep], frames[keep], np.zeros(len(keep), dtype=np.int64)
+        scores = None if scores is None else scores[keep]
+    return _finish(path, pixels, scores, frames, tracks, layout or "coco17", fps, "coco results")
+
+
+def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
+    files = sorted(path.glob("*_keypoints.json")) or sorted(path.glob("*.json"))
+    if not files:
+        raise InputError(f"{path}: no OpenPose *_keypoints.json files in this folder")
+    pixels, scores, frames, tracks = [], [], [], []
+    for frame, file in enumerate(files):
+        people = _read_json(file).get("people", [])
+        if not isinstance(people, list):
+            raise InputError(f"{file}: 'people' must be a list")
+        for order, person in enumerate(people):
+            values = _numeric(file, "pose_keypoints_2d", person.get("pose_keypoints_2d", []))
+            if values.size != 75:
+                raise InputError(f"{file}: pose_keypoints_2d has {values.size} numbers; BODY_25 needs 75")
+            values = values.reshape(25, 3)
+            pixels.append(values[:, :2])
+            scores.append(values[:, 2])
+            frames.append(frame)
+            person_id = person.get("person_id", -1)
+            person_id = person_id[0] if isinstance(person_id, list) else person_id
+            tracks.append(person_id if person_id not in (-1, None) else order)
+    if not pixels:
+        raise InputError(f"{path}: no person detected in any of {len(files)} files")
+    pixels, scores = np.array(pixels), np.array(scores)
+    pixels[scores <= 0] = np.nan  # OpenPose writes (0, 0, 0) for joints it did not find
+    return _finish(path, pixels, scores, frames, tracks, layout or "body25", fps, "openpose")
+
+
+def read_csv(path: Path, layout, fps) -> Keypoints:
+    try:
+        with path.open(newline="") as handle:
+            rows = list(csv.DictReader(handle))
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{path}: cannot read as CSV ({err})") from None
+    required = {"frame", "joint", "x", "y"}
+    if not rows or not required <= set(rows[0]):
+        raise InputError(f"{path}: CSV needs a header with {', '.join(sorted(required))} (optional track, score) "
+                         "and at least one row")
+    joint_names = None
+    detections: dict[tuple, dict] = {}
+    try:
+        for row in rows:
+            key = (int(row["frame"]), row.get("track") or "0")
+            detections.setdefault(key, {})[row["joint"]] = (float(row["x"]), float(row["y"]),
+                                                           float(row.get("score") or 1.0))
+    except ValueError as err:
+        raise InputError(f"{path}: non-numeric frame, x, y or score ({err})") from None
+    joint_names = list(next(iter(detections.values())))
+    if any(list(d) != joint_names for d in detections.values()):
+        raise InputError(f"{path}: every (frame, track) must list the same joints in the same order")
+    names_are_indices = all(j.isdigit() for j in joint_names)
+    if layout is None and not names_are_indices:
+        layout = next((n for n, s in LAYOUTS.items() if list(s.joint_names) == joint_names), None)
+    values = np.array([[d[j] for j in joint_names] for d in detections.values()])
+    frames = [k[0] for k in detections]
+    tracks = [k[1] for k in detections]
+    return _finish(path, values[..., :2], values[..., 2], frames, tracks, layout, fps, "ray3d csv")
+
+
+def read_npz(path: Path, layout, fps, subject=None, action=None, camera_index=None) -> Keypoints:
+    from ray3d.io.safe_npz import read_npz_entries
+
+    entries = read_npz_entries(path)
+    if "positions_2d" in entries:
+        nested = entries["positions_2d"]
+        subject = subject or _only(path, "subject", list(nested))
+        if subject not in nested:
+            raise InputError(f"{path}: no subject {subject!r}; has {', '.join(map(str, nested))}")
+        action = action or _only(path, "action", list(nested[subject]))
+        if action not in nested[subject]:
+            raise InputError(f"{path}: subject {subject} has no action {action!r}")
+        per_camera = nested[subject][action]
+        index = 0 if camera_index is None and len(per_camera) == 1 else camera_index
+        if index is None or not 0 <= index < len(per_camera):
+            raise InputError(f"{path}: choose a camera index 0..{len(per_camera) - 1} (--camera-index)")
+        return _finish(path, per_camera[index], None, None, None, layout, fps or 50.0, "videopose3d positions_2d")
+    if "keypoints" not in entries:
+        raise InputError(f"{path}: an npz of keypoints needs key 'keypoints' (or VideoPose3D's 'positions_2d')")
+    stored_layout = entries.get("layout")
+    stored_fps = entries.get("fps")
+    return _finish(path, entries["keypoints"], entries.get("confidences"), entries.get("frames"),
+                   entries.get("tracks"), layout or (str(stored_layout) if stored_layout is not None else None),
+                   fps or (float(stored_fps) if stored_fps is not None else None), "ray3d npz")
+
+
+def _only(path: Path, what: str, choices: list) -> str:
+    if len(choices) != 1:
+        raise InputError(f"{path}: several {what}s ({', '.join(map(str, choices[:8]))}); choose one with --{what}")
+    return choices[0]
+
+
+def read_keypoints(path: str | Path, layout: str | None = None, fps: float | None = None, **npz_options) -> Keypoints:
+    """Read any supported keypoint file (or OpenPose folder), detecting the format."""
+    path = Path(path)
+    if path.is_dir():
+        return read_openpose_folder(path, layout, fps)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file or folder")
+    if path.stat().st_size == 0:
+        raise InputError(f"{path}: the file is empty")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        return read_npz(path, layout, fps, **npz_options)
+    if suffix == ".csv":
+        return read_csv(path, layout, fps)
+    if suffix == ".json":
+        document = _read_json(path)
+        if isinstance(document, list):
+            return read_coco_results(path, document, layout, fps)
+        if isinstance(document, dict) and "people" in document:
+            raise InputError(f"{path}: an OpenPose file: pass the folder holding all frames' files")
+        if isinstance(document, dict):
+            return read_ours_json(path, document, layout, fps)
+    raise InputError(f"{path}: unknown keypoint format (expected .npz, .json, .csv or an OpenPose folder)")

@@ -1,0 +1,112 @@
+"""The Lifter API: layouts, lengths, missing joints, frame rates, tracks, chunking, smoothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ray3d import InputError, Lifter, cameras
+from ray3d.skeleton import BLAZEPOSE33, COCO17, H36M17
+
+
+def _walk(frames: int) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    pose = rng.normal(0, 0.15, (17, 3))
+    pose[:, 2] += 0.9
+    path = np.stack([np.linspace(-1, 1, frames), np.zeros(frames), np.zeros(frames)], -1)
+    return pose[None] + path[:, None]
+
+
+@pytest.fixture(scope="module")
+def lifter(tiny_checkpoint):
+    return Lifter.load(str(tiny_checkpoint))
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return cameras.h36m("S9", "54138969")
+
+
+@pytest.mark.parametrize("frames", [1, 5, 1000])
+def test_sequence_lengths(lifter, camera, frames):
+    result = lifter.lift(camera.project(_walk(frames)), camera)
+    assert result.joints.shape == (frames, 17, 3) and result.root.shape == (frames, 3)
+    assert np.isfinite(result.joints).all() and not result.interpolated.any()
+    np.testing.assert_array_equal(result.root, result.joints[:, 0])
+
+
+def test_detector_layouts_lift_as_their_h36m_conversion(lifter, camera):
+    from ray3d.skeleton import convert
+
+    pixels = camera.project(_walk(20))
+    for layout in (COCO17, BLAZEPOSE33):
+        # A detector-layout input built from the H36M pixels (face points at the nose).
+        fake = np.zeros((20, layout.num_joints, 2))
+        for i, name in enumerate(layout.joint_names):
+            fake[:, i] = pixels[:, H36M17.index(name)] if name in H36M17.joint_names else pixels[:, 9]
+        result = lifter.lift(fake, camera, layout=layout.name)
+        converted = lifter.lift(convert(fake, layout.name), camera)
+        np.testing.assert_array_equal(result.joints, converted.joints)
+        assert np.isfinite(result.joints).all()
+
+
+def test_missing_joints_are_interpolated_and_reported(lifter, camera):
+    pixels = camera.project(_walk(30))
+    holes = pixels.copy()
+    holes[10:13, 5] = np.nan
+    confidences = np.ones((30, 17))
+    confidences[20, 14] = 0.0
+    result = lifter.lift(holes, camera, confidences=confidences)
+    assert result.interpolated[10:13, 5].all() and result.interpolated[20, 14]
+    assert result.interpolated.sum() == 4
+    reference = lifter.lift(pixels, camera)
+    assert np.abs(result.joints - reference.joints).max() < 0.05  # a straight walk interpolates well
+    holes[:, 3] = np.nan
+    with pytest.raises(InputError, match="r_ankle missing in every frame"):
+        lifter.lift(holes, camera)
+
+
+def test_other_frame_rates_are_resampled_and_returned_at_the_input_rate(lifter, camera):
+    pixels_60 = camera.project(_walk(121))
+    pixels_30 = pixels_60[::2]
+    result = lifter.lift(pixels_30, camera, fps=30.0)
+    assert result.joints.shape == (61, 17, 3) and result.fps == 30.0
+    at_60 = lifter.lift(pixels_60, camera).joints[::2]
+    assert np.abs(result.joints - at_60).max() < 0.05
+
+
+def test_batches_and_tracks_share_one_world(lifter, camera):
+    a, b = camera.project(_walk(15)), camera.project(_walk(15) + np.array([0.5, 1.0, 0.0]))
+    batch = lifter.lift(np.stack([a, b]), camera)
+    assert len(batch) == 2
+    tracks = lifter.lift_tracks({"left": (np.arange(15), a), "right": (np.arange(100, 115, 1), b)}, camera)
+    np.testing.assert_allclose(tracks["left"].joints, batch[0].joints)
+    np.testing.assert_array_equal(tracks["right"].frames, np.arange(100, 115))
+    gappy = lifter.lift_tracks({7: (np.array([0, 1, 2, 5, 6]), a[[0, 1, 2, 5, 6]])}, camera)[7]
+    assert len(gappy.joints) == 7 and gappy.interpolated[3:5].all()
+
+
+def test_chunks_give_identical_results(lifter, camera):
+    pixels = camera.project(_walk(500))
+    whole = lifter.lift(pixels, camera, chunk=10_000).joints
+    np.testing.assert_array_equal(lifter.lift(pixels, camera, chunk=64).joints, whole)
+
+
+def test_smoothing_reduces_jitter(lifter, camera):
+    rng = np.random.default_rng(3)
+    pixels = camera.project(_walk(120)) + rng.normal(0, 3.0, (120, 17, 2))
+    raw = lifter.lift(pixels, camera).joints
+    for method in ("savgol", "one-euro"):
+        smoothed = lifter.lift(pixels, camera, smooth_2d=method).joints
+        assert np.abs(np.diff(smoothed, 2, axis=0)).mean() < np.abs(np.diff(raw, 2, axis=0)).mean()
+    with pytest.raises(InputError, match="unknown smoothing"):
+        lifter.lift(pixels, camera, smooth_3d="kalman")
+
+
+def test_bad_keypoints(lifter, camera):
+    with pytest.raises(InputError, match=r"expected \(frames, 17, 2\)"):
+        lifter.lift(np.zeros((10, 16, 2)), camera)
+    with pytest.raises(InputError, match="unknown layout"):
+        lifter.lift(np.zeros((10, 17, 2)), camera, layout="openpose18")
+    with pytest.raises(InputError, match="confidences: expected shape"):
+        lifter.lift(camera.project(_walk(5)), camera, confidences=np.ones((5, 3)))
