@@ -1,0 +1,175 @@
+"""``ray3d lift`` end to end through every input and output format, on generated files; and bad input."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from ray3d import cameras
+from ray3d.cli import main
+from ray3d.io.exports import read_world
+from ray3d.skeleton import BODY25, COCO17, H36M17, convert
+
+CAMERA = cameras.h36m("S9", "55011271")
+FRAMES = 12
+
+
+def _world(frames=FRAMES):
+    rng = np.random.default_rng(0)
+    pose = rng.normal(0, 0.15, (17, 3)) + np.array([0, 0, 0.9])
+    return pose[None] + np.linspace(-0.5, 0.5, frames)[:, None, None] * np.array([1.0, 0, 0])
+
+
+def _coco_pixels():
+    h36m = CAMERA.project(_world())
+    pixels = np.zeros((FRAMES, 17, 2))
+    for i, name in enumerate(COCO17.joint_names):
+        pixels[:, i] = h36m[:, H36M17.index(name)] if name in H36M17.joint_names else h36m[:, 9]
+    return pixels
+
+
+def _inputs(tmp_path):
+    """Every supported keypoint format, all holding the same detections (COCO-17 pixels, one person)."""
+    pixels = _coco_pixels()
+    scores = np.full((FRAMES, 17), 0.9)
+    files = {}
+    files["ours.npz"] = tmp_path / "ours.npz"
+    np.savez(files["ours.npz"], keypoints=pixels, confidences=scores, layout="coco17", fps=60.0)
+    files["ours.json"] = tmp_path / "ours.json"
+    files["ours.json"].write_text(json.dumps({"layout": "coco17", "fps": 60, "detections": [
+        {"frame": i, "track": 0, "keypoints": np.concatenate([pixels[i], scores[i, :, None]], -1).tolist()}
+        for i in range(FRAMES)]}))
+    files["ours.csv"] = tmp_path / "ours.csv"
+    with files["ours.csv"].open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["frame", "track", "joint", "x", "y", "score"])
+        for i in range(FRAMES):
+            for j, name in enumerate(COCO17.joint_names):
+                writer.writerow([i, 0, name, pixels[i, j, 0], pixels[i, j, 1], 0.9])
+    files["coco.json"] = tmp_path / "coco.json"
+    files["coco.json"].write_text(json.dumps([
+        {"image_id": i, "category_id": 1, "score": 0.95,
+         "keypoints": np.concatenate([pixels[i], scores[i, :, None]], -1).ravel().tolist()} for i in range(FRAMES)]
+        + [{"image_id": 0, "category_id": 1, "score": 0.1, "keypoints": [0.0] * 51}]))  # a weaker second person
+    openpose = tmp_path / "openpose"
+    openpose.mkdir()
+    body25 = np.zeros((FRAMES, 25, 3))
+    for j, name in enumerate(BODY25.joint_names):
+        if name in COCO17.joint_names:
+            body25[:, j, :2] = pixels[:, COCO17.index(name)]
+            body25[:, j, 2] = 0.8
+    for i in range(FRAMES):
+        (openpose / f"video_{i:012d}_keypoints.json").write_text(json.dumps(
+            {"version": 1.3, "people": [{"person_id": [-1], "pose_keypoints_2d": body25[i].ravel().tolist()}]}))
+    files["openpose"] = openpose
+    files["videopose3d.npz"] = tmp_path / "data_2d_custom.npz"
+    h36m_pixels = convert(pixels, "coco17")
+    np.savez_compressed(files["videopose3d.npz"], positions_2d={"S9": {"Walking": [h36m_pixels] * 4}},
+                        metadata={"layout_name": "h36m"})
+    return files
+
+
+def _cameras(tmp_path):
+    rvec, _ = cv2.Rodrigues(CAMERA.R)
+    files = {"h36m": "h36m:S9:55011271"}
+    files["ours.json"] = tmp_path / "camera.json"
+    files["ours.json"].write_text(json.dumps(CAMERA.to_dict()))
+    files["opencv.json"] = tmp_path / "opencv.json"
+    files["opencv.json"].write_text(json.dumps({
+        "camera_matrix": {"rows": 3, "cols": 3, "data": CAMERA.K.ravel().tolist()}, "dist_coeffs": CAMERA.dist.tolist(),
+        "rvec": rvec.ravel().tolist(), "tvec": CAMERA.t.tolist(), "image_width": 1000, "image_height": 1000}))
+    files["opencv.yaml"] = tmp_path / "opencv.yaml"
+    storage = cv2.FileStorage(str(files["opencv.yaml"]), cv2.FILE_STORAGE_WRITE)
+    for key, value in (("camera_matrix", CAMERA.K), ("dist_coeffs", CAMERA.dist[None]), ("R", CAMERA.R),
+                       ("t", CAMERA.t[:, None])):
+        storage.write(key, value)
+    storage.write("image_width", 1000)
+    storage.write("image_height", 1000)
+    storage.release()
+    return files
+
+
+def test_every_input_format_lifts_to_the_same_world(tmp_path, tiny_checkpoint, capsys):
+    reference = None
+    for name, path in _inputs(tmp_path).items():
+        out = tmp_path / f"{name.replace('.', '_')}.npz"
+        extra = ["--layout", "h36m17", "--subject", "S9", "--action", "Walking", "--camera-index", "1",
+                 "--fps", "60"] if name == "videopose3d.npz" else []
+        code = main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(out),
+                     "--checkpoint", str(tiny_checkpoint), *extra])
+        assert code == 0, capsys.readouterr().err
+        joints = read_world(out)["joints"]
+        assert joints.shape == (FRAMES, 17, 3)
+        if reference is None:
+            reference = joints
+        np.testing.assert_allclose(joints, reference, atol=1e-4, err_msg=name)
+
+
+def test_every_camera_format_gives_the_same_camera(tmp_path, tiny_checkpoint):
+    from ray3d.io.camera_files import read_camera
+
+    for name, spec in _cameras(tmp_path).items():
+        camera = read_camera(spec)
+        np.testing.assert_allclose(camera.R, CAMERA.R, atol=1e-9, err_msg=name)
+        np.testing.assert_allclose(camera.t, CAMERA.t, atol=1e-9, err_msg=name)
+        np.testing.assert_allclose(camera.K, CAMERA.K, atol=1e-9, err_msg=name)
+        np.testing.assert_allclose(camera.dist, CAMERA.dist, atol=1e-12, err_msg=name)
+
+
+def test_every_output_format_states_units_axes_joints_fps_camera(tmp_path, tiny_checkpoint):
+    keypoints = _inputs(tmp_path)["ours.npz"]
+    outputs = {}
+    for suffix in ("json", "csv", "npz"):
+        out = tmp_path / f"world.{suffix}"
+        assert main(["lift", "--keypoints", str(keypoints), "--camera", str(_cameras(tmp_path)["ours.json"]),
+                     "--out", str(out), "--checkpoint", str(tiny_checkpoint)]) == 0
+        outputs[suffix] = read_world(out)
+    assert outputs["json"]["units"] == "metres" and "z up" in outputs["json"]["axes"]
+    assert outputs["json"]["joint_names"] == list(H36M17.joint_names) and outputs["json"]["fps"] == 60.0
+    assert outputs["json"]["camera"]["fx"] == pytest.approx(CAMERA.K[0, 0])
+    assert "units: metres" in outputs["csv"]["header"] and "z up" in outputs["csv"]["header"]
+    assert str(outputs["npz"]["units"]) == "metres" and list(outputs["npz"]["joint_names"]) == list(H36M17.joint_names)
+    for suffix in ("csv", "npz"):
+        np.testing.assert_allclose(outputs[suffix]["joints"], outputs["json"]["joints"], atol=2e-5)
+
+
+def test_refuses_to_overwrite_without_force(tmp_path, tiny_checkpoint, capsys):
+    keypoints = _inputs(tmp_path)["ours.npz"]
+    out = tmp_path / "world.json"
+    out.write_text("precious")
+    args = ["lift", "--keypoints", str(keypoints), "--camera", "h36m:S9:55011271", "--out", str(out),
+            "--checkpoint", str(tiny_checkpoint)]
+    assert main(args) == 2
+    assert "already exists" in capsys.readouterr().err and out.read_text() == "precious"
+    assert main(args + ["--force"]) == 0 and out.read_text() != "precious"
+
+
+@pytest.mark.parametrize("name, content, message", [
+    ("wrong.npz", lambda p: np.savez(p, keypoints=np.zeros((4, 13, 2))), "13 joints per detection matches no layout"),
+    ("text.json", lambda p: p.write_text(json.dumps({"detections": [{"keypoints": [["a", "b"]] * 17}]})),
+     "non-numeric"),
+    ("empty.csv", lambda p: p.write_text(""), "the file is empty"),
+    ("bad.csv", lambda p: p.write_text("frame,joint,x,y\n0,nose,1,oops\n"), "non-numeric"),
+    ("broken.json", lambda p: p.write_text("{"), "not valid JSON"),
+])
+def test_malformed_keypoints_give_one_line_and_exit_2(tmp_path, tiny_checkpoint, capsys, name, content, message):
+    path = tmp_path / name
+    content(path)
+    code = main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(tmp_path / "o.json"),
+                 "--checkpoint", str(tiny_checkpoint)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and message in err and str(path) in err
+
+
+def test_camera_without_intrinsics_is_refused(tmp_path, tiny_checkpoint, capsys):
+    camera = tmp_path / "noK.json"
+    camera.write_text(json.dumps({"rvec": [0, 0, 0], "tvec": [0, 0, 3]}))
+    keypoints = _inputs(tmp_path)["ours.npz"]
+    code = main(["lift", "--keypoints", str(keypoints), "--camera", str(camera), "--out", str(tmp_path / "o.json"),
+                 "--checkpoint", str(tiny_checkpoint)])
+    err = capsys.readouterr().err
+    assert code == 2 and "camera without intrinsics" in err and err.count("\n") == 1
