@@ -1,4 +1,4 @@
-"""The console script: --version, --help and the main job."""
+"""The console script: --version and --help."""
 
 from __future__ import annotations
 
@@ -16,12 +16,12 @@ def test_version_and_help(capsys):
         except SystemExit as exit_:
             assert exit_.code == 0
     out = capsys.readouterr().out
-    assert f"ray3d {ray3d.__version__}" in out and "demo" in out
+    assert f"ray3d {ray3d.__version__}" in out
+    for command in ("demo", "data", "train", "evaluate", "lift", "export", "models"):
+        assert command in out
 
 
-def test_console_script_runs_the_demo():
-    result = subprocess.run([sys.executable, "-m", "ray3d.cli", "demo"], capture_output=True, text=True, timeout=120)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.count("h36m:S") == 28
-    worst = float(result.stdout.strip().splitlines()[-1].split(":")[-1].split()[0])
-    assert worst < 1e-6
+def test_console_script_entry_point():
+    result = subprocess.run([sys.executable, "-m", "ray3d.cli", "--version"], capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0 and result.stdout.strip() == f"ray3d {ray3d.__version__}"

@@ -11,9 +11,9 @@ from ray3d.errors import InputError
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from ray3d.smoke import geometry_report
+    from ray3d.demo import format_report, run_demo
 
-    print(geometry_report())
+    print(format_report(run_demo(args.out, args.checkpoint, frames=args.frames)))
     return 0
 
 
@@ -230,8 +230,11 @@ def build_parser() -> argparse.ArgumentParser:
         prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
     parser.add_argument("--version", action="version", version=f"ray3d {ray3d.__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
-    demo = commands.add_parser(
-        "demo", help="the main job (for now: a geometry check of every bundled Human3.6M camera)")
+    demo = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
+                                            "the baselines, write an HTML viewer and a GIF")
+    demo.add_argument("--out", type=Path, default=Path("ray3d-demo"), help="output folder (default ray3d-demo)")
+    demo.add_argument("--checkpoint", default="ray3d", help="model to demonstrate (default: the shipped Ray3D)")
+    demo.add_argument("--frames", type=int, help="use only the first N frames")
     demo.set_defaults(handler=_demo)
 
     data = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")

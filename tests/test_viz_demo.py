@@ -1,0 +1,85 @@
+"""Visualisation and the demo: GIF frames, metric plots, the HTML viewer in headless Chromium, the demo."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from ray3d import cameras
+from ray3d.cli import main
+from ray3d.demo import demo_clip, run_demo
+from ray3d.viz.animation import render_frames, save_animation
+from ray3d.viz.html_viewer import write_viewer
+from ray3d.viz.plots import plot_sweep
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def test_gif_has_one_frame_per_stride(tmp_path):
+    truth = demo_clip()[:20]
+    camera = cameras.h36m("S9", "54138969")
+    images = render_frames(camera.project(truth), truth + 0.02, camera, truth, stride=5, size_px=360)
+    assert len(images) == 4
+    path = save_animation(images, tmp_path / "a.gif", fps=12)
+    with Image.open(path) as gif:
+        assert gif.n_frames == 4
+        pixels = np.asarray(gif.convert("RGB"))
+    assert (pixels < 200).any() and (pixels > 250).any()  # something is drawn on a white background
+    with pytest.raises(Exception, match="already exists"):
+        save_animation(images, path, fps=12)
+
+
+def test_sweep_plot_is_a_png(tmp_path):
+    path = plot_sweep([1, 2, 3], {"a": [3, 2, 1], "b": [1, 2, 3]}, "pitch (deg)", "MRPE (mm)", "t", tmp_path / "p.png")
+    with Image.open(path) as image:
+        assert image.format == "PNG" and image.size[0] > 300
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Chromium not installed (Debian packages chromium, chromium-driver: "
+                                              "`make browser` installs them)")
+def test_html_viewer_renders_in_headless_chromium(tmp_path):
+    truth = demo_clip()[:30]
+    viewer = write_viewer(tmp_path / "viewer.html", {"truth": truth, "shifted": truth + 0.3}, fps=30.0,
+                          camera=cameras.h36m("S9", "54138969"))
+    html = viewer.read_text()
+    assert "http://" not in html and "https://" not in html  # self-contained: nothing to fetch
+    # Wrap the viewer so the page reports its own console errors into the DOM, then dump the DOM.
+    probe = tmp_path / "probe.html"
+    probe.write_text(html.replace("<head>", "<head><script>window.__errors=[];window.onerror=function(m){"
+                                  "window.__errors.push(String(m))};</script>", 1).replace(
+        "</body>", "<script>setTimeout(function(){var d=document.createElement('pre');d.id='errors';"
+        "d.textContent=JSON.stringify(window.__errors);document.body.appendChild(d);},300);</script></body>"))
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+             "--disable-component-update", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--dump-dom", probe.as_uri()],
+                         capture_output=True, text=True, timeout=120).stdout
+    assert '<pre id="errors">[]</pre>' in dom, dom[-500:]
+    shot = tmp_path / "shot.png"
+    subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--window-size=1000,700",
+                    f"--screenshot={shot}", viewer.as_uri()], capture_output=True, timeout=120)
+    pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+    canvas = pixels[60:640, 20:960]
+    assert canvas.std() > 5  # not blank
+    red = (canvas[..., 0] > 180) & (canvas[..., 1] < 90) & (canvas[..., 2] < 90)
+    blue = (canvas[..., 2] > 180) & (canvas[..., 0] < 90)
+    assert red.sum() > 30 and blue.sum() > 30  # both sequences' skeletons are drawn
+
+
+def test_demo_runs_end_to_end_on_a_short_clip(tmp_path, tiny_checkpoint):
+    result = run_demo(tmp_path / "demo", str(tiny_checkpoint), frames=24, gif_stride=12)
+    assert set(result["table"]) >= {str(tiny_checkpoint), "rfrh"}
+    assert result["viewer"].is_file() and result["animation"].is_file()
+    assert all(np.isfinite(v["mrpe_mm"]) for v in result["table"].values())
+    data = json.loads(result["viewer"].read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
+    assert data["frames"] == 24 and "truth" in data["sequences"]
+
+
+def test_demo_cli(tmp_path, tiny_checkpoint, capsys):
+    assert main(["demo", "--out", str(tmp_path / "d"), "--checkpoint", str(tiny_checkpoint), "--frames", "12"]) == 0
+    out = capsys.readouterr().out
+    assert "Abs-MPJPE" in out and "rfrh" in out and "viewer.html" in out
