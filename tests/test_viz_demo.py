@@ -83,3 +83,18 @@ def test_demo_cli(tmp_path, tiny_checkpoint, capsys):
     assert main(["demo", "--out", str(tmp_path / "d"), "--checkpoint", str(tiny_checkpoint), "--frames", "12"]) == 0
     out = capsys.readouterr().out
     assert "Abs-MPJPE" in out and "rfrh" in out and "viewer.html" in out
+
+
+def test_viz_cli_from_lift_outputs(tmp_path, tiny_checkpoint):
+    truth = demo_clip()[:16]
+    camera = cameras.h36m("S9", "54138969")
+    np.savez(tmp_path / "k.npz", keypoints=camera.project(truth))
+    world = tmp_path / "world.npz"
+    assert main(["lift", "--keypoints", str(tmp_path / "k.npz"), "--camera", "h36m:S9:54138969", "--out", str(world),
+                 "--checkpoint", str(tiny_checkpoint)]) == 0
+    assert main(["viz", str(world), "--camera", "h36m:S9:54138969", "--html", str(tmp_path / "v.html"),
+                 "--animation", str(tmp_path / "v.gif"), "--stride", "8"]) == 0
+    assert "const DATA" in (tmp_path / "v.html").read_text()
+    with Image.open(tmp_path / "v.gif") as gif:
+        assert gif.n_frames == 2
+    assert main(["viz", str(world)]) == 2

@@ -223,6 +223,40 @@ def _lift(args: argparse.Namespace) -> int:
     return 0
 
 
+def _viz(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ray3d.io.camera_files import read_camera
+    from ray3d.io.exports import read_world
+    from ray3d.viz.animation import render_frames, save_animation
+    from ray3d.viz.html_viewer import write_viewer
+
+    if not args.html and not args.animation:
+        raise InputError("viz: nothing to write: pass --html and/or --animation")
+    sequences = {}
+    for path in args.world:
+        world = read_world(path)
+        track = args.track if args.track is not None else str(world["tracks"][0])
+        rows = np.asarray(world["tracks"]).astype(str) == track
+        if not rows.any():
+            raise InputError(f"{path}: no track {track!r}")
+        sequences[path.stem] = np.asarray(world["joints"], dtype=np.float64)[rows]
+    fps = args.fps or 60.0
+    camera = read_camera(args.camera) if args.camera else None
+    if args.html:
+        write_viewer(args.html, sequences, fps, camera, overwrite=args.force)
+        print(f"wrote {args.html}")
+    if args.animation:
+        if camera is None:
+            raise InputError("viz: --animation draws the 2D view and the camera: pass --camera")
+        first = next(iter(sequences.values()))
+        pixels = camera.project(first)
+        images = render_frames(pixels, first, camera, stride=args.stride)
+        save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
+        print(f"wrote {args.animation}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.data.virtual_cameras import SET_NAMES
 
@@ -314,6 +348,17 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
     lift.add_argument("--force", action="store_true", help="replace --out if it exists")
     lift.set_defaults(handler=_lift)
+
+    viz = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift)")
+    viz.add_argument("world", nargs="+", type=Path, help="world outputs of ray3d lift (.json/.csv/.npz): one per method")
+    viz.add_argument("--camera", help="the camera (drawn as a frustum; needed for --animation)")
+    viz.add_argument("--html", type=Path, help="write the interactive viewer here")
+    viz.add_argument("--animation", type=Path, help="write a .gif (or .mp4 with ffmpeg) here")
+    viz.add_argument("--track", help="which track to show (default: the first)")
+    viz.add_argument("--fps", type=float, help="playback frame rate (default 60)")
+    viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
+    viz.add_argument("--force", action="store_true", help="replace existing outputs")
+    viz.set_defaults(handler=_viz)
 
     models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
     models.set_defaults(handler=_models)
