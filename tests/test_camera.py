@@ -292,3 +292,30 @@ def test_unknown_h36m_camera_raises():
         cameras.h36m("S2", "54138969")
     with pytest.raises(InputError, match="unknown camera id"):
         cameras.h36m("S1", "123")
+
+
+# ------------------------------------------------------------------------------- gravity-aligned NCS
+@pytest.mark.parametrize("seed", _seeds(10))
+def test_gravity_aligned_ncs_removes_roll(seed):
+    rng = np.random.default_rng(seed)
+    camera = random_camera(rng, distortion=True, roll=True)
+    assert abs(camera.roll) > 1e-4
+    up = camera.world_to_normalized(camera.center + [0.0, 0.0, 1.0], remove_roll=True) - camera.world_to_normalized(
+        camera.center, remove_roll=True)
+    np.testing.assert_allclose(up, [0.0, -1.0, 0.0], atol=1e-12)
+    floor_below = camera.center * np.array([1.0, 1.0, 0.0])
+    np.testing.assert_allclose(camera.world_to_normalized(floor_below, remove_roll=True), 0.0, atol=1e-12)
+    # The paper's NCS keeps the roll: its origin is off the point below the camera.
+    assert np.linalg.norm(camera.world_to_normalized(floor_below)) > 1e-4
+    points = points_in_front(camera, rng, 50)
+    np.testing.assert_allclose(camera.normalized_to_world(camera.world_to_normalized(points, True), True), points,
+                               atol=1e-9)
+    depth = camera.world_to_camera(points)[:, 2:3]
+    rays = camera.pixels_to_rays(camera.project(points), remove_roll=True)
+    np.testing.assert_allclose(camera.world_to_normalized(points, True),
+                               depth * rays + [0.0, -camera.camera_height, 0.0], atol=1e-8)
+
+
+def test_h36m_roll_moves_the_paper_ncs_origin_by_up_to_14_cm():
+    offsets = [np.linalg.norm(c.world_to_normalized(c.center * [1.0, 1.0, 0.0])[[0, 2]]) for c in cameras.h36m_all()]
+    assert 0.10 < max(offsets) < 0.16

@@ -21,7 +21,7 @@ def _batch(frames: int, joints: int = 17, size: int = 4) -> TensorBatch:
     rays = torch.randn(size, frames, joints, 3) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
     pixels = torch.rand(size, frames, joints, 2) * 1000
     return TensorBatch(pixels, rays, torch.tensor([[1.5, 0.2]] * size), torch.tensor([[1000.0, 1000, 500, 500]] * size),
-                       1000.0)
+                       torch.full((size,), 0.05), 1000.0)
 
 
 @pytest.mark.parametrize("name", list(PRESETS))
@@ -112,3 +112,23 @@ def test_flip_test_is_consistent_for_a_mirror_symmetric_input():
     mirror = torch.tensor([-1.0, 1.0, 1.0])
     torch.testing.assert_close(pose_f, pose[:, perm] * mirror, atol=1e-5, rtol=1e-4)
     torch.testing.assert_close(root_f, root * mirror, atol=1e-5, rtol=1e-4)
+
+
+def test_gravity_aligned_model_round_trips_its_targets():
+    from ray3d.data.virtual_cameras import CameraBatch, CameraRanges, sample_cameras
+    import numpy as np
+
+    model = LiftingNetwork(preset("rie-decoupled", remove_roll=True, **TINY)).eval()
+    rng = np.random.default_rng(0)
+    cams = sample_cameras(rng.normal(0, 1, (4, 3)) + [0, 0, 1], rng, CameraRanges(roll_deg=5.0))
+    assert isinstance(cams, CameraBatch)
+    batch = _batch(9)
+    batch.camera_params = torch.tensor(np.stack([cams.height, cams.pitch], -1), dtype=torch.float32)
+    batch.roll = torch.tensor(cams.roll, dtype=torch.float32)
+    root_ncs = torch.randn(4, 3, dtype=torch.float64)
+    pose, root = model.targets(batch, torch.zeros(4, 17, 3, dtype=torch.float64), root_ncs)
+    params = batch.camera_params.double()
+    world = model.to_world(root[:, None], cams, params)[:, 0]
+    ncs_model = LiftingNetwork(preset("ray3d", remove_roll=True, **TINY))
+    world_from_ncs = ncs_model.to_world(root_ncs[:, None], cams, params)[:, 0]
+    torch.testing.assert_close(world, world_from_ncs)

@@ -115,3 +115,16 @@ def test_observe_without_rng_is_exact_for_fixed_cameras(rng):
     np.testing.assert_allclose(batch.root, camera.world_to_normalized(clip[:, 0]), atol=1e-5)
     np.testing.assert_allclose(batch.rays[:, 4], camera.pixels_to_rays(camera.project(clip)), atol=1e-6)
     assert isinstance(batch, Batch)
+
+
+def test_gravity_aligned_samples_keep_the_ncs_identity(rng):
+    config = SampleConfig(flip_probability=0.0, remove_roll=True, cameras=CameraRanges(roll_deg=6.0))
+    batch = SampleGenerator(_motion(rng), config, seed=5).batch(64)
+    cams = batch.cameras
+    assert np.abs(cams.roll).max() > np.radians(1)
+    depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]
+    expected = depth * batch.rays[:, 4] + np.stack([np.zeros(64), -cams.height, np.zeros(64)], -1)[:, None]
+    np.testing.assert_allclose(batch.pose + batch.root[:, None], expected, atol=1e-4)
+    world_up = np.array([0.0, 0.0, 1.0])
+    up_in_ncs = tf.rays_camera_to_normalized((cams.R @ world_up), cams.pitch, cams.roll)
+    np.testing.assert_allclose(up_in_ncs, np.tile([0.0, -1.0, 0.0], (64, 1)), atol=1e-9)

@@ -8,7 +8,6 @@ Overall values are frame-weighted over all evaluated (camera, clip, frame) tripl
 
 from __future__ import annotations
 
-import dataclasses
 from collections import defaultdict
 
 import numpy as np
@@ -18,10 +17,10 @@ from ray3d import metrics
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import RFRH, load_model
 from ray3d.data.motion import MotionSet
-from ray3d.data.samples import clip_windows, observe
+from ray3d.data.samples import SampleConfig, clip_windows, observe
 from ray3d.data.virtual_cameras import CameraBatch, centre_clip, in_image
 from ray3d.geometry import Camera
-from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world
+from ray3d.models.network import LiftingNetwork, TensorBatch
 
 METRICS = ("mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm")
 
@@ -34,18 +33,16 @@ def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Came
     out = []
     for start in range(0, len(windows), chunk):
         part = windows[start:start + chunk]
-        cams = CameraBatch.from_cameras([camera])
-        cams = dataclasses.replace(cams, **{f: np.repeat(getattr(cams, f), len(part), axis=0)
-                                            for f in ("R", "t", "intrinsics", "dist", "height", "pitch")})
-        batch = observe(part, cams)
+        cams = CameraBatch.from_cameras([camera]).take(np.zeros(len(part), dtype=int))
+        remove_roll = model != RFRH and model.config.remove_roll
+        batch = observe(part, cams, config=SampleConfig(frames=part.shape[1], remove_roll=remove_roll))
         if model == RFRH:
             predicted = np.full(part.shape[:1] + part.shape[2:], np.nan)
             predicted[:, 0] = rfrh_root(batch.pixels[:, part.shape[1] // 2, 0].astype(np.float64), camera)
         else:
             tensors = TensorBatch.from_batch(batch)
             pose, root = model.predict(tensors, flip_test)
-            predicted = frame_to_world(pose + root[:, None], model.config.output_frame, cams,
-                                       tensors.camera_params).numpy()
+            predicted = model.to_world(pose + root[:, None], cams, tensors.camera_params).numpy()
         out.append(predicted)
     return np.concatenate(out)
 

@@ -20,7 +20,7 @@ from ray3d.data.samples import window_indices
 from ray3d.data.virtual_cameras import CameraBatch
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world
+from ray3d.models.network import LiftingNetwork, TensorBatch
 from ray3d.skeleton import H36M17, LAYOUTS, convert, convert_confidences
 from ray3d.smoothing import smooth
 
@@ -147,7 +147,7 @@ class Lifter:
 
     @torch.no_grad()
     def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int) -> np.ndarray:
-        rays = camera.pixels_to_rays(pixels)
+        rays = camera.pixels_to_rays(pixels, remove_roll=self.model.config.remove_roll)
         if not np.isfinite(rays).all():
             raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
                              "(far outside the image?)")
@@ -159,17 +159,15 @@ class Lifter:
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
             n = len(part)
-            batch_cams = dataclasses.replace(cams, **{f: np.repeat(getattr(cams, f), n, axis=0)
-                                                      for f in ("R", "t", "intrinsics", "dist", "height", "pitch")})
+            batch_cams = cams.take(np.zeros(n, dtype=int))
 
             def tensor(array):
                 return torch.as_tensor(np.ascontiguousarray(array), dtype=torch.float32, device=self.device)
 
             batch = TensorBatch(tensor(pixels[part]), tensor(rays[part]),
                                 tensor(np.stack([batch_cams.height, batch_cams.pitch], -1)),
-                                tensor(batch_cams.intrinsics), float(camera.image_size[0]))
+                                tensor(batch_cams.intrinsics), tensor(batch_cams.roll), float(camera.image_size[0]))
             pose, root = self.model.predict(batch, flip_test)
-            world = frame_to_world(pose.double() + root.double()[:, None], self.model.config.output_frame,
-                                   batch_cams, batch.camera_params.double())
+            world = self.model.to_world(pose.double() + root.double()[:, None], batch_cams, batch.camera_params.double())
             out[start:start + n] = world.cpu().numpy()
         return out

@@ -21,7 +21,7 @@ from ray3d.data.motion import load_shipped
 from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
 from ray3d.errors import InputError
-from ray3d.models.network import LiftingNetwork, ModelConfig, TensorBatch, frame_to_world, lifting_loss, targets_in_frame
+from ray3d.models.network import LiftingNetwork, ModelConfig, TensorBatch, lifting_loss
 
 DATA_PROVENANCE = ("CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu; free for research and commercial "
                    "use, not for resale; created with funding from NSF EIA-0196217) and HDM05 (Mueller et al. 2007, "
@@ -51,8 +51,10 @@ class TrainConfig:
                 samples["cameras"] = CameraRanges(**{k: tuple(v) if isinstance(v, list) else v
                                                      for k, v in samples["cameras"].items()})
             self.samples = SampleConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in samples.items()})
-        if self.samples.frames != self.model.frames:
-            self.samples = dataclasses.replace(self.samples, frames=self.model.frames)
+        # The samples must be made the way the model reads them.
+        if (self.samples.frames, self.samples.remove_roll) != (self.model.frames, self.model.remove_roll):
+            self.samples = dataclasses.replace(self.samples, frames=self.model.frames,
+                                               remove_roll=self.model.remove_roll)
 
     @classmethod
     def from_json(cls, path: str | Path) -> TrainConfig:
@@ -93,7 +95,7 @@ def world_errors_mm(model: LiftingNetwork, batch: Batch, device: torch.device, c
         part = _slice(batch, slice(start, start + chunk))
         tensors = TensorBatch.from_batch(part, device)
         pose, root = model(tensors)
-        world = frame_to_world(pose + root[:, None], model.config.output_frame, part.cameras, tensors.camera_params)
+        world = model.to_world(pose + root[:, None], part.cameras, tensors.camera_params)
         predictions.append(world.cpu().numpy())
     predicted = np.concatenate(predictions).astype(np.float64)
     target = batch.world.astype(np.float64)
@@ -103,11 +105,8 @@ def world_errors_mm(model: LiftingNetwork, batch: Batch, device: torch.device, c
 
 
 def _slice(batch: Batch, index: slice) -> Batch:
-    cams = batch.cameras
-    sliced_cams = dataclasses.replace(cams, R=cams.R[index], t=cams.t[index], intrinsics=cams.intrinsics[index],
-                                      dist=cams.dist[index], height=cams.height[index], pitch=cams.pitch[index])
     return Batch(batch.pixels[index], batch.rays[index], batch.camera_params[index], batch.pose[index],
-                 batch.root[index], batch.visible[index], sliced_cams, batch.world[index])
+                 batch.root[index], batch.visible[index], batch.cameras.take(index), batch.world[index])
 
 
 def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, torch.Tensor], list[dict]]:
@@ -171,9 +170,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
         for step in bar:
             batch = generator.batch(local_batch)
             tensors = TensorBatch.from_batch(batch, device)
-            target_pose, target_root = targets_in_frame(tensors, torch.from_numpy(batch.pose).to(device),
-                                                        torch.from_numpy(batch.root).to(device),
-                                                        config.model.output_frame)
+            target_pose, target_root = model.targets(tensors, torch.from_numpy(batch.pose).to(device),
+                                                     torch.from_numpy(batch.root).to(device))
             pose, root = trained(tensors)
             loss, pose_error, root_error = lifting_loss(pose, root, target_pose, target_root)
             optimizer.zero_grad(set_to_none=True)

@@ -28,6 +28,7 @@ class SampleConfig:
     bone_jitter: float = 0.04                      # extra per-bone factor sd (left/right kept equal)
     noise_px: float = 0.0                          # Gaussian 2D noise, like a detector's
     drop_probability: float = 0.0                  # a dropped joint collapses onto its parent (a detector miss)
+    remove_roll: bool = False                      # gravity-aligned NCS (also undo the camera's roll)
     cameras: CameraRanges = CameraRanges()
 
     def __post_init__(self) -> None:
@@ -103,7 +104,8 @@ def observe(windows: np.ndarray, cameras: CameraBatch, rng: np.random.Generator 
     """See (B, F, J, 3) world windows through one camera each and build the network's inputs and targets.
 
     With ``rng`` None nothing random happens (evaluation); otherwise the 2D noise and dropped joints of
-    ``config`` are applied (flip and bone scaling are the generator's).
+    ``config`` are applied (flip and bone scaling are the generator's). ``config.remove_roll`` selects the
+    gravity-aligned NCS for the rays and targets.
     """
     count, frames, joints, _ = windows.shape
     R, t = cameras.R[:, None, None], cameras.t[:, None, None]
@@ -124,9 +126,12 @@ def observe(windows: np.ndarray, cameras: CameraBatch, rng: np.random.Generator 
         # The clean ray is a close start for undistorting the noisy pixel.
         rays_camera = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
                                                initial_rays=rays_camera)
-    rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None])
+    roll = cameras.roll if config.remove_roll else None
+    rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None],
+                                        None if roll is None else roll[:, None, None])
     centre = windows[:, frames // 2]
-    target = tf.camera_to_normalized(points_camera[:, frames // 2], cameras.height[:, None], cameras.pitch[:, None])
+    target = tf.camera_to_normalized(points_camera[:, frames // 2], cameras.height[:, None], cameras.pitch[:, None],
+                                     None if roll is None else roll[:, None])
     return Batch(
         pixels=pixels.astype(np.float32), rays=rays.astype(np.float32),
         camera_params=np.stack([cameras.height, cameras.pitch], -1).astype(np.float32),

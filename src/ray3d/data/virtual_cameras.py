@@ -149,10 +149,17 @@ class CameraBatch:
     dist: np.ndarray        # (B, 5)
     height: np.ndarray      # (B,)
     pitch: np.ndarray       # (B,)
+    roll: np.ndarray        # (B,)
     image_size: tuple[int, int]
 
     def __len__(self) -> int:
         return len(self.t)
+
+    FIELDS = ("R", "t", "intrinsics", "dist", "height", "pitch", "roll")
+
+    def take(self, index) -> CameraBatch:
+        """The cameras at ``index`` (a slice, an index array, or ``np.zeros(n, int)`` to repeat one camera)."""
+        return dataclasses.replace(self, **{f: getattr(self, f)[index] for f in self.FIELDS})
 
     @classmethod
     def from_cameras(cls, cams: list[Camera]) -> CameraBatch:
@@ -160,7 +167,8 @@ class CameraBatch:
             raise InputError("CameraBatch: all cameras must share one image size")
         return cls(np.stack([c.R for c in cams]), np.stack([c.t for c in cams]),
                    np.stack([c.intrinsics for c in cams]), np.stack([c.dist for c in cams]),
-                   np.array([c.camera_height for c in cams]), np.array([c.pitch for c in cams]), cams[0].image_size)
+                   np.array([c.camera_height for c in cams]), np.array([c.pitch for c in cams]),
+                   np.array([c.roll for c in cams]), cams[0].image_size)
 
     def camera(self, i: int, name: str = "") -> Camera:
         fx, fy, cx, cy = self.intrinsics[i]
@@ -187,5 +195,5 @@ def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: Camera
     dist = np.zeros((count, 5))
     dist[:, 0] = rng.uniform(*ranges.distortion_k1, count)
     t = -(R @ centre[:, :, None])[..., 0]
-    return CameraBatch(R, t, np.column_stack([focal, focal * aspect, principal]), dist, centre[:, 2], pitch,
+    return CameraBatch(R, t, np.column_stack([focal, focal * aspect, principal]), dist, centre[:, 2], pitch, roll,
                        ranges.image_size)

@@ -183,23 +183,28 @@ class Camera:
         p = check_points(points_camera, 3, "points_camera")
         return tf.camera_to_world(p, like(self.R, p), like(self.t, p))
 
-    def camera_to_normalized(self, points_camera: Array) -> Array:
-        """(..., 3) camera-frame points -> NCS."""
-        p = check_points(points_camera, 3, "points_camera")
-        return tf.camera_to_normalized(p, like(self.camera_height, p), like(self.pitch, p))
+    def _roll_like(self, ref: Array, remove_roll: bool) -> Array | None:
+        return like(self.roll, ref) if remove_roll else None
 
-    def normalized_to_camera(self, points_normalized: Array) -> Array:
+    def camera_to_normalized(self, points_camera: Array, remove_roll: bool = False) -> Array:
+        """(..., 3) camera-frame points -> NCS (``remove_roll``: the gravity-aligned NCS)."""
+        p = check_points(points_camera, 3, "points_camera")
+        return tf.camera_to_normalized(p, like(self.camera_height, p), like(self.pitch, p),
+                                       self._roll_like(p, remove_roll))
+
+    def normalized_to_camera(self, points_normalized: Array, remove_roll: bool = False) -> Array:
         """(..., 3) NCS points -> camera frame."""
         p = check_points(points_normalized, 3, "points_normalized")
-        return tf.normalized_to_camera(p, like(self.camera_height, p), like(self.pitch, p))
+        return tf.normalized_to_camera(p, like(self.camera_height, p), like(self.pitch, p),
+                                       self._roll_like(p, remove_roll))
 
-    def world_to_normalized(self, points_world: Array) -> Array:
+    def world_to_normalized(self, points_world: Array, remove_roll: bool = False) -> Array:
         """(..., 3) world points -> NCS."""
-        return self.camera_to_normalized(self.world_to_camera(points_world))
+        return self.camera_to_normalized(self.world_to_camera(points_world), remove_roll)
 
-    def normalized_to_world(self, points_normalized: Array) -> Array:
+    def normalized_to_world(self, points_normalized: Array, remove_roll: bool = False) -> Array:
         """(..., 3) NCS points -> world."""
-        return self.camera_to_world(self.normalized_to_camera(points_normalized))
+        return self.camera_to_world(self.normalized_to_camera(points_normalized, remove_roll))
 
     # ----------------------------------------------------------------------------------------- pixels
     def project(self, points_world: Array) -> Array:
@@ -207,18 +212,20 @@ class Camera:
         p = self.world_to_camera(points_world)
         return tf.camera_to_pixels(p, like(self.intrinsics, p), like(self.dist, p) if self.has_distortion else None)
 
-    def pixels_to_rays(self, pixels: Array, frame: str = "normalized") -> Array:
+    def pixels_to_rays(self, pixels: Array, frame: str = "normalized", remove_roll: bool = False) -> Array:
         """(..., 2) pixels -> (..., 3) rays through them, undistorted.
 
         ``frame="camera"`` gives ``(x, y, 1)``; ``frame="normalized"`` gives that ray rotated into NCS (the
         Ray3D network input; not unit length). A point at camera depth z_c on the ray of pixel p satisfies
         ``X_n = z_c * ray_n + (0, -h, 0)``. Pixels where the lens model cannot be inverted give NaN rays.
+        ``remove_roll`` gives the rays in the gravity-aligned NCS.
         """
         if frame not in ("normalized", "camera"):
             raise InputError(f"pixels_to_rays: frame must be 'normalized' or 'camera', got {frame!r}")
         uv = check_points(pixels, 2, "pixels")
         rays = tf.pixels_to_camera_rays(uv, like(self.intrinsics, uv), like(self.dist, uv) if self.has_distortion else None)
-        return rays if frame == "camera" else tf.rays_camera_to_normalized(rays, like(self.pitch, uv))
+        return rays if frame == "camera" else tf.rays_camera_to_normalized(rays, like(self.pitch, uv),
+                                                                           self._roll_like(uv, remove_roll))
 
     def __repr__(self) -> str:
         fx, fy, cx, cy = self.intrinsics

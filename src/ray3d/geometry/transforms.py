@@ -42,21 +42,42 @@ def _rotate_about_x(points: Array, pitch: Array) -> Array:
     return stack_last([x, c * y + s * z, c * z - s * y])
 
 
-def camera_to_normalized(points_camera: Array, height: Array, pitch: Array) -> Array:
-    """(..., 3) camera-frame points to NCS; ``height`` (metres) and ``pitch`` (radians) broadcast to (...)."""
-    rotated = _rotate_about_x(points_camera, pitch)
+def _rotate_about_z(points: Array, angle: Array) -> Array:
+    """Rotate (..., 3) points about the z (optical) axis by ``angle``."""
+    xp = namespace(points)
+    c, s = xp.cos(angle), xp.sin(angle)
+    x, y, z = points[..., 0], points[..., 1], points[..., 2]
+    return stack_last([c * x - s * y, s * x + c * y, z])
+
+
+def rays_camera_to_normalized(rays_camera: Array, pitch: Array, roll: Array | None = None) -> Array:
+    """Rotate (..., 3) camera-frame directions into the NCS (no translation).
+
+    With ``roll`` (radians, see :func:`camera_roll`) the NCS is gravity-aligned: the roll is undone first, so
+    world up maps to (0, -1, 0) even for a rolled camera. Without it, the paper's NCS (pitch only).
+    """
+    if roll is not None:
+        rays_camera = _rotate_about_z(rays_camera, -roll)
+    return _rotate_about_x(rays_camera, pitch)
+
+
+def rays_normalized_to_camera(rays_normalized: Array, pitch: Array, roll: Array | None = None) -> Array:
+    """Inverse of :func:`rays_camera_to_normalized`."""
+    rays = _rotate_about_x(rays_normalized, -pitch)
+    return rays if roll is None else _rotate_about_z(rays, roll)
+
+
+def camera_to_normalized(points_camera: Array, height: Array, pitch: Array, roll: Array | None = None) -> Array:
+    """(..., 3) camera-frame points to NCS; ``height`` (metres), ``pitch`` and optional ``roll`` (radians,
+    gravity-aligned NCS) broadcast to (...)."""
+    rotated = rays_camera_to_normalized(points_camera, pitch, roll)
     return stack_last([rotated[..., 0], rotated[..., 1] - height, rotated[..., 2]])
 
 
-def normalized_to_camera(points_normalized: Array, height: Array, pitch: Array) -> Array:
+def normalized_to_camera(points_normalized: Array, height: Array, pitch: Array, roll: Array | None = None) -> Array:
     """Inverse of :func:`camera_to_normalized`."""
     p = points_normalized
-    return _rotate_about_x(stack_last([p[..., 0], p[..., 1] + height, p[..., 2]]), -pitch)
-
-
-def rays_camera_to_normalized(rays_camera: Array, pitch: Array) -> Array:
-    """Rotate (..., 3) camera-frame ray directions into NCS (directions: no translation)."""
-    return _rotate_about_x(rays_camera, pitch)
+    return rays_normalized_to_camera(stack_last([p[..., 0], p[..., 1] + height, p[..., 2]]), pitch, roll)
 
 
 def pixels_to_camera_rays(pixels: Array, intrinsics: Array, dist: Array | None = None,

@@ -51,6 +51,7 @@ class ModelConfig:
     hidden: int = 256
     dropout: float = 0.1
     fusion: bool = False
+    remove_roll: bool = False  # gravity-aligned NCS: undo the camera roll too (the paper keeps it)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kernels", tuple(self.kernels))
@@ -82,12 +83,13 @@ class ModelConfig:
 @dataclasses.dataclass
 class TensorBatch:
     """A batch as torch tensors: pixels (B, F, J, 2), rays (B, F, J, 3) in the NCS, camera_params (B, 2),
-    intrinsics (B, 4), image width (pixels are normalised by it)."""
+    intrinsics (B, 4), roll (B,) (used only by gravity-aligned models), image width (pixels are normalised by it)."""
 
     pixels: torch.Tensor
     rays: torch.Tensor
     camera_params: torch.Tensor
     intrinsics: torch.Tensor
+    roll: torch.Tensor
     image_width: float
 
     @classmethod
@@ -96,7 +98,7 @@ class TensorBatch:
             return torch.from_numpy(np.ascontiguousarray(array, dtype=np.float32)).to(device)
 
         return cls(tensor(batch.pixels), tensor(batch.rays), tensor(batch.camera_params),
-                   tensor(batch.cameras.intrinsics), float(batch.cameras.image_size[0]))
+                   tensor(batch.cameras.intrinsics), tensor(batch.cameras.roll), float(batch.cameras.image_size[0]))
 
     def flipped(self, skeleton: Skeleton) -> TensorBatch:
         """The mirrored input (see ``ray3d.data.samples.flip_batch``)."""
@@ -172,7 +174,8 @@ class LiftingNetwork(nn.Module):
         if kind == "ncs_rays":
             return batch.rays
         if kind == "camera_rays":
-            return tf.rays_camera_to_normalized(batch.rays, -batch.camera_params[:, 1, None, None])
+            return tf.rays_normalized_to_camera(batch.rays, batch.camera_params[:, 1, None, None],
+                                                self._roll(batch, (None, None)))
         width = batch.image_width
         if kind == "pixels":
             return torch.stack([batch.pixels[..., 0] / width * 2 - 1, batch.pixels[..., 1] / width * 2], -1)
@@ -202,10 +205,20 @@ class LiftingNetwork(nn.Module):
             return torch.cat([xy * depth[:, None], depth[:, None]], dim=-1)
         ray = batch.rays[:, centre, 0]
         if self.config.output_frame == "camera":
-            ray = tf.rays_camera_to_normalized(ray, -batch.camera_params[:, 1])
-            return depth[:, None] * ray
+            return depth[:, None] * tf.rays_normalized_to_camera(ray, batch.camera_params[:, 1], self._roll(batch))
         origin = torch.stack([torch.zeros_like(depth), -batch.camera_params[:, 0], torch.zeros_like(depth)], -1)
         return depth[:, None] * ray + origin
+
+    def to_world(self, points: torch.Tensor, cameras, camera_params: torch.Tensor) -> torch.Tensor:
+        """(B, ..., 3) points in this model's output frame -> world, with the batch's ``CameraBatch``."""
+        return frame_to_world(points, self.config.output_frame, cameras, camera_params, self.config.remove_roll)
+
+    def targets(self, batch: TensorBatch, pose_ncs: torch.Tensor, root_ncs: torch.Tensor):
+        """The sample generator's NCS targets in this model's output frame."""
+        return targets_in_frame(batch, pose_ncs, root_ncs, self.config.output_frame, self.config.remove_roll)
+
+    def _roll(self, batch: TensorBatch, extra_axes: tuple = ()) -> torch.Tensor | None:
+        return batch.roll[(slice(None), *extra_axes)] if self.config.remove_roll else None
 
     def predict(self, batch: TensorBatch, flip_test: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
         """``forward``, optionally averaged with the mirrored input's mirrored prediction."""
@@ -219,24 +232,29 @@ class LiftingNetwork(nn.Module):
         return pose, root
 
 
-def frame_to_world(points: torch.Tensor, frame: str, cameras, camera_params: torch.Tensor) -> torch.Tensor:
+def frame_to_world(points: torch.Tensor, frame: str, cameras, camera_params: torch.Tensor,
+                   remove_roll: bool = False) -> torch.Tensor:
     """(B, ..., 3) points in a model's output frame -> world, with the batch's cameras (a ``CameraBatch``)."""
-    R = torch.as_tensor(cameras.R, dtype=points.dtype, device=points.device)
-    t = torch.as_tensor(cameras.t, dtype=points.dtype, device=points.device)
-    extra_axes = (None,) * (points.ndim - 2)
+    def per_sample(array) -> torch.Tensor:
+        tensor = torch.as_tensor(array, dtype=points.dtype, device=points.device)
+        return tensor[(slice(None), *(None,) * (points.ndim - 2))]
+
     if frame == "ncs":
-        points = tf.normalized_to_camera(points, camera_params[(slice(None), 0, *extra_axes)],
-                                         camera_params[(slice(None), 1, *extra_axes)])
-    return tf.camera_to_world(points, R[(slice(None), *extra_axes)], t[(slice(None), *extra_axes)])
+        points = tf.normalized_to_camera(points, per_sample(camera_params[:, 0]), per_sample(camera_params[:, 1]),
+                                         per_sample(cameras.roll) if remove_roll else None)
+    return tf.camera_to_world(points, per_sample(cameras.R), per_sample(cameras.t))
 
 
-def targets_in_frame(batch: TensorBatch, pose_ncs: torch.Tensor, root_ncs: torch.Tensor, frame: str):
-    """The NCS targets of a batch expressed in ``frame`` (rotating back by the pitch for the camera frame)."""
+def targets_in_frame(batch: TensorBatch, pose_ncs: torch.Tensor, root_ncs: torch.Tensor, frame: str,
+                     remove_roll: bool = False):
+    """The NCS targets of a batch expressed in ``frame`` (undoing the pitch, and roll if removed)."""
     if frame == "ncs":
         return pose_ncs, root_ncs
-    pitch = -batch.camera_params[:, 1]
-    root = tf.normalized_to_camera(root_ncs, batch.camera_params[:, 0], batch.camera_params[:, 1])
-    return tf.rays_camera_to_normalized(pose_ncs, pitch[:, None]), root
+    roll = batch.roll if remove_roll else None
+    root = tf.normalized_to_camera(root_ncs, batch.camera_params[:, 0], batch.camera_params[:, 1], roll)
+    pose = tf.rays_normalized_to_camera(pose_ncs, batch.camera_params[:, 1, None],
+                                        None if roll is None else roll[:, None])
+    return pose, root
 
 
 def lifting_loss(pose: torch.Tensor, root: torch.Tensor, target_pose: torch.Tensor, target_root: torch.Tensor):
@@ -256,7 +274,8 @@ def flops_per_frame(model: LiftingNetwork) -> float:
 
     frames, joints = model.receptive_field, model.skeleton.num_joints
     batch = TensorBatch(torch.rand(2, frames, joints, 2) * 1000, torch.rand(2, frames, joints, 3),
-                        torch.tensor([[1.5, 0.2], [2.0, 0.3]]), torch.tensor([[1000.0, 1000, 500, 500]] * 2), 1000.0)
+                        torch.tensor([[1.5, 0.2], [2.0, 0.3]]), torch.tensor([[1000.0, 1000, 500, 500]] * 2),
+                        torch.zeros(2), 1000.0)
     was_training = model.training
     model.eval()
     with FlopCounterMode(display=False) as counter, torch.no_grad():
