@@ -12,6 +12,7 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
+from ray3d.io.json_files import read_json
 
 
 def save_cameras(path: str | Path, cams: list[Camera], overwrite: bool = False, **info: Any) -> None:
@@ -23,12 +24,7 @@ def save_cameras(path: str | Path, cams: list[Camera], overwrite: bool = False, 
 def load_cameras(path: str | Path) -> list[Camera]:
     """Read a camera list, or a single camera object, from JSON."""
     path = Path(path)
-    try:
-        document = json.loads(path.read_text())
-    except OSError as err:
-        raise InputError(f"{path}: cannot read ({err.strerror})") from None
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    document = read_json(path)
     entries = document.get("cameras", [document]) if isinstance(document, dict) else document
     if not isinstance(entries, list) or not entries:
         raise InputError(f"{path}: expected a camera object or {{\"cameras\": [...]}}")
@@ -109,10 +105,7 @@ def read_camera(spec: str | Path, index: int = 0) -> Camera:
                 fields[key] = node.mat() if node.isMap() or node.isSeq() else node.real()
         storage.release()
         return _from_opencv_fields({k: v for k, v in fields.items() if v is not None}, path)
-    try:
-        document = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
+    document = read_json(path)
     if isinstance(document, dict) and "camera_matrix" in document:
         return _from_opencv_fields(document, path)
     cams = load_cameras(path)

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.io.json_files import read_json
 from ray3d.skeleton import LAYOUTS
 
 
@@ -76,17 +76,6 @@ def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source
     return Keypoints(pixels, confidences, frames, tracks, layout, fps, source)
 
 
-def _read_json(path: Path):
-    try:
-        return json.loads(path.read_text())
-    except OSError as err:
-        raise InputError(f"{path}: cannot read ({err.strerror})") from None
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file") from None
-
-
 def _split_scores(path: Path, rows: np.ndarray, joints: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """Flat or nested (x, y[, score]) rows -> ((N, J, 2), (N, J) or None)."""
     if rows.ndim == 2:  # flat lists: x1 y1 s1 x2 y2 s2 ...
@@ -143,7 +132,7 @@ def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
         raise InputError(f"{path}: no OpenPose *_keypoints.json files in this folder")
     pixels, scores, frames, tracks = [], [], [], []
     for frame, file in enumerate(files):
-        people = _read_json(file).get("people", [])
+        people = read_json(file).get("people", [])
         if not isinstance(people, list):
             raise InputError(f"{file}: 'people' must be a list")
         for order, person in enumerate(people):
@@ -242,7 +231,7 @@ def read_keypoints(path: str | Path, layout: str | None = None, fps: float | Non
     if suffix == ".csv":
         return read_csv(path, layout, fps)
     if suffix == ".json":
-        document = _read_json(path)
+        document = read_json(path)
         if isinstance(document, list):
             return read_coco_results(path, document, layout, fps)
         if isinstance(document, dict) and "people" in document:
