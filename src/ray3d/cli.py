@@ -257,6 +257,30 @@ def _viz(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_speed(args: argparse.Namespace) -> int:
+    import json
+
+    from ray3d.bench.speed import measure_all
+    from ray3d.io.atomic import atomic_path
+
+    result = measure_all(args.models, args.repeats, batch_size=args.batch, sequence_frames=args.sequence_frames,
+                         train_batch=args.train_batch)
+    paths = result["matmul_paths_gflops"]
+    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s (nn.Linear {paths['linear_gflops']:.0f}, "
+          f"1x1 conv1d {paths['conv1d_gflops']:.0f}); torch threads {result['torch_threads']}")
+    print(f"{'model':<15}{'params':>12}{'MFLOP/f':>9}{'batch f/s':>11}{'seq f/s':>10}{'latency ms':>11}"
+          f"{'train s/s':>10}{'% peak':>8}")
+    for r in result["models"]:
+        print(f"{r['model']:<15}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}{r['batch_frames_per_s']:>11,.0f}"
+              f"{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}{r['train_samples_per_s']:>10,.0f}"
+              f"{100 * r['fraction_of_peak']:>8.1f}")
+    if args.json:
+        with atomic_path(args.json, overwrite=args.force) as temporary:
+            temporary.write_text(json.dumps(result, indent=1))
+        print(f"wrote {args.json}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.data.virtual_cameras import SET_NAMES
 
@@ -359,6 +383,18 @@ def build_parser() -> argparse.ArgumentParser:
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
     viz.add_argument("--force", action="store_true", help="replace existing outputs")
     viz.set_defaults(handler=_viz)
+
+    bench = commands.add_parser("bench", help="benchmarks: speed")
+    bench_commands = bench.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
+    speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
+    speed_bench.add_argument("--json", type=Path, help="write the results here")
+    speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")
+    speed_bench.add_argument("--repeats", type=int, default=5)
+    speed_bench.add_argument("--batch", type=int, default=1024, help="windows per inference batch")
+    speed_bench.add_argument("--sequence-frames", type=int, default=10_000)
+    speed_bench.add_argument("--train-batch", type=int, default=1024)
+    speed_bench.add_argument("--force", action="store_true", help="replace --json if it exists")
+    speed_bench.set_defaults(handler=_bench_speed)
 
     models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
     models.set_defaults(handler=_models)

@@ -1,0 +1,1 @@
+"""Benchmarks: speed (and, later, robustness sweeps)."""

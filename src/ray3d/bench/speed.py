@@ -1,0 +1,96 @@
+"""Speed of every model on this machine: parameters, FLOPs per frame, batched and whole-sequence inference
+throughput, single-window latency, training samples/s, and the machine's measured fp32 matmul peak (through
+``nn.Linear`` / MKL and through a 1x1 ``conv1d`` / oneDNN) so each model's achieved fraction of it is shown.
+Medians over repetitions after warm-up."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+import torch
+
+from ray3d.models import PRESETS, LiftingNetwork
+from ray3d.models.network import TensorBatch, count_parameters, flops_per_frame, lifting_loss
+
+
+def median_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> float:
+    for _ in range(warmup):
+        function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+@torch.no_grad()
+def matmul_peak_gflops(size: int = 1024, batch: int = 4096, repeats: int = 10) -> dict[str, float]:
+    """fp32 GEMM rate of a (batch x size) @ (size x size) product two ways: nn.Linear, and a 1x1 conv1d."""
+    linear = torch.nn.Linear(size, size, bias=False)
+    conv = torch.nn.Conv1d(size, size, 1, bias=False)
+    x = torch.randn(batch, size)
+    x_conv = x.T.unsqueeze(0).contiguous()  # (1, C, B): the batch as the conv's length
+    flops = 2.0 * batch * size * size
+    return {"linear_gflops": flops / median_seconds(lambda: linear(x), repeats) / 1e9,
+            "conv1d_gflops": flops / median_seconds(lambda: conv(x_conv), repeats) / 1e9}
+
+
+def _batch(model: LiftingNetwork, size: int) -> TensorBatch:
+    frames, joints = model.receptive_field, model.skeleton.num_joints
+    generator = torch.Generator().manual_seed(0)
+    rays = torch.randn(size, frames, joints, 3, generator=generator) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
+    return TensorBatch(torch.rand(size, frames, joints, 2, generator=generator) * 1000, rays,
+                       torch.tensor([[1.5, 0.2]]).repeat(size, 1), torch.tensor([[1000.0, 1000, 500, 500]]).repeat(size, 1),
+                       torch.zeros(size), 1000.0)
+
+
+def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_frames: int = 10_000,
+                  train_batch: int = 1024, peak_gflops: float | None = None) -> dict:
+    """The speed record of one preset (randomly initialised weights: speed does not depend on them)."""
+    config = PRESETS[name]
+    model = LiftingNetwork(config).eval()
+    flops = flops_per_frame(model)
+    batch = _batch(model, batch_size)
+    with torch.no_grad():
+        batch_s = median_seconds(lambda: model(batch), repeats)
+        single = _batch(model, 1)
+        latency_s = median_seconds(lambda: model(single), max(repeats * 4, 20))
+        sequence = _batch(model, sequence_frames)
+        sequence_s = median_seconds(lambda: [model(TensorBatch(
+            sequence.pixels[i:i + 4096], sequence.rays[i:i + 4096], sequence.camera_params[i:i + 4096],
+            sequence.intrinsics[i:i + 4096], sequence.roll[i:i + 4096], 1000.0)) for i in range(0, sequence_frames, 4096)],
+            max(1, repeats // 2), warmup=1)
+    trainer = LiftingNetwork(config).train()
+    optimizer = torch.optim.Adam(trainer.parameters(), lr=1e-4, amsgrad=True)
+    train_input = _batch(trainer, train_batch)
+    target_pose, target_root = torch.randn(train_batch, model.skeleton.num_joints, 3), torch.rand(train_batch, 3) + 2
+
+    def step():
+        pose, root = trainer(train_input)
+        loss = lifting_loss(pose, root, target_pose, target_root)[0]
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+
+    train_s = median_seconds(step, max(2, repeats // 2), warmup=1)
+    record = {
+        "model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": "torch",
+        "params": count_parameters(model), "mflops_per_frame": flops / 1e6,
+        "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
+        "latency_ms": 1e3 * latency_s, "train_samples_per_s": train_batch / train_s,
+    }
+    if peak_gflops:
+        record["fraction_of_peak"] = record["batch_frames_per_s"] * flops / 1e9 / peak_gflops
+    return record
+
+
+def measure_all(models: list[str] | None = None, repeats: int = 5, **sizes) -> dict:
+    peak = matmul_peak_gflops()
+    best = max(peak.values())
+    return {"matmul_peak_gflops": best, "matmul_paths_gflops": peak, "torch_threads": torch.get_num_threads(),
+            "models": [measure_model(name, repeats, peak_gflops=best, **sizes) for name in (models or list(PRESETS))]}
+
+
