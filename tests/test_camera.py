@@ -319,3 +319,20 @@ def test_gravity_aligned_ncs_removes_roll(seed):
 def test_h36m_roll_moves_the_paper_ncs_origin_by_up_to_14_cm():
     offsets = [np.linalg.norm(c.world_to_normalized(c.center * [1.0, 1.0, 0.0])[[0, 2]]) for c in cameras.h36m_all()]
     assert 0.10 < max(offsets) < 0.16
+
+
+def test_from_height_pitch_agrees_with_the_full_model():
+    camera = Camera.from_height_pitch(2.4, 25.0, (1920, 1080), roll_deg=2.0, hfov_deg=70.0)
+    assert camera.camera_height == pytest.approx(2.4)
+    assert np.degrees(camera.pitch) == pytest.approx(25.0) and np.degrees(camera.roll) == pytest.approx(2.0)
+    focal = 960 / np.tan(np.radians(35.0))
+    np.testing.assert_allclose(camera.intrinsics, [focal, focal, 960, 540])
+    full = Camera.from_pose([0, 0, 2.4], 0.0, np.radians(25), np.radians(2), focal, focal, 960, 540, (1920, 1080))
+    np.testing.assert_allclose(camera.R, full.R, atol=1e-12)
+    np.testing.assert_allclose(camera.t, full.t, atol=1e-12)
+    # The floor point the optical axis hits is straight ahead at height / tan(pitch).
+    ahead = np.array([[2.4 / np.tan(np.radians(25.0)), 0.0, 0.0]])
+    np.testing.assert_allclose(Camera.from_height_pitch(2.4, 25.0, (1920, 1080), focal_px=1000).project(ahead),
+                               [[960, 540]], atol=1e-9)
+    with pytest.raises(InputError, match="exactly one of focal_px and hfov_deg"):
+        Camera.from_height_pitch(2.4, 25.0, (1920, 1080))

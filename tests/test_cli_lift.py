@@ -173,3 +173,14 @@ def test_camera_without_intrinsics_is_refused(tmp_path, tiny_checkpoint, capsys)
                  "--checkpoint", str(tiny_checkpoint)])
     err = capsys.readouterr().err
     assert code == 2 and "camera without intrinsics" in err and err.count("\n") == 1
+
+
+def test_camera_from_height_and_pitch_flags(tmp_path, tiny_checkpoint, capsys):
+    keypoints = _inputs(tmp_path)["ours.npz"]
+    out = tmp_path / "w.json"
+    assert main(["lift", "--keypoints", str(keypoints), "--camera-height", "1.6", "--pitch", "12", "--hfov", "60",
+                 "--image-size", "1000x1000", "--out", str(out), "--checkpoint", str(tiny_checkpoint)]) == 0
+    assert read_world(out)["camera"]["name"] == "height1.6m-pitch12deg"
+    assert main(["lift", "--keypoints", str(keypoints), "--pitch", "12", "--out", str(tmp_path / "x.json"),
+                 "--checkpoint", str(tiny_checkpoint)]) == 2
+    assert "--camera-height" in capsys.readouterr().err

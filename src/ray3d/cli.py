@@ -199,6 +199,21 @@ def _models(args: argparse.Namespace) -> int:
     return 0
 
 
+def _camera_from_args(args: argparse.Namespace):
+    from ray3d.geometry import Camera
+    from ray3d.io.camera_files import read_camera
+
+    if args.camera:
+        return read_camera(args.camera)
+    if args.camera_height is None or args.pitch is None or args.image_size is None:
+        raise InputError("lift: pass --camera FILE, or --camera-height, --pitch, --image-size and --hfov or --focal")
+    try:
+        width, height = (int(v) for v in args.image_size.lower().split("x"))
+    except ValueError:
+        raise InputError(f"--image-size: expected WIDTHxHEIGHT, e.g. 1920x1080, got {args.image_size!r}") from None
+    return Camera.from_height_pitch(args.camera_height, args.pitch, (width, height), args.roll, args.focal, args.hfov)
+
+
 def _lift(args: argparse.Namespace) -> int:
     from ray3d.io.camera_files import read_camera
     from ray3d.io.exports import write_world
@@ -209,7 +224,7 @@ def _lift(args: argparse.Namespace) -> int:
         raise InputError(f"{args.out}: already exists; refusing to overwrite it (use --force to replace it)")
     keypoints = read_keypoints(args.keypoints, args.layout, args.fps, subject=args.subject, action=args.action,
                                camera_index=args.camera_index)
-    camera = read_camera(args.camera)
+    camera = _camera_from_args(args)
     lifter = Lifter.load(args.checkpoint)
     results = lifter.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps,
                                  smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d, flip_test=args.flip_test)
@@ -358,8 +373,13 @@ def build_parser() -> argparse.ArgumentParser:
     lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
     lift.add_argument("--keypoints", required=True, type=Path,
                       help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
-    lift.add_argument("--camera", required=True,
-                      help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
+    lift.add_argument("--camera", help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
+    lift.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
+    lift.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
+    lift.add_argument("--roll", type=float, default=0.0, help="with --pitch: camera roll in degrees (default 0)")
+    lift.add_argument("--hfov", type=float, help="with --pitch: horizontal field of view in degrees")
+    lift.add_argument("--focal", type=float, help="with --pitch: focal length in pixels (instead of --hfov)")
+    lift.add_argument("--image-size", help="with --pitch: WIDTHxHEIGHT in pixels")
     lift.add_argument("--out", required=True, type=Path, help="output .json, .csv or .npz")
     lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
     lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")

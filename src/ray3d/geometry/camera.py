@@ -142,6 +142,23 @@ class Camera:
         R = tf.rotation_from_angles(yaw, pitch, roll)
         return cls.from_intrinsics(fx, fy, cx, cy, dist, R, -R @ _frozen(center, (3,), "center"), image_size, name)
 
+    @classmethod
+    def from_height_pitch(cls, height_m: float, pitch_deg: float, image_size: tuple[int, int], roll_deg: float = 0.0,
+                          focal_px: float | None = None, hfov_deg: float | None = None,
+                          dist: Sequence[float] | None = None, name: str = "") -> Camera:
+        """A camera placed by what a user can measure: its height above the floor, how far it looks down and
+        its field of view (or focal length in pixels). The world frame is the floor below the camera: the
+        centre is (0, 0, height) and the camera looks along +x; the principal point is the image centre."""
+        if (focal_px is None) == (hfov_deg is None):
+            raise InputError("from_height_pitch: give exactly one of focal_px and hfov_deg")
+        width, height = image_size
+        if hfov_deg is not None:
+            if not 0 < hfov_deg < 180:
+                raise InputError(f"from_height_pitch: hfov_deg must be in (0, 180), got {hfov_deg}")
+            focal_px = width / 2 / np.tan(np.radians(hfov_deg) / 2)
+        return cls.from_pose([0.0, 0.0, height_m], 0.0, np.radians(pitch_deg), np.radians(roll_deg), focal_px, focal_px,
+                             width / 2, height / 2, image_size, dist, name or f"height{height_m:g}m-pitch{pitch_deg:g}deg")
+
     # ---------------------------------------------------------------------------------------------- pose
     @property
     def intrinsics(self) -> np.ndarray:
