@@ -214,6 +214,30 @@ def _camera_from_args(args: argparse.Namespace):
     return Camera.from_height_pitch(args.camera_height, args.pitch, (width, height), args.roll, args.focal, args.hfov)
 
 
+def _calibrate(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ray3d.calibrate import from_floor_points, read_floor_points
+    from ray3d.io.camera_files import save_cameras
+
+    floor_xy, pixels = read_floor_points(args.floor_points)
+    if args.intrinsics:
+        from ray3d.io.camera_files import read_camera
+
+        intrinsics, image_size = read_camera(args.intrinsics), None
+    else:
+        if args.image_size is None or (args.focal is None) == (args.hfov is None):
+            raise InputError("calibrate: pass --intrinsics FILE, or --image-size with --focal or --hfov")
+        width, height = (int(v) for v in args.image_size.lower().split("x"))
+        focal = args.focal or width / 2 / np.tan(np.radians(args.hfov) / 2)
+        intrinsics, image_size = (focal, focal, width / 2, height / 2), (width, height)
+    camera, rms = from_floor_points(floor_xy, pixels, intrinsics, image_size, name=args.out.stem)
+    save_cameras(args.out, [camera], overwrite=args.force, reprojection_rms_px=rms)
+    print(f"camera height {camera.camera_height:.3f} m, pitch {np.degrees(camera.pitch):.2f} deg, roll "
+          f"{np.degrees(camera.roll):.2f} deg; reprojection RMS {rms:.2f} px over {len(pixels)} floor points -> {args.out}")
+    return 0
+
+
 def _lift(args: argparse.Namespace) -> int:
     from ray3d.io.camera_files import read_camera
     from ray3d.io.exports import write_world
@@ -415,6 +439,17 @@ def build_parser() -> argparse.ArgumentParser:
     speed_bench.add_argument("--train-batch", type=int, default=1024)
     speed_bench.add_argument("--force", action="store_true", help="replace --json if it exists")
     speed_bench.set_defaults(handler=_bench_speed)
+
+    calibrate = commands.add_parser("calibrate", help="a camera's pose from floor points with known positions")
+    calibrate.add_argument("--floor-points", required=True, type=Path,
+                           help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
+    calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
+    calibrate.add_argument("--focal", type=float, help="focal length in pixels (instead of --intrinsics)")
+    calibrate.add_argument("--hfov", type=float, help="horizontal field of view in degrees (instead of --focal)")
+    calibrate.add_argument("--image-size", help="WIDTHxHEIGHT (with --focal or --hfov)")
+    calibrate.add_argument("--out", required=True, type=Path, help="camera JSON to write")
+    calibrate.add_argument("--force", action="store_true", help="replace --out if it exists")
+    calibrate.set_defaults(handler=_calibrate)
 
     models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
     models.set_defaults(handler=_models)
