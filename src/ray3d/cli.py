@@ -207,11 +207,22 @@ def _camera_from_args(args: argparse.Namespace):
         return read_camera(args.camera)
     if args.camera_height is None or args.pitch is None or args.image_size is None:
         raise InputError("lift: pass --camera FILE, or --camera-height, --pitch, --image-size and --hfov or --focal")
+    return Camera.from_height_pitch(args.camera_height, args.pitch, _image_size(args.image_size), args.roll,
+                                    args.focal, args.hfov)
+
+
+def _image_size(text: str) -> tuple[int, int]:
     try:
-        width, height = (int(v) for v in args.image_size.lower().split("x"))
+        width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise InputError(f"--image-size: expected WIDTHxHEIGHT, e.g. 1920x1080, got {args.image_size!r}") from None
-    return Camera.from_height_pitch(args.camera_height, args.pitch, (width, height), args.roll, args.focal, args.hfov)
+        raise InputError(f"--image-size: expected WIDTHxHEIGHT, e.g. 1920x1080, got {text!r}") from None
+    return width, height
+
+
+def _add_lens_arguments(parser: argparse.ArgumentParser, role: str) -> None:
+    parser.add_argument("--hfov", type=float, help=f"{role}: horizontal field of view in degrees")
+    parser.add_argument("--focal", type=float, help=f"{role}: focal length in pixels (instead of --hfov)")
+    parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels")
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -226,11 +237,13 @@ def _calibrate(args: argparse.Namespace) -> int:
 
         intrinsics, image_size = read_camera(args.intrinsics), None
     else:
+        from ray3d.geometry.camera import focal_from_hfov
+
         if args.image_size is None or (args.focal is None) == (args.hfov is None):
             raise InputError("calibrate: pass --intrinsics FILE, or --image-size with --focal or --hfov")
-        width, height = (int(v) for v in args.image_size.lower().split("x"))
-        focal = args.focal or width / 2 / np.tan(np.radians(args.hfov) / 2)
-        intrinsics, image_size = (focal, focal, width / 2, height / 2), (width, height)
+        width, height = image_size = _image_size(args.image_size)
+        focal = args.focal or focal_from_hfov(width, args.hfov)
+        intrinsics = (focal, focal, width / 2, height / 2)
     camera, rms = from_floor_points(floor_xy, pixels, intrinsics, image_size, name=args.out.stem)
     save_cameras(args.out, [camera], overwrite=args.force, reprojection_rms_px=rms)
     print(f"camera height {camera.camera_height:.3f} m, pitch {np.degrees(camera.pitch):.2f} deg, roll "
@@ -401,9 +414,7 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
     lift.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
     lift.add_argument("--roll", type=float, default=0.0, help="with --pitch: camera roll in degrees (default 0)")
-    lift.add_argument("--hfov", type=float, help="with --pitch: horizontal field of view in degrees")
-    lift.add_argument("--focal", type=float, help="with --pitch: focal length in pixels (instead of --hfov)")
-    lift.add_argument("--image-size", help="with --pitch: WIDTHxHEIGHT in pixels")
+    _add_lens_arguments(lift, "with --pitch")
     lift.add_argument("--out", required=True, type=Path, help="output .json, .csv or .npz")
     lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
     lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
@@ -444,9 +455,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--floor-points", required=True, type=Path,
                            help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
     calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
-    calibrate.add_argument("--focal", type=float, help="focal length in pixels (instead of --intrinsics)")
-    calibrate.add_argument("--hfov", type=float, help="horizontal field of view in degrees (instead of --focal)")
-    calibrate.add_argument("--image-size", help="WIDTHxHEIGHT (with --focal or --hfov)")
+    _add_lens_arguments(calibrate, "instead of --intrinsics")
     calibrate.add_argument("--out", required=True, type=Path, help="camera JSON to write")
     calibrate.add_argument("--force", action="store_true", help="replace --out if it exists")
     calibrate.set_defaults(handler=_calibrate)

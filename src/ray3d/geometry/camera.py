@@ -14,6 +14,13 @@ from ray3d.geometry import transforms as tf
 from ray3d.geometry.arrays import Array, check_points, like
 
 ORTHONORMAL_TOLERANCE = 1e-6
+
+
+def focal_from_hfov(width_px: float, hfov_deg: float) -> float:
+    """Focal length in pixels of an image ``width_px`` wide spanning ``hfov_deg`` horizontally."""
+    if not 0 < hfov_deg < 180:
+        raise InputError(f"horizontal field of view must be in (0, 180) degrees, got {hfov_deg}")
+    return width_px / 2 / np.tan(np.radians(hfov_deg) / 2)
 DICT_FIELDS = ("fx", "fy", "cx", "cy", "dist", "R", "t", "width", "height")
 
 
@@ -153,9 +160,7 @@ class Camera:
             raise InputError("from_height_pitch: give exactly one of focal_px and hfov_deg")
         width, height = image_size
         if hfov_deg is not None:
-            if not 0 < hfov_deg < 180:
-                raise InputError(f"from_height_pitch: hfov_deg must be in (0, 180), got {hfov_deg}")
-            focal_px = width / 2 / np.tan(np.radians(hfov_deg) / 2)
+            focal_px = focal_from_hfov(width, hfov_deg)
         return cls.from_pose([0.0, 0.0, height_m], 0.0, np.radians(pitch_deg), np.radians(roll_deg), focal_px, focal_px,
                              width / 2, height / 2, image_size, dist, name or f"height{height_m:g}m-pitch{pitch_deg:g}deg")
 
