@@ -252,7 +252,6 @@ def _calibrate(args: argparse.Namespace) -> int:
 
 
 def _lift(args: argparse.Namespace) -> int:
-    from ray3d.io.camera_files import read_camera
     from ray3d.io.exports import write_world
     from ray3d.io.keypoints import read_keypoints
     from ray3d.lift import Lifter
