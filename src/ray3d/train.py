@@ -150,8 +150,9 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
         model.load_state_dict({k.removeprefix("model."): v for k, v in tensors.items() if k.startswith("model.")})
         _load_optimizer(optimizer, tensors, document["optimizer_param_groups"])
         state = {k: document.get(k, 0.0) for k in ("epoch", "best", "history", "train_seconds")}
-        generator.rng.bit_generator.state = document["generator_state"][str(rank)] if str(rank) in document[
-            "generator_state"] else generator.rng.bit_generator.state
+        saved = document["generator_state"].get(str(rank))
+        if saved is not None:  # only rank 0 writes checkpoints: other ranks restart their stream from the seed
+            generator.rng.bit_generator.state = saved
         torch.set_rng_state(tensors["torch_rng_state"])
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
