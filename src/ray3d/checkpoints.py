@@ -92,7 +92,7 @@ def load_model(name_or_path: str | Path = "ray3d") -> tuple[LiftingNetwork, dict
 def export(source: str | Path, target: str | Path, overwrite: bool = False, **provenance: Any) -> Path:
     """Copy a checkpoint's weights and configuration to ``target`` (.safetensors + .json), dropping training
     state (optimizer, RNG), adding ``provenance`` (e.g. the training command and time) to the JSON."""
-    tensors, document = read_checkpoint(source)
+    tensors, document = read_checkpoint(resolve(source))
     weights = {k: v for k, v in tensors.items() if k.startswith("model.")}
     model_from_checkpoint(weights, document)  # refuse to export something that does not load
     target = Path(target).with_suffix(".safetensors")

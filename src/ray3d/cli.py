@@ -174,7 +174,16 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    from ray3d.checkpoints import export
+    from ray3d.checkpoints import export, load_model
+
+    if args.onnx:
+        from ray3d.io.atomic import atomic_path
+        from ray3d.models.onnx_backend import export_onnx
+
+        with atomic_path(args.out, overwrite=args.force) as temporary:
+            export_onnx(load_model(args.checkpoint)[0], str(temporary), args.image_width)
+        print(f"wrote {args.out} (ONNX, opset 17, inputs pixels/rays/camera_params/intrinsics/roll, batch axis dynamic)")
+        return 0
 
     provenance = {"training": {"command": args.command_line, "time_s": args.time_s, "machine": args.machine}} \
         if args.command_line else {}
@@ -463,8 +472,11 @@ def build_parser() -> argparse.ArgumentParser:
     models.set_defaults(handler=_models)
 
     exporting = commands.add_parser("export", help="a trained checkpoint -> inference weights (.safetensors + .json)")
-    exporting.add_argument("--checkpoint", required=True, type=Path, help="e.g. runs/NAME/best.safetensors")
+    exporting.add_argument("--checkpoint", default="ray3d", help="a shipped model name or e.g. runs/NAME/best.safetensors")
     exporting.add_argument("--out", required=True, type=Path, help="target .safetensors (its .json is written beside)")
+    exporting.add_argument("--onnx", action="store_true", help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
+    exporting.add_argument("--image-width", type=float, default=1000.0,
+                           help="with --onnx: the image width pixel-input models normalise by (default 1000)")
     exporting.add_argument("--command-line", help="the training command, recorded with the weights")
     exporting.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
     exporting.add_argument("--machine", help="where it was trained, recorded with the weights")

@@ -60,14 +60,30 @@ def fill_missing(pixels: np.ndarray, missing: np.ndarray) -> np.ndarray:
 class Lifter:
     """A trained network ready to lift. ``Lifter.load()`` gives the shipped Ray3D weights."""
 
-    def __init__(self, model: LiftingNetwork, document: dict, device: str | torch.device | None = None):
-        self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
-        self.model, self.document = model.eval().to(self.device), document
+    def __init__(self, model, document: dict, device: str | torch.device | None = None):
+        self.document = document
+        if isinstance(model, LiftingNetwork):
+            self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
+            self.model = model.eval().to(self.device)
+        else:  # the ONNX Runtime backend runs on the CPU
+            self.device, self.model = torch.device("cpu"), model
 
     @classmethod
-    def load(cls, name_or_path: str = "ray3d", device: str | None = None) -> Lifter:
-        """A shipped model by name (``ray3d``, ``videopose3d``, ``rie``, ...) or a checkpoint path."""
-        return cls(*load_model(name_or_path), device=device)
+    def load(cls, name_or_path: str = "ray3d", device: str | None = None, backend: str = "torch",
+             image_width: float = 1000.0) -> Lifter:
+        """A shipped model by name (``ray3d``, ``videopose3d``, ``rie``, ...) or a checkpoint path.
+
+        ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``); pixel-input models are
+        exported for images ``image_width`` pixels wide.
+        """
+        model, document = load_model(name_or_path)
+        if backend == "onnx":
+            from ray3d.models.onnx_backend import OnnxLiftingModel
+
+            return cls(OnnxLiftingModel(model, image_width), document)
+        if backend != "torch":
+            raise InputError(f"unknown backend {backend!r}; 'torch' or 'onnx'")
+        return cls(model, document, device=device)
 
     @property
     def receptive_field(self) -> int:

@@ -222,14 +222,19 @@ class LiftingNetwork(nn.Module):
 
     def predict(self, batch: TensorBatch, flip_test: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
         """``forward``, optionally averaged with the mirrored input's mirrored prediction."""
-        pose, root = self(batch)
-        if flip_test:
-            perm = list(self.skeleton.flip_permutation)
-            mirror = pose.new_tensor([-1.0, 1.0, 1.0])
-            flipped_pose, flipped_root = self(batch.flipped(self.skeleton))
-            pose = (pose + flipped_pose[:, perm] * mirror) / 2
-            root = (root + flipped_root * mirror) / 2
-        return pose, root
+        return predict_with_flip(self, self.skeleton, batch, flip_test)
+
+
+def predict_with_flip(forward, skeleton: Skeleton, batch: TensorBatch, flip_test: bool):
+    """(pose, root) from ``forward(batch)``, averaged with the mirrored input's mirrored output when asked."""
+    pose, root = forward(batch)
+    if flip_test:
+        perm = list(skeleton.flip_permutation)
+        mirror = pose.new_tensor([-1.0, 1.0, 1.0])
+        flipped_pose, flipped_root = forward(batch.flipped(skeleton))
+        pose = (pose + flipped_pose[:, perm] * mirror) / 2
+        root = (root + flipped_root * mirror) / 2
+    return pose, root
 
 
 def frame_to_world(points: torch.Tensor, frame: str, cameras, camera_params: torch.Tensor,
