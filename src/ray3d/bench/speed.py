@@ -47,22 +47,40 @@ def _batch(model: LiftingNetwork, size: int) -> TensorBatch:
                        torch.zeros(size), 1000.0)
 
 
+def _inference_times(run, model: LiftingNetwork, repeats: int, batch_size: int, sequence_frames: int):
+    """(batch seconds, single-window seconds, whole-sequence seconds) of ``run(TensorBatch)``."""
+    batch, single, sequence = (_batch(model, n) for n in (batch_size, 1, sequence_frames))
+    chunks = [TensorBatch(sequence.pixels[i:i + 4096], sequence.rays[i:i + 4096], sequence.camera_params[i:i + 4096],
+                          sequence.intrinsics[i:i + 4096], sequence.roll[i:i + 4096], 1000.0)
+              for i in range(0, sequence_frames, 4096)]
+    with torch.no_grad():
+        return (median_seconds(lambda: run(batch), repeats), median_seconds(lambda: run(single), max(repeats * 4, 20)),
+                median_seconds(lambda: [run(c) for c in chunks], max(1, repeats // 2), warmup=1))
+
+
+def measure_onnx(name: str, repeats: int = 5, batch_size: int = 1024, sequence_frames: int = 10_000) -> dict | None:
+    """The same inference figures through ONNX Runtime; None when the onnx extra is not installed."""
+    try:
+        from ray3d.models.onnx_backend import OnnxLiftingModel
+
+        model = LiftingNetwork(PRESETS[name]).eval()
+        runtime = OnnxLiftingModel(model, threads=torch.get_num_threads())
+    except Exception:  # the optional extra is missing: the torch rows stand alone
+        return None
+    batch_s, latency_s, sequence_s = _inference_times(runtime, model, repeats, batch_size, sequence_frames)
+    return {"model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": "onnxruntime",
+            "params": count_parameters(model), "mflops_per_frame": flops_per_frame(model) / 1e6,
+            "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
+            "latency_ms": 1e3 * latency_s, "train_samples_per_s": None}
+
+
 def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_frames: int = 10_000,
                   train_batch: int = 1024, peak_gflops: float | None = None) -> dict:
     """The speed record of one preset (randomly initialised weights: speed does not depend on them)."""
     config = PRESETS[name]
     model = LiftingNetwork(config).eval()
     flops = flops_per_frame(model)
-    batch = _batch(model, batch_size)
-    with torch.no_grad():
-        batch_s = median_seconds(lambda: model(batch), repeats)
-        single = _batch(model, 1)
-        latency_s = median_seconds(lambda: model(single), max(repeats * 4, 20))
-        sequence = _batch(model, sequence_frames)
-        sequence_s = median_seconds(lambda: [model(TensorBatch(
-            sequence.pixels[i:i + 4096], sequence.rays[i:i + 4096], sequence.camera_params[i:i + 4096],
-            sequence.intrinsics[i:i + 4096], sequence.roll[i:i + 4096], 1000.0)) for i in range(0, sequence_frames, 4096)],
-            max(1, repeats // 2), warmup=1)
+    batch_s, latency_s, sequence_s = _inference_times(model, model, repeats, batch_size, sequence_frames)
     trainer = LiftingNetwork(config).train()
     optimizer = torch.optim.Adam(trainer.parameters(), lr=1e-4, amsgrad=True)
     train_input = _batch(trainer, train_batch)
@@ -90,7 +108,14 @@ def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_
 def measure_all(models: list[str] | None = None, repeats: int = 5, **sizes) -> dict:
     peak = matmul_peak_gflops()
     best = max(peak.values())
+    records = []
+    for name in models or list(PRESETS):
+        records.append(measure_model(name, repeats, peak_gflops=best, **sizes))
+        onnx = measure_onnx(name, repeats, sizes.get("batch_size", 1024), sizes.get("sequence_frames", 10_000))
+        if onnx is not None:
+            onnx["fraction_of_peak"] = onnx["batch_frames_per_s"] * onnx["mflops_per_frame"] * 1e6 / 1e9 / best
+            records.append(onnx)
     return {"matmul_peak_gflops": best, "matmul_paths_gflops": peak, "torch_threads": torch.get_num_threads(),
-            "models": [measure_model(name, repeats, peak_gflops=best, **sizes) for name in (models or list(PRESETS))]}
+            "models": records}
 
 
