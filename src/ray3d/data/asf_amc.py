@@ -155,7 +155,7 @@ def read_amc(path: str | Path, skeleton: AsfSkeleton) -> AmcMotion:
     frames: list[dict[str, list[float]]] = []
     for line_no, raw in enumerate(_read_lines(path), start=1):
         line = raw.strip()
-        if not line or line.startswith("#") or line.startswith(":"):
+        if not line or line.startswith(("#", ":")):
             continue
         tokens = line.split()
         if len(tokens) == 1 and tokens[0].isdigit():

@@ -163,7 +163,6 @@ def read_csv(path: Path, layout, fps) -> Keypoints:
     if not rows or not required <= set(rows[0]):
         raise InputError(f"{path}: CSV needs a header with {', '.join(sorted(required))} (optional track, score) "
                          "and at least one row")
-    joint_names = None
     detections: dict[tuple, dict] = {}
     try:
         for row in rows:
