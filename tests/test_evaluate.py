@@ -24,7 +24,7 @@ def _standing_clip(frames=20, pelvis_height=0.9395):
 
 def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch):
     monkeypatch.setattr(evaluation, "predict_world",
-                        lambda model, windows, camera, flip_test=False: windows[:, windows.shape[1] // 2])
+                        lambda model, windows, camera, flip_test=False, given=None: windows[:, windows.shape[1] // 2])
 
     class Oracle:
         receptive_field = 9
@@ -56,3 +56,17 @@ def test_evaluate_cli_writes_the_documented_json(tmp_path, capsys):
     assert "overall" in capsys.readouterr().out
     assert main(["evaluate", "--checkpoint", "nonexistent-model", "--mocap", str(tmp_path / "mine.npz"),
                  "--cameras", "h36m"]) == 2
+
+
+def test_a_wrong_camera_and_a_smaller_body_change_the_errors():
+    from ray3d import Camera
+
+    motion = MotionSet.from_clips([_standing_clip()], clip_id=["stand"])
+    camera = grid("h36m")[0]
+    exact = evaluation.evaluate("rfrh", motion, [camera])
+    assert exact["mrpe_mm"] == pytest.approx(0.0, abs=1e-3)
+    lower = Camera(camera.K, camera.dist, camera.R, camera.t + camera.R @ [0.0, 0.0, 0.2], camera.image_size)
+    told_wrong = evaluation.evaluate("rfrh", motion, [camera], given_cameras=[lower])
+    assert told_wrong["mrpe_mm"] > 50  # told the camera is 20 cm lower than it is
+    smaller = evaluation.evaluate("rfrh", motion, [camera], bone_scale=0.8)
+    assert smaller["mrpe_mm"] > 10  # a smaller body's pelvis is lower than the assumed height

@@ -8,6 +8,7 @@ Overall values are frame-weighted over all evaluated (camera, clip, frame) tripl
 
 from __future__ import annotations
 
+import dataclasses
 from collections import defaultdict
 
 import numpy as np
@@ -17,7 +18,7 @@ from ray3d import metrics
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import RFRH, load_model
 from ray3d.data.motion import MotionSet
-from ray3d.data.samples import SampleConfig, clip_windows, observe
+from ray3d.data.samples import SampleConfig, clip_windows, observe, scale_bones
 from ray3d.data.virtual_cameras import CameraBatch, centre_clip, in_image
 from ray3d.geometry import Camera
 from ray3d.models.network import LiftingNetwork, TensorBatch
@@ -27,22 +28,33 @@ METRICS = ("mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm")
 
 @torch.no_grad()
 def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
-                  chunk: int = 8192) -> np.ndarray:
+                  chunk: int = 8192, given: Camera | None = None) -> np.ndarray:
     """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the centre
-    frames; for RFRH only the root (joint 0) is predicted and the other joints are NaN."""
+    frames; for RFRH only the root (joint 0) is predicted and the other joints are NaN.
+
+    ``given`` is the camera the model is told about (default: the true one), e.g. a mis-calibrated copy: the
+    pixels come from ``camera``, the rays, camera parameters and the way back to the world from ``given``.
+    """
+    given = given or camera
     out = []
     for start in range(0, len(windows), chunk):
         part = windows[start:start + chunk]
-        cams = CameraBatch.from_cameras([camera]).take(np.zeros(len(part), dtype=int))
+        index = np.zeros(len(part), dtype=int)
         remove_roll = model != RFRH and model.config.remove_roll
-        batch = observe(part, cams, config=SampleConfig(frames=part.shape[1], remove_roll=remove_roll))
+        batch = observe(part, CameraBatch.from_cameras([camera]).take(index),
+                        config=SampleConfig(frames=part.shape[1], remove_roll=remove_roll))
+        if given is not camera:
+            told = CameraBatch.from_cameras([given]).take(index)
+            rays = given.pixels_to_rays(batch.pixels.astype(np.float64), remove_roll=remove_roll)
+            batch = dataclasses.replace(batch, rays=rays.astype(np.float32), cameras=told, camera_params=np.stack(
+                [told.height, told.pitch], -1).astype(np.float32))
         if model == RFRH:
             predicted = np.full(part.shape[:1] + part.shape[2:], np.nan)
-            predicted[:, 0] = rfrh_root(batch.pixels[:, part.shape[1] // 2, 0].astype(np.float64), camera)
+            predicted[:, 0] = rfrh_root(batch.pixels[:, part.shape[1] // 2, 0].astype(np.float64), given)
         else:
             tensors = TensorBatch.from_batch(batch)
             pose, root = model.predict(tensors, flip_test)
-            predicted = model.to_world(pose + root[:, None], cams, tensors.camera_params).numpy()
+            predicted = model.to_world(pose + root[:, None], batch.cameras, tensors.camera_params).numpy()
         out.append(predicted)
     return np.concatenate(out)
 
@@ -66,24 +78,32 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 
 
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
-             frame_stride: int = 1) -> dict:
-    """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip)."""
+             frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0) -> dict:
+    """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
+
+    ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
+    error); ``bone_scale`` multiplies every bone of every clip, re-grounded (smaller or larger people).
+    """
     if isinstance(model, str) and model != RFRH:
         model = load_model(model)[0]
     frames = 1 if model == RFRH else model.receptive_field
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)
-    clips = [centre_clip(motion.clip(i).astype(np.float64)) for i in range(motion.num_clips)]
+    clips = [motion.clip(i).astype(np.float64) for i in range(motion.num_clips)]
+    if bone_scale != 1.0:
+        clips = [scale_bones(clip, np.full(clip.shape[:2], bone_scale)) for clip in clips]
+    clips = [centre_clip(clip) for clip in clips]
+    given_cameras = given_cameras or cameras
     windows = [clip_windows(clip, frames)[::frame_stride] for clip in clips]
     skipped = 0
-    for camera in cameras:
+    for camera, given in zip(cameras, given_cameras):
         # All clips this camera sees go through the network together; errors are split back per clip.
         seen = [i for i, clip in enumerate(clips) if in_image(camera, clip)]
         skipped += len(clips) - len(seen)
         if not seen:
             continue
         stacked = np.concatenate([windows[i] for i in seen])
-        errors = _per_frame(predict_world(model, stacked, camera, flip_test), stacked[:, frames // 2])
+        errors = _per_frame(predict_world(model, stacked, camera, flip_test, given=given), stacked[:, frames // 2])
         bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}
