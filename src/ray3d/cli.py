@@ -317,6 +317,22 @@ def _viz(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bench_robustness(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ray3d.bench.robustness import run, write
+    from ray3d.data import motion as motion_data
+
+    clips = motion_data.load_shipped(args.data_dir, "test")
+    if args.clips:
+        clips = clips.select(np.arange(clips.num_clips) < args.clips)
+    sweeps = run(args.models, clips, args.frame_stride, args.camera_stride)
+    files = write(sweeps, args.out)
+    print(f"{len(sweeps)} sweeps x {len(args.models)} methods on {clips.num_clips} test clips -> {len(files)} files "
+          f"in {args.out} (see {args.out / 'summary.md'})")
+    return 0
+
+
 def _bench_speed(args: argparse.Namespace) -> int:
     import json
 
@@ -448,8 +464,17 @@ def build_parser() -> argparse.ArgumentParser:
     viz.add_argument("--force", action="store_true", help="replace existing outputs")
     viz.set_defaults(handler=_viz)
 
-    bench = commands.add_parser("bench", help="benchmarks: speed")
+    bench = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
     bench_commands = bench.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
+    robustness = bench_commands.add_parser("robustness", help="the paper's robustness sweeps (CSV, markdown, PNG)")
+    robustness.add_argument("--out", required=True, type=Path, help="folder for the sweep files")
+    robustness.add_argument("--models", nargs="+", default=["ray3d", "videopose3d", "rie", "rfrh"],
+                            help="shipped names, checkpoint paths or rfrh (default: the shipped ones and rfrh)")
+    robustness.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
+    robustness.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
+    robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
+    robustness.add_argument("--data-dir", help=data_dir_help)
+    robustness.set_defaults(handler=_bench_robustness)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
     speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")

@@ -29,3 +29,23 @@ def plot_sweep(x: list[float], curves: dict[str, list[float]], xlabel: str, ylab
         fig.savefig(temporary, format="png")
     plt.close(fig)
     return path
+
+
+def plot_sweep_panels(x: list[float], panels: dict[str, dict[str, list[float]]], xlabel: str, title: str,
+                      path: str | Path) -> Path:
+    """One PNG with a panel per metric ({metric: {method: values}}), one line per method."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 3.8), dpi=110, squeeze=False)
+    for axis, (metric, curves) in zip(axes[0], panels.items()):
+        for name, values in curves.items():
+            axis.plot(x, values, marker="o", ms=3, label=name)
+        axis.set_xlabel(xlabel)
+        axis.set_ylabel(metric.replace("_mm", " (mm)").replace("_", "-").upper().replace("(MM)", "(mm)"))
+        axis.grid(alpha=0.3)
+        axis.legend(fontsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path, overwrite=True) as temporary:
+        fig.savefig(temporary, format="png")
+    plt.close(fig)
+    return path
