@@ -138,8 +138,9 @@ def write(sweeps: list[Sweep], out_dir: str | Path) -> list[Path]:
             lines.append(f"| {x:g} | " + " | ".join(cells) + " |")
         with atomic_path(out_dir / f"{sweep.name}.md", overwrite=True) as temporary:
             temporary.write_text("\n".join(lines) + "\n")
-        panels = {metric: {m: [value[(m, x)][metric] if (m, x) in value and value[(m, x)][metric] is not None
-                               else np.nan for x in xs] for m in methods} for metric in ("mpjpe_mm", "mrpe_mm")}
+        panels = {label: {m: [value[(m, x)][metric] if (m, x) in value and value[(m, x)][metric] is not None
+                              else np.nan for x in xs] for m in methods}
+                  for metric, label in (("mpjpe_mm", "MPJPE (mm)"), ("mrpe_mm", "MRPE (mm)"))}
         plot_sweep_panels(xs, panels, sweep.variable, f"robustness: {sweep.name}", out_dir / f"{sweep.name}.png")
         written += [out_dir / f"{sweep.name}.{suffix}" for suffix in ("csv", "md", "png")]
     index = "\n".join(f"## {sweep.name}\n\n![{sweep.name}]({sweep.name}.png)\n\n{(out_dir / f'{sweep.name}.md').read_text()}"

@@ -12,34 +12,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 from ray3d.io.atomic import atomic_path  # noqa: E402
 
 
-def plot_sweep(x: list[float], curves: dict[str, list[float]], xlabel: str, ylabel: str, title: str,
-               path: str | Path, overwrite: bool = True) -> Path:
-    """A PNG with one line per method."""
-    fig, axes = plt.subplots(figsize=(6.4, 4.0), dpi=120)
-    for name, values in curves.items():
-        axes.plot(x, values, marker="o", ms=3, label=name)
-    axes.set_xlabel(xlabel)
-    axes.set_ylabel(ylabel)
-    axes.set_title(title)
-    axes.grid(alpha=0.3)
-    axes.legend(fontsize=8)
-    fig.tight_layout()
-    path = Path(path)
-    with atomic_path(path, overwrite) as temporary:
-        fig.savefig(temporary, format="png")
-    plt.close(fig)
-    return path
-
-
 def plot_sweep_panels(x: list[float], panels: dict[str, dict[str, list[float]]], xlabel: str, title: str,
                       path: str | Path) -> Path:
-    """One PNG with a panel per metric ({metric: {method: values}}), one line per method."""
+    """One PNG with a panel per metric ({y-axis label: {method: values}}), one line per method."""
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 3.8), dpi=110, squeeze=False)
-    for axis, (metric, curves) in zip(axes[0], panels.items()):
+    for axis, (ylabel, curves) in zip(axes[0], panels.items()):
         for name, values in curves.items():
             axis.plot(x, values, marker="o", ms=3, label=name)
         axis.set_xlabel(xlabel)
-        axis.set_ylabel(metric.replace("_mm", " (mm)").replace("_", "-").upper().replace("(MM)", "(mm)"))
+        axis.set_ylabel(ylabel)
         axis.grid(alpha=0.3)
         axis.legend(fontsize=7)
     fig.suptitle(title)
@@ -49,3 +30,9 @@ def plot_sweep_panels(x: list[float], panels: dict[str, dict[str, list[float]]],
         fig.savefig(temporary, format="png")
     plt.close(fig)
     return path
+
+
+def plot_sweep(x: list[float], curves: dict[str, list[float]], xlabel: str, ylabel: str, title: str,
+               path: str | Path) -> Path:
+    """A single-panel sweep plot."""
+    return plot_sweep_panels(x, {ylabel: curves}, xlabel, title, path)
