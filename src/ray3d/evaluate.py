@@ -8,7 +8,6 @@ Overall values are frame-weighted over all evaluated (camera, clip, frame) tripl
 
 from __future__ import annotations
 
-import dataclasses
 from collections import defaultdict
 
 import numpy as np
@@ -43,18 +42,17 @@ def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Came
         remove_roll = model != RFRH and model.config.remove_roll
         batch = observe(part, CameraBatch.from_cameras([camera]).take(index),
                         config=SampleConfig(frames=part.shape[1], remove_roll=remove_roll))
-        if given is not camera:
+        told, rays = batch.cameras, batch.rays
+        if given is not camera:  # the pixels stay the true camera's; everything else is the given camera's
             told = CameraBatch.from_cameras([given]).take(index)
             rays = given.pixels_to_rays(batch.pixels.astype(np.float64), remove_roll=remove_roll)
-            batch = dataclasses.replace(batch, rays=rays.astype(np.float32), cameras=told, camera_params=np.stack(
-                [told.height, told.pitch], -1).astype(np.float32))
         if model == RFRH:
             predicted = np.full(part.shape[:1] + part.shape[2:], np.nan)
             predicted[:, 0] = rfrh_root(batch.pixels[:, part.shape[1] // 2, 0].astype(np.float64), given)
         else:
-            tensors = TensorBatch.from_batch(batch)
+            tensors = TensorBatch.from_arrays(batch.pixels, rays, told)
             pose, root = model.predict(tensors, flip_test)
-            predicted = model.to_world(pose + root[:, None], batch.cameras, tensors.camera_params).numpy()
+            predicted = model.to_world(pose + root[:, None], told, tensors.camera_params).numpy()
         out.append(predicted)
     return np.concatenate(out)
 

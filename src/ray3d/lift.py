@@ -16,7 +16,7 @@ import torch
 
 from ray3d.checkpoints import load_model
 from ray3d.data.importers import resample
-from ray3d.data.samples import window_indices
+from ray3d.data.samples import sequence_window_indices
 from ray3d.data.virtual_cameras import CameraBatch
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
@@ -167,22 +167,16 @@ class Lifter:
         if not np.isfinite(rays).all():
             raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
                              "(far outside the image?)")
-        frames, count = self.receptive_field, len(pixels)
-        centres = np.arange(count)
-        index = window_indices(centres, np.zeros_like(centres), np.full_like(centres, count - 1), frames)
+        count = len(pixels)
+        # Windows are gathered chunk by chunk (never all at once), which keeps memory bounded.
+        index = sequence_window_indices(count, self.receptive_field)
         cams = CameraBatch.from_cameras([camera])
         out = np.empty((count, 17, 3))
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
             n = len(part)
             batch_cams = cams.take(np.zeros(n, dtype=int))
-
-            def tensor(array):
-                return torch.as_tensor(np.ascontiguousarray(array), dtype=torch.float32, device=self.device)
-
-            batch = TensorBatch(tensor(pixels[part]), tensor(rays[part]),
-                                tensor(np.stack([batch_cams.height, batch_cams.pitch], -1)),
-                                tensor(batch_cams.intrinsics), tensor(batch_cams.roll), float(camera.image_size[0]))
+            batch = TensorBatch.from_arrays(pixels[part], rays[part], batch_cams, self.device)
             pose, root = self.model.predict(batch, flip_test)
             world = self.model.to_world(pose.double() + root.double()[:, None], batch_cams, batch.camera_params.double())
             out[start:start + n] = world.cpu().numpy()

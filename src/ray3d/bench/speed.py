@@ -39,12 +39,7 @@ def matmul_peak_gflops(size: int = 1024, batch: int = 4096, repeats: int = 10) -
 
 
 def _batch(model: LiftingNetwork, size: int) -> TensorBatch:
-    frames, joints = model.receptive_field, model.skeleton.num_joints
-    generator = torch.Generator().manual_seed(0)
-    rays = torch.randn(size, frames, joints, 3, generator=generator) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
-    return TensorBatch(torch.rand(size, frames, joints, 2, generator=generator) * 1000, rays,
-                       torch.tensor([[1.5, 0.2]]).repeat(size, 1), torch.tensor([[1000.0, 1000, 500, 500]]).repeat(size, 1),
-                       torch.zeros(size), 1000.0)
+    return TensorBatch.example(model.receptive_field, model.skeleton.num_joints, size)
 
 
 def _inference_times(run, model: LiftingNetwork, repeats: int, batch_size: int, sequence_frames: int):

@@ -165,10 +165,15 @@ class SampleGenerator:
         return flip_batch(batch, rng.random(size) < config.flip_probability)
 
 
+def sequence_window_indices(count: int, frames: int) -> np.ndarray:
+    """(count, frames): every frame's centred window in one sequence of ``count`` frames, edges replicated."""
+    centres = np.arange(count)
+    return window_indices(centres, np.zeros_like(centres), np.full_like(centres, count - 1), frames)
+
+
 def clip_windows(clip: np.ndarray, frames: int) -> np.ndarray:
     """(T, frames, J, 3): every frame of a (T, J, 3) clip with its edge-replicated centred window."""
-    centres = np.arange(len(clip))
-    return clip[window_indices(centres, np.zeros_like(centres), np.full_like(centres, len(clip) - 1), frames)]
+    return clip[sequence_window_indices(len(clip), frames)]
 
 
 def measure_throughput(motion: MotionSet, config: SampleConfig, batch_size: int = 1024, repeats: int = 20,

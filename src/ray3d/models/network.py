@@ -93,12 +93,26 @@ class TensorBatch:
     image_width: float
 
     @classmethod
-    def from_batch(cls, batch: Batch, device: str | torch.device = "cpu") -> TensorBatch:
+    def from_arrays(cls, pixels: np.ndarray, rays: np.ndarray, cameras, device: str | torch.device = "cpu") -> TensorBatch:
+        """From (B, F, J, 2) pixels, (B, F, J, 3) NCS rays and the batch's ``CameraBatch``."""
         def tensor(array: np.ndarray) -> torch.Tensor:
             return torch.from_numpy(np.ascontiguousarray(array, dtype=np.float32)).to(device)
 
-        return cls(tensor(batch.pixels), tensor(batch.rays), tensor(batch.camera_params),
-                   tensor(batch.cameras.intrinsics), tensor(batch.cameras.roll), float(batch.cameras.image_size[0]))
+        return cls(tensor(pixels), tensor(rays), tensor(np.stack([cameras.height, cameras.pitch], -1)),
+                   tensor(cameras.intrinsics), tensor(cameras.roll), float(cameras.image_size[0]))
+
+    @classmethod
+    def from_batch(cls, batch: Batch, device: str | torch.device = "cpu") -> TensorBatch:
+        return cls.from_arrays(batch.pixels, batch.rays, batch.cameras, device)
+
+    @classmethod
+    def example(cls, model_frames: int, joints: int, size: int, seed: int = 0) -> TensorBatch:
+        """A plausible random batch (rays in front of a 1.5 m high camera), for sizing and timing networks."""
+        generator = torch.Generator().manual_seed(seed)
+        rays = torch.randn(size, model_frames, joints, 3, generator=generator) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
+        return cls(torch.rand(size, model_frames, joints, 2, generator=generator) * 1000, rays,
+                   torch.tensor([[1.5, 0.2]]).repeat(size, 1), torch.tensor([[1000.0, 1000, 500, 500]]).repeat(size, 1),
+                   torch.zeros(size), 1000.0)
 
     def flipped(self, skeleton: Skeleton) -> TensorBatch:
         """The mirrored input (see ``ray3d.data.samples.flip_batch``)."""
@@ -277,10 +291,7 @@ def flops_per_frame(model: LiftingNetwork) -> float:
     """Floating-point operations (multiply-adds x 2) for one output frame, counted by torch."""
     from torch.utils.flop_counter import FlopCounterMode
 
-    frames, joints = model.receptive_field, model.skeleton.num_joints
-    batch = TensorBatch(torch.rand(2, frames, joints, 2) * 1000, torch.rand(2, frames, joints, 3),
-                        torch.tensor([[1.5, 0.2], [2.0, 0.3]]), torch.tensor([[1000.0, 1000, 500, 500]] * 2),
-                        torch.zeros(2), 1000.0)
+    batch = TensorBatch.example(model.receptive_field, model.skeleton.num_joints, 2)
     was_training = model.training
     model.eval()
     with FlopCounterMode(display=False) as counter, torch.no_grad():
