@@ -11,6 +11,7 @@ from ray3d import evaluate as evaluation
 from ray3d.cli import main
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import grid
+from ray3d.models.presets import preset
 
 
 def _standing_clip(frames=20, pelvis_height=0.9395):
@@ -22,12 +23,15 @@ def _standing_clip(frames=20, pelvis_height=0.9395):
     return clip.astype(np.float32)
 
 
-def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch):
+@pytest.mark.parametrize("causal", [False, True])
+def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch, causal):
+    target = 8 if causal else 4
     monkeypatch.setattr(evaluation, "predict_world",
-                        lambda model, windows, camera, flip_test=False, given=None: windows[:, windows.shape[1] // 2])
+                        lambda model, windows, camera, flip_test=False, given=None: windows[:, target])
 
     class Oracle:
         receptive_field = 9
+        config = preset("ray3d", causal=causal)
 
     motion = MotionSet.from_clips([_standing_clip(), _standing_clip(30)], clip_id=["a", "b"])
     result = evaluation.evaluate(Oracle(), motion, grid("extrinsic-test")[:3])
@@ -35,6 +39,25 @@ def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch):
         assert result[key] == pytest.approx(0.0, abs=1e-9)
         assert all(v[key] == pytest.approx(0.0, abs=1e-9) for v in result["per_camera"].values())
     assert result["frames"] == 3 * 50 and set(result["per_clip"]) == {"a", "b"}
+
+
+def test_the_14_joint_score_ignores_spine_thorax_and_neck(monkeypatch):
+    def wrong_trunk(model, windows, camera, flip_test=False, given=None):
+        predicted = windows[:, 4].copy()
+        predicted[:, [7, 8, 9]] += 0.1  # spine, thorax, neck/nose
+        return predicted
+
+    monkeypatch.setattr(evaluation, "predict_world", wrong_trunk)
+
+    class Model:
+        receptive_field = 9
+        config = preset("ray3d")
+
+    motion = MotionSet.from_clips([_standing_clip()], clip_id=["a"])
+    full = evaluation.evaluate(Model(), motion, grid("h36m")[:2])
+    common = evaluation.evaluate(Model(), motion, grid("h36m")[:2], joints="h36m14")
+    assert full["mpjpe_mm"] == pytest.approx(3 / 17 * 100 * np.sqrt(3), rel=1e-6)
+    assert common["mpjpe_mm"] == pytest.approx(0.0, abs=1e-9) and common["joints"] == "h36m14"
 
 
 def test_rfrh_is_exact_when_the_pelvis_is_at_its_height():

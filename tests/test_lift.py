@@ -129,3 +129,59 @@ def test_shipped_ray3d_loads_by_default_and_beats_the_baselines_on_the_demo_clip
     rfrh_mrpe = np.linalg.norm(rfrh_root(pixels[:, 0], camera) - truth[:, 0], axis=-1).mean()
     assert ray3d_mrpe < 0.25  # metres; 0.13 when measured (docs/RESULTS.md)
     assert ray3d_mrpe < 0.5 * baseline_mrpe and ray3d_mrpe < 0.5 * rfrh_mrpe
+
+
+def _untrained(name: str, **overrides) -> Lifter:
+    import torch
+
+    from ray3d.models import LiftingNetwork, preset
+
+    torch.manual_seed(0)
+    return Lifter(LiftingNetwork(preset(name, channels=16, hidden=32, **overrides)), {"model": name})
+
+
+@pytest.mark.parametrize("name", ["ray3d-causal", "ray3d"])
+@pytest.mark.parametrize("frames", [1, 3, 30])
+def test_streaming_equals_offline_lifting(camera, name, frames):
+    lifter = _untrained(name)
+    pixels = camera.project(_walk(frames))
+    stream = lifter.stream(camera)
+    answers = [stream.push(p) for p in pixels]
+    delay = 0 if name == "ray3d-causal" else 4
+    assert all(a is None for a in answers[:delay]) and all(a is not None for a in answers[delay:])
+    streamed = np.stack([a for a in answers if a is not None] + stream.flush())
+    np.testing.assert_allclose(streamed, lifter.lift(pixels, camera).joints, atol=1e-5)
+    assert stream.flush() == []
+
+
+def test_a_causal_model_never_looks_ahead(camera):
+    lifter = _untrained("ray3d-causal")
+    pixels = camera.project(_walk(40))
+    changed = pixels.copy()
+    changed[25:] += np.random.default_rng(0).normal(0, 30, changed[25:].shape)
+    before, after = lifter.lift(pixels, camera).joints, lifter.lift(changed, camera).joints
+    np.testing.assert_array_equal(before[:25], after[:25])
+    assert np.abs(before[25:] - after[25:]).max() > 1e-3
+
+
+def test_streaming_holds_missing_joints_and_explains_bad_frames(camera):
+    lifter = _untrained("ray3d-causal")
+    pixels = camera.project(_walk(12))
+    holes = pixels.copy()
+    holes[5:8, 13] = np.nan                      # the left wrist: held at frame 4's position
+    held = pixels.copy()
+    held[5:8, 13] = pixels[4, 13]
+    stream = lifter.stream(camera)
+    streamed = np.stack([stream.push(p) for p in holes])
+    np.testing.assert_allclose(streamed, lifter.lift(held, camera).joints, atol=1e-5)
+    first = pixels[0].copy()
+    first[16] = np.nan                           # never seen yet: the right wrist takes its elbow's place
+    elbow = pixels[0].copy()
+    elbow[16] = pixels[0, 15]
+    np.testing.assert_allclose(lifter.stream(camera).push(first), lifter.stream(camera).push(elbow), atol=1e-6)
+    with pytest.raises(InputError, match=r"expected \(17, 2\)"):
+        lifter.stream(camera).push(np.zeros((16, 2)))
+    no_hips = pixels[0].copy()
+    no_hips[[0, 1, 4]] = np.nan
+    with pytest.raises(InputError, match="root"):
+        lifter.stream(camera).push(no_hips)

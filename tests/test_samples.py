@@ -126,3 +126,16 @@ def test_gravity_aligned_samples_keep_the_ncs_identity(rng):
     world_up = np.array([0.0, 0.0, 1.0])
     up_in_ncs = tf.rays_camera_to_normalized((cams.R @ world_up), cams.pitch, cams.roll)
     np.testing.assert_allclose(up_in_ncs, np.tile([0.0, -1.0, 0.0], (64, 1)), atol=1e-9)
+
+
+def test_causal_windows_end_at_their_target(rng):
+    clip = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 17, 3))
+    windows = clip_windows(clip, 3, causal=True)
+    assert windows[:, :, 0, 0].tolist() == [[0, 0, 0], [0, 0, 1], [0, 1, 2], [1, 2, 3], [2, 3, 4]]
+    motion = _motion(rng)
+    batch = SampleGenerator(motion, SampleConfig(frames=9, causal=True, flip_probability=0.0, bone_scale=(1, 1),
+                                                 bone_jitter=0.0), seed=3).batch(32)
+    cams = batch.cameras
+    depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]
+    expected = depth * batch.rays[:, -1] + np.stack([np.zeros(32), -cams.height, np.zeros(32)], -1)[:, None]
+    np.testing.assert_allclose(batch.pose + batch.root[:, None], expected, atol=1e-4)

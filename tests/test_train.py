@@ -11,6 +11,7 @@ import pytest
 import torch
 
 from ray3d.checkpoints import load_model, read_checkpoint
+from ray3d.errors import InputError
 from ray3d.models import preset
 from ray3d.models.network import TensorBatch
 from ray3d.train import TrainConfig, train, validation_batch
@@ -88,3 +89,18 @@ def test_export_keeps_weights_and_provenance_only(tiny_data_dir, tmp_path):
         torch.testing.assert_close(model(batch), reference(batch), rtol=0, atol=0)
     with pytest.raises(InputError, match="already exists"):
         export(run / "last.safetensors", target)
+
+
+def test_training_on_one_dataset_only(tiny_data_dir, tmp_path):
+    config = TrainConfig.from_json(_write(tmp_path / "c.json", {"datasets": ["cmu"], "epochs": 1}))
+    assert config.datasets == ("cmu",)
+    train(_config(tiny_data_dir, datasets=("cmu",), epochs=1, batches_per_epoch=2), tmp_path / "cmu", progress=False)
+    with pytest.raises(InputError, match="holds none of hdm05_h36m17.npz"):
+        train(_config(tiny_data_dir, datasets=("hdm05",), epochs=1), tmp_path / "hdm05", progress=False)
+    with pytest.raises(InputError, match="datasets"):
+        train(_config(tiny_data_dir, datasets=("h36m",), epochs=1), tmp_path / "h36m", progress=False)
+
+
+def _write(path, document):
+    path.write_text(json.dumps(document))
+    return path

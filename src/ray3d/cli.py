@@ -141,8 +141,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     from ray3d.io.camera_files import load_cameras
 
     if args.mocap is None:
-        clips = motion_data.load_shipped(args.data_dir, args.split or "test")
-        source = f"shipped mocap, {args.split or 'test'} performers"
+        datasets = tuple(args.datasets.split(",")) if args.datasets else tuple(motion_data.DATASETS)
+        clips = motion_data.load_shipped(args.data_dir, args.split or "test", datasets)
+        source = f"shipped mocap ({', '.join(datasets)}), {args.split or 'test'} performers"
     else:
         clips = motion_data.MotionSet.load(args.mocap)
         shipped = args.mocap.name in motion_data.SHIPPED_FILES
@@ -152,7 +153,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     if clips.num_clips == 0:
         raise InputError(f"{source}: no clips to evaluate")
     cameras = grid(args.cameras) if args.cameras in SET_NAMES else load_cameras(args.cameras)
-    result = evaluate(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride)
+    result = evaluate(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride, joints=args.joints)
     result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, **result}
     print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
           f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
@@ -425,6 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--split", choices=["train", "validation", "test", "all"],
                             help="clips to use (default: test for the shipped files, all for any other npz)")
     evaluation.add_argument("--cameras", required=True, help=f"a camera set ({', '.join(SET_NAMES)}) or a cameras JSON")
+    evaluation.add_argument("--datasets", help="with the shipped mocap: cmu, hdm05 or cmu,hdm05 (default both)")
+    evaluation.add_argument("--joints", choices=["h36m17", "h36m14"], default="h36m17",
+                            help="joints scored (h36m14: without spine, thorax and neck/nose)")
     evaluation.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
     evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
     evaluation.add_argument("--json", type=Path, help="write the results here")

@@ -17,19 +17,21 @@ from ray3d import metrics
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import RFRH, load_model
 from ray3d.data.motion import MotionSet
-from ray3d.data.samples import SampleConfig, clip_windows, observe, scale_bones
+from ray3d.data.samples import SampleConfig, clip_windows, observe, scale_bones, target_frame
 from ray3d.data.virtual_cameras import CameraBatch, centre_clip, in_image
 from ray3d.geometry import Camera
 from ray3d.models.network import LiftingNetwork, TensorBatch
+from ray3d.skeleton import H36M17, LAYOUTS
 
 METRICS = ("mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm")
+SCORED_LAYOUTS = ("h36m17", "h36m14")
 
 
 @torch.no_grad()
 def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
                   chunk: int = 8192, given: Camera | None = None) -> np.ndarray:
-    """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the centre
-    frames; for RFRH only the root (joint 0) is predicted and the other joints are NaN.
+    """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the target
+    frames (centre, or last for a causal model); for RFRH only the root (joint 0) is predicted and the other joints are NaN.
 
     ``given`` is the camera the model is told about (default: the true one), e.g. a mis-calibrated copy: the
     pixels come from ``camera``, the rays, camera parameters and the way back to the world from ``given``.
@@ -40,8 +42,9 @@ def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Came
         part = windows[start:start + chunk]
         index = np.zeros(len(part), dtype=int)
         remove_roll = model != RFRH and model.config.remove_roll
+        causal = model != RFRH and model.config.causal
         batch = observe(part, CameraBatch.from_cameras([camera]).take(index),
-                        config=SampleConfig(frames=part.shape[1], remove_roll=remove_roll))
+                        config=SampleConfig(frames=part.shape[1], causal=causal, remove_roll=remove_roll))
         told, rays = batch.cameras, batch.rays
         if given is not camera:  # the pixels stay the true camera's; everything else is the given camera's
             told = CameraBatch.from_cameras([given]).take(index)
@@ -76,15 +79,21 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 
 
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
-             frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0) -> dict:
+             frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
+             joints: str = "h36m17") -> dict:
     """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
 
     ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
-    error); ``bone_scale`` multiplies every bone of every clip, re-grounded (smaller or larger people).
+    error); ``bone_scale`` multiplies every bone of every clip, re-grounded (smaller or larger people);
+    ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose).
     """
+    if joints not in SCORED_LAYOUTS:
+        raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
+    scored = [H36M17.joint_names.index(name) for name in LAYOUTS[joints].joint_names]
     if isinstance(model, str) and model != RFRH:
         model = load_model(model)[0]
     frames = 1 if model == RFRH else model.receptive_field
+    causal = model != RFRH and model.config.causal
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)
     clips = [motion.clip(i).astype(np.float64) for i in range(motion.num_clips)]
@@ -92,7 +101,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         clips = [scale_bones(clip, np.full(clip.shape[:2], bone_scale)) for clip in clips]
     clips = [centre_clip(clip) for clip in clips]
     given_cameras = given_cameras or cameras
-    windows = [clip_windows(clip, frames)[::frame_stride] for clip in clips]
+    windows = [clip_windows(clip, frames, causal)[::frame_stride] for clip in clips]
     skipped = 0
     for camera, given in zip(cameras, given_cameras):
         # All clips this camera sees go through the network together; errors are split back per clip.
@@ -101,7 +110,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         if not seen:
             continue
         stacked = np.concatenate([windows[i] for i in seen])
-        errors = _per_frame(predict_world(model, stacked, camera, flip_test, given=given), stacked[:, frames // 2])
+        predicted = predict_world(model, stacked, camera, flip_test, given=given)
+        errors = _per_frame(predicted[:, scored], stacked[:, target_frame(frames, causal)][:, scored])
         bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}
@@ -113,6 +123,6 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     geometry = {c.name: {"height_m": c.camera_height, "pitch_deg": float(np.degrees(c.pitch)),
                          "horizontal_distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}
     return {**_summarise(everything), "pairs": len(everything), "skipped_pairs": skipped, "flip_test": flip_test,
-            "frame_stride": frame_stride,
+            "frame_stride": frame_stride, "joints": joints,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},
             "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}

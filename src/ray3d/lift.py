@@ -169,15 +169,107 @@ class Lifter:
                              "(far outside the image?)")
         count = len(pixels)
         # Windows are gathered chunk by chunk (never all at once), which keeps memory bounded.
-        index = sequence_window_indices(count, self.receptive_field)
-        cams = CameraBatch.from_cameras([camera])
+        index = sequence_window_indices(count, self.receptive_field, self.model.config.causal)
+        cameras = CameraBatch.from_cameras([camera])
         out = np.empty((count, 17, 3))
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
-            n = len(part)
-            batch_cams = cams.take(np.zeros(n, dtype=int))
-            batch = TensorBatch.from_arrays(pixels[part], rays[part], batch_cams, self.device)
-            pose, root = self.model.predict(batch, flip_test)
-            world = self.model.to_world(pose.double() + root.double()[:, None], batch_cams, batch.camera_params.double())
-            out[start:start + n] = world.cpu().numpy()
+            out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], cameras, flip_test)
         return out
+
+    @torch.no_grad()
+    def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, camera: CameraBatch, flip_test: bool) -> np.ndarray:
+        """(N, F, 17, 2) pixel and (N, F, 17, 3) ray windows seen by one camera -> (N, 17, 3) world joints."""
+        cameras = camera.take(np.zeros(len(pixels), dtype=int))
+        batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device)
+        pose, root = self.model.predict(batch, flip_test)
+        world = self.model.to_world(pose.double() + root.double()[:, None], cameras, batch.camera_params.double())
+        return world.cpu().numpy()
+
+    def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False) -> LiftStream:
+        """Lift frame by frame as keypoints arrive (live use); see ``LiftStream``."""
+        return LiftStream(self, camera, layout, flip_test)
+
+
+class LiftStream:
+    """Live lifting: ``push`` one frame's keypoints (J, 2) and get world joints (17, 3) back.
+
+    A causal model (``ModelConfig.causal``, e.g. the ``ray3d-causal`` preset) answers for the frame just
+    pushed. A centred model needs ``delay`` (half its window) future frames, so it answers for the frame pushed
+    ``delay`` calls earlier (None until then) and ``flush()`` gives the last frames when the stream ends. The
+    window starts by repeating the first frame and ends by repeating the last, as offline lifting does, so the
+    outputs equal ``Lifter.lift`` on the whole sequence (frames at the model's 60 fps, no smoothing).
+
+    A joint missing from a frame (NaN or confidence 0) keeps its last seen position; one not seen yet takes
+    its parent's, as a detector's miss is simulated in training.
+    """
+
+    def __init__(self, lifter: Lifter, camera: Camera, layout: str = "h36m17", flip_test: bool = False):
+        if layout not in LAYOUTS:
+            raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
+        config = lifter.model.config
+        self.lifter, self.camera, self.skeleton, self.flip_test = lifter, camera, LAYOUTS[layout], flip_test
+        self.frames = lifter.receptive_field
+        self.delay = self.frames - 1 - config.target_frame
+        self.remove_roll = config.remove_roll
+        self._cameras = CameraBatch.from_cameras([camera])
+        self._pixels: np.ndarray | None = None   # (F, 17, 2) the current window
+        self._rays: np.ndarray | None = None     # (F, 17, 3)
+        self._last_seen = np.full((17, 2), np.nan)
+        self.pushed = 0       # frames pushed so far
+        self.answered = 0     # frames answered so far
+
+    def push(self, keypoints, confidences=None) -> np.ndarray | None:
+        """One frame's pixels (J, 2) in the stream's layout -> world joints (17, 3) of frame ``answered``
+        (the frame just pushed for a causal model), or None while a centred model waits for future frames."""
+        self._append(self._prepare(keypoints, confidences))
+        self.pushed += 1
+        return self._answer() if self.pushed > self.delay else None
+
+    def flush(self) -> list[np.ndarray]:
+        """The frames still unanswered at the end of the stream (none for a causal model)."""
+        answers, window_end = [], self.pushed - 1  # the frame index the window ends at
+        while self.answered < self.pushed:
+            while window_end < self.answered + self.delay:
+                self._append(self._pixels[-1])
+                window_end += 1
+            answers.append(self._answer())
+        return answers
+
+    def _prepare(self, keypoints, confidences) -> np.ndarray:
+        keypoints = np.asarray(keypoints, dtype=np.float64)
+        if keypoints.shape != (self.skeleton.num_joints, 2):
+            raise InputError(f"keypoints: expected ({self.skeleton.num_joints}, 2) for layout {self.skeleton.name}, "
+                             f"got {keypoints.shape}")
+        seen = np.isfinite(keypoints).all(-1)
+        if confidences is not None:
+            confidences = np.asarray(confidences, dtype=np.float64)
+            if confidences.shape != seen.shape:
+                raise InputError(f"confidences: expected shape {seen.shape}, got {confidences.shape}")
+            seen &= confidences > 0
+        seen = convert_confidences(seen.astype(np.float64)[None], self.skeleton, "h36m17")[0] > 0
+        pixels = convert(np.where(np.isfinite(keypoints), keypoints, 0.0)[None], self.skeleton, "h36m17")[0]
+        self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
+        filled = self._last_seen.copy()
+        if np.isnan(filled[0]).any():
+            raise InputError("keypoints: the root (pelvis, or both hips) has not been seen yet")
+        for joint, parent in enumerate(H36M17.parents):  # parents come before their children
+            if parent >= 0 and np.isnan(filled[joint]).any():
+                filled[joint] = filled[parent]
+        return filled
+
+    def _append(self, pixels: np.ndarray) -> None:
+        rays = self.camera.pixels_to_rays(pixels, remove_roll=self.remove_roll)
+        if not np.isfinite(rays).all():
+            raise InputError(f"keypoints: some lie where camera {self.camera.name or ''}'s lens model cannot be "
+                             "inverted (far outside the image?)")
+        if self._pixels is None:
+            self._pixels = np.repeat(pixels[None], self.frames, axis=0)
+            self._rays = np.repeat(rays[None], self.frames, axis=0)
+        else:
+            self._pixels = np.concatenate([self._pixels[1:], pixels[None]])
+            self._rays = np.concatenate([self._rays[1:], rays[None]])
+
+    def _answer(self) -> np.ndarray:
+        self.answered += 1
+        return self.lifter._lift_windows(self._pixels[None], self._rays[None], self._cameras, self.flip_test)[0]

@@ -40,9 +40,11 @@ class TrainConfig:
     seed: int = 0
     validation_samples: int = 4096
     data_dir: str | None = None
+    datasets: tuple[str, ...] = ("cmu", "hdm05")   # which shipped mocap to train and validate on
     threads: int | None = None
 
     def __post_init__(self) -> None:
+        self.datasets = tuple(self.datasets)
         if isinstance(self.model, dict):
             self.model = ModelConfig(**self.model)
         if isinstance(self.samples, dict):
@@ -52,9 +54,11 @@ class TrainConfig:
                                                      for k, v in samples["cameras"].items()})
             self.samples = SampleConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in samples.items()})
         # The samples must be made the way the model reads them.
-        if (self.samples.frames, self.samples.remove_roll) != (self.model.frames, self.model.remove_roll):
-            self.samples = dataclasses.replace(self.samples, frames=self.model.frames,
-                                               remove_roll=self.model.remove_roll)
+        model = self.model
+        if (self.samples.frames, self.samples.causal, self.samples.remove_roll) != (model.frames, model.causal,
+                                                                                     model.remove_roll):
+            self.samples = dataclasses.replace(self.samples, frames=model.frames, causal=model.causal,
+                                               remove_roll=model.remove_roll)
 
     @classmethod
     def from_json(cls, path: str | Path) -> TrainConfig:
@@ -78,7 +82,7 @@ def _distributed() -> tuple[int, int]:
 
 def validation_batch(config: TrainConfig) -> Batch:
     """A fixed batch from the validation performers: same windows and cameras for every epoch and run."""
-    motion = load_shipped(config.data_dir, "validation")
+    motion = load_shipped(config.data_dir, "validation", config.datasets)
     clean = dataclasses.replace(config.samples, flip_probability=0.0, noise_px=0.0, drop_probability=0.0,
                                 bone_scale=(1.0, 1.0), bone_jitter=0.0)
     return SampleGenerator(motion, clean, seed=10_000 + config.seed).batch(config.validation_samples)
@@ -143,7 +147,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     torch.manual_seed(config.seed)
     model = LiftingNetwork(config.model).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
-    generator = SampleGenerator(load_shipped(config.data_dir, "train"), config.samples, seed=config.seed + 1000 * rank)
+    generator = SampleGenerator(load_shipped(config.data_dir, "train", config.datasets), config.samples, seed=config.seed + 1000 * rank)
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")

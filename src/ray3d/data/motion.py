@@ -18,7 +18,8 @@ from ray3d.io.atomic import atomic_path
 from ray3d.skeleton import H36M17
 
 DATA_DIR_ENV = "RAY3D_DATA_DIR"
-SHIPPED_FILES = ("cmu_h36m17.npz", "hdm05_h36m17.npz")
+DATASETS = {"cmu": "cmu_h36m17.npz", "hdm05": "hdm05_h36m17.npz"}
+SHIPPED_FILES = tuple(DATASETS.values())
 CLIP_FIELDS = {
     "clip_id": str, "subject": str, "orig_subject": str, "orig_take": str, "source": str, "retargeted": bool,
     "fps": np.float32, "native_fps": np.float32, "description": str, "floor_offset_m": np.float32,
@@ -171,10 +172,18 @@ def resolve_data_dir(data_dir: str | Path | None = None) -> Path:
     return path
 
 
-def load_shipped(data_dir: str | Path | None = None, split: str = "all") -> MotionSet:
-    """The CMU and HDM05 motion sets (whichever are present), restricted to ``split``."""
+def load_shipped(data_dir: str | Path | None = None, split: str = "all",
+                 datasets: tuple[str, ...] = tuple(DATASETS)) -> MotionSet:
+    """The CMU and HDM05 motion sets (whichever are present; or only ``datasets`` of them), restricted to
+    ``split``."""
+    unknown = set(datasets) - set(DATASETS)
+    if unknown or not datasets:
+        raise InputError(f"datasets: {sorted(unknown) or 'none given'}; choose from {', '.join(DATASETS)}")
     path = resolve_data_dir(data_dir)
-    sets = [MotionSet.load(path / f) for f in SHIPPED_FILES if (path / f).is_file()]
+    files = [DATASETS[name] for name in datasets]
+    sets = [MotionSet.load(path / f) for f in files if (path / f).is_file()]
+    if not sets:
+        raise InputError(f"{path}: holds none of {', '.join(files)}")
     return select_split(MotionSet.concatenate(sets), split)
 
 

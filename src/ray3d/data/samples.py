@@ -23,6 +23,7 @@ class SampleConfig:
     """How samples are made. ``frames`` is the receptive field (odd)."""
 
     frames: int = 9
+    causal: bool = False                           # the target is the window's last frame (past frames only)
     flip_probability: float = 0.5
     bone_scale: tuple[float, float] = (0.9, 1.1)   # whole-body factor per sample
     bone_jitter: float = 0.04                      # extra per-bone factor sd (left/right kept equal)
@@ -41,9 +42,9 @@ class Batch:
     """One batch (B samples, F frames, J joints), float32 numpy arrays.
 
     pixels (B, F, J, 2); rays (B, F, J, 3) in the NCS; camera_params (B, 2) = (height m, pitch rad);
-    pose (B, J, 3) root-relative NCS pose of the centre frame (row 0 is zero); root (B, 3) NCS root;
-    visible (B, F, J) False where a joint was dropped; cameras and world (B, J, 3): the cameras and the
-    centre frame's world joints, to go back to the world (they describe the scene before any flip).
+    pose (B, J, 3) root-relative NCS pose of the target frame (row 0 is zero; the centre frame, or the last
+    for a causal model); root (B, 3) NCS root; visible (B, F, J) False where a joint was dropped; cameras and
+    world (B, J, 3): the cameras and the target frame's world joints, to go back to the world (they describe the scene before any flip).
     """
 
     pixels: np.ndarray
@@ -56,11 +57,19 @@ class Batch:
     world: np.ndarray
 
 
-def window_indices(centres: np.ndarray, clip_first: np.ndarray, clip_last: np.ndarray, frames: int) -> np.ndarray:
-    """(B, frames) frame indices of windows centred on ``centres``, clamped into each sample's clip
-    [first, last] so the edges replicate the clip's first or last frame."""
-    offsets = np.arange(frames) - frames // 2
-    return np.clip(centres[:, None] + offsets, clip_first[:, None], clip_last[:, None])
+def target_frame(frames: int, causal: bool = False) -> int:
+    """Which frame of a window the network predicts: the centre (``frames // 2``), or the last for a causal
+    model, which sees only the present and past frames."""
+    return frames - 1 if causal else frames // 2
+
+
+def window_indices(targets: np.ndarray, clip_first: np.ndarray, clip_last: np.ndarray, frames: int,
+                   causal: bool = False) -> np.ndarray:
+    """(B, frames) frame indices of the windows predicting frames ``targets`` (centred on them, or ending at
+    them when ``causal``), clamped into each sample's clip [first, last] so the edges replicate the clip's first
+    or last frame."""
+    offsets = np.arange(frames) - target_frame(frames, causal)
+    return np.clip(targets[:, None] + offsets, clip_first[:, None], clip_last[:, None])
 
 
 def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton = H36M17) -> np.ndarray:
@@ -129,14 +138,14 @@ def observe(windows: np.ndarray, cameras: CameraBatch, rng: np.random.Generator 
     roll = cameras.roll if config.remove_roll else None
     rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None],
                                         None if roll is None else roll[:, None, None])
-    centre = windows[:, frames // 2]
-    target = tf.camera_to_normalized(points_camera[:, frames // 2], cameras.height[:, None], cameras.pitch[:, None],
+    index = target_frame(frames, config.causal)
+    target = tf.camera_to_normalized(points_camera[:, index], cameras.height[:, None], cameras.pitch[:, None],
                                      None if roll is None else roll[:, None])
     return Batch(
         pixels=pixels.astype(np.float32), rays=rays.astype(np.float32),
         camera_params=np.stack([cameras.height, cameras.pitch], -1).astype(np.float32),
         pose=(target - target[:, :1]).astype(np.float32), root=target[:, 0].astype(np.float32),
-        visible=visible, cameras=cameras, world=centre.astype(np.float32))
+        visible=visible, cameras=cameras, world=windows[:, index].astype(np.float32))
 
 
 class SampleGenerator:
@@ -154,26 +163,27 @@ class SampleGenerator:
 
     def batch(self, size: int) -> Batch:
         rng, config = self.rng, self.config
-        centres = rng.integers(0, self.motion.num_frames, size)
-        indices = window_indices(centres, self.first[centres], self.last[centres], config.frames)
+        targets = rng.integers(0, self.motion.num_frames, size)
+        indices = window_indices(targets, self.first[targets], self.last[targets], config.frames, config.causal)
         windows = self.motion.positions[indices].astype(np.float64)  # (B, F, J, 3)
         factors = rng.uniform(*config.bone_scale, (size, 1)) * np.exp(rng.normal(0, config.bone_jitter, (size, 17)))
         factors[:, H36M17.left] = factors[:, list(H36M17.flip_permutation[i] for i in H36M17.left)]
         windows = scale_bones(windows, factors[:, None])
-        cameras = sample_cameras(windows[:, config.frames // 2, 0], rng, config.cameras)
+        cameras = sample_cameras(windows[:, target_frame(config.frames, config.causal), 0], rng, config.cameras)
         batch = observe(windows, cameras, rng, config)
         return flip_batch(batch, rng.random(size) < config.flip_probability)
 
 
-def sequence_window_indices(count: int, frames: int) -> np.ndarray:
-    """(count, frames): every frame's centred window in one sequence of ``count`` frames, edges replicated."""
-    centres = np.arange(count)
-    return window_indices(centres, np.zeros_like(centres), np.full_like(centres, count - 1), frames)
+def sequence_window_indices(count: int, frames: int, causal: bool = False) -> np.ndarray:
+    """(count, frames): every frame's window (centred, or ending at it when ``causal``) in one sequence of
+    ``count`` frames, edges replicated."""
+    targets = np.arange(count)
+    return window_indices(targets, np.zeros_like(targets), np.full_like(targets, count - 1), frames, causal)
 
 
-def clip_windows(clip: np.ndarray, frames: int) -> np.ndarray:
-    """(T, frames, J, 3): every frame of a (T, J, 3) clip with its edge-replicated centred window."""
-    return clip[sequence_window_indices(len(clip), frames)]
+def clip_windows(clip: np.ndarray, frames: int, causal: bool = False) -> np.ndarray:
+    """(T, frames, J, 3): every frame of a (T, J, 3) clip with its edge-replicated window."""
+    return clip[sequence_window_indices(len(clip), frames, causal)]
 
 
 def measure_throughput(motion: MotionSet, config: SampleConfig, batch_size: int = 1024, repeats: int = 20,

@@ -22,13 +22,15 @@ class TemporalEncoder(nn.Module):
     """(B, features, F) -> (B, channels): an expanding conv of width kernels[0], then one residual block per
     further kernel (a width-k stride-k conv and a 1x1 conv), each shortening time by k, down to one frame.
 
-    The residual path takes the centre frame of every k-frame stride window, so the output is aligned with
-    the centre of the receptive field.
+    The residual path takes the centre frame of every k-frame stride window (the last one when ``causal``),
+    so the output is aligned with the frame the network predicts.
     """
 
-    def __init__(self, in_features: int, channels: int, kernels: tuple[int, ...], dropout: float):
+    def __init__(self, in_features: int, channels: int, kernels: tuple[int, ...], dropout: float,
+                 causal: bool = False):
         super().__init__()
         self.kernels = tuple(kernels)
+        self.causal = causal
         self.receptive_field = receptive_field(self.kernels)
         self.expand = _conv_unit(in_features, channels, self.kernels[0], dropout)
         self.blocks = nn.ModuleList(
@@ -40,7 +42,7 @@ class TemporalEncoder(nn.Module):
             raise ValueError(f"TemporalEncoder: expected {self.receptive_field} frames, got {x.shape[-1]}")
         x = self.expand(x)
         for k, block in zip(self.kernels[1:], self.blocks):
-            x = x[..., k // 2::k] + block(x)
+            x = x[..., (k - 1 if self.causal else k // 2)::k] + block(x)
         return x[..., 0]
 
 

@@ -23,7 +23,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from ray3d.data.samples import Batch
+from ray3d.data.samples import Batch, target_frame
 from ray3d.geometry import transforms as tf
 from ray3d.models.blocks import CameraEmbedding, TemporalEncoder, mlp, receptive_field
 from ray3d.models.rie import RIEBackbone
@@ -52,6 +52,7 @@ class ModelConfig:
     dropout: float = 0.1
     fusion: bool = False
     remove_roll: bool = False  # gravity-aligned NCS: undo the camera roll too (the paper keeps it)
+    causal: bool = False       # predict the window's last frame from it and the frames before (live use)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kernels", tuple(self.kernels))
@@ -74,6 +75,10 @@ class ModelConfig:
     @property
     def frames(self) -> int:
         return receptive_field(self.kernels)
+
+    @property
+    def target_frame(self) -> int:
+        return target_frame(self.frames, self.causal)
 
     @property
     def input_channels(self) -> int:
@@ -134,7 +139,7 @@ class _Branch(nn.Module):
         c, h = config.channels, config.hidden
         if config.backbone == "rie":
             self.backbone = RIEBackbone(skeleton, config.input_channels, c, h, config.kernels, config.dropout,
-                                        config.fusion, extra)
+                                        config.fusion, extra, config.causal)
             groups = self.backbone.groups
             if outputs == "pose":
                 self.decoders = nn.ModuleDict({g: mlp(2 * c + camera, h, 3 * len(j), 1, config.dropout)
@@ -143,7 +148,8 @@ class _Branch(nn.Module):
                 self.head = mlp(c * (len(groups) + 1) + camera, h, root_outputs, 1, config.dropout)
         else:
             features = config.input_channels * skeleton.num_joints + extra
-            self.backbone = (TemporalEncoder(features, c, config.kernels, config.dropout) if config.backbone == "tcn"
+            self.backbone = (TemporalEncoder(features, c, config.kernels, config.dropout, config.causal)
+                             if config.backbone == "tcn"
                              else mlp(features, h, c, 2, config.dropout))
             self.head = mlp(c + camera, h, 3 * skeleton.num_joints if outputs == "pose" else root_outputs, 1,
                             config.dropout)
@@ -211,13 +217,13 @@ class LiftingNetwork(nn.Module):
         if self.config.root == "xyz":
             return out
         depth = torch.exp(out[:, 0]) * DEPTH_SCALE_M
-        centre = batch.rays.shape[1] // 2
+        target = self.config.target_frame
         if self.config.root == "focal_depth":
             depth = depth * batch.intrinsics[:, 0] / CANONICAL_FOCAL_PX
-            pixel = batch.pixels[:, centre, 0]
+            pixel = batch.pixels[:, target, 0]
             xy = (pixel - batch.intrinsics[:, 2:]) / batch.intrinsics[:, :2]
             return torch.cat([xy * depth[:, None], depth[:, None]], dim=-1)
-        ray = batch.rays[:, centre, 0]
+        ray = batch.rays[:, target, 0]
         if self.config.output_frame == "camera":
             return depth[:, None] * tf.rays_normalized_to_camera(ray, batch.camera_params[:, 1], self._roll(batch))
         origin = torch.stack([torch.zeros_like(depth), -batch.camera_params[:, 0], torch.zeros_like(depth)], -1)

@@ -18,6 +18,8 @@ PRESETS: dict[str, ModelConfig] = {
     # Ours: Ray3D with the root as a depth along its ray and the ground-plane features.
     "ray3d": ModelConfig(name="ray3d", **_LITE),
     "ray3d-paper": ModelConfig(name="ray3d-paper", **_PAPER),
+    # Live use: the window is the present frame and the 8 before it.
+    "ray3d-causal": ModelConfig(name="ray3d-causal", causal=True, **_LITE),
     # The paper's Ray3D exactly: root regressed as NCS xyz, no ground features.
     "ray3d-xyz": ModelConfig(name="ray3d-xyz", root="xyz", ground_features=False, **_LITE),
     # Ablations: no camera embedding; intrinsic decoupling only (camera-frame rays, no NCS).

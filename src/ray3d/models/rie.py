@@ -1,12 +1,14 @@
 """The RIE backbone (Shan et al. 2021), written from the description in the brief: per joint group a temporal
 encoder over the group's inputs plus positional (joint minus root) and temporal (frame minus centre frame)
-encodings; a global branch over the centre frame of all joints; optional feature fusion between groups."""
+encodings; a global branch over the centre frame of all joints; optional feature fusion between groups. A causal
+backbone uses the window's last frame where the centred one uses its centre."""
 
 from __future__ import annotations
 
 import torch
 from torch import nn
 
+from ray3d.data.samples import target_frame
 from ray3d.models.blocks import TemporalEncoder, mlp
 from ray3d.skeleton import GROUP_NAMES, Skeleton
 
@@ -15,17 +17,17 @@ class RIEBackbone(nn.Module):
     """(B, F, J, C) per-joint inputs -> per-group features {group: (B, channels)} and a global feature.
 
     Groups come from the skeleton's joint names (``Skeleton.groups``), so 17-, 14- and 15-joint layouts work.
-    The centre frame is ``F // 2``, the true middle of the (odd) receptive field.
+    The target frame is ``F // 2``, the true middle of the (odd) receptive field, or ``F - 1`` when ``causal``.
     """
 
     def __init__(self, skeleton: Skeleton, in_channels: int, channels: int, hidden: int, kernels: tuple[int, ...],
-                 dropout: float, fusion: bool, extra_features: int = 0):
+                 dropout: float, fusion: bool, extra_features: int = 0, causal: bool = False):
         super().__init__()
-        self.skeleton = skeleton
+        self.skeleton, self.causal = skeleton, causal
         self.groups = {g: list(skeleton.groups[g]) for g in GROUP_NAMES if skeleton.groups[g]}
         per_joint = 3 * in_channels  # input, positional encoding, temporal encoding
         self.encoders = nn.ModuleDict({
-            g: TemporalEncoder(per_joint * len(joints) + extra_features, channels, kernels, dropout)
+            g: TemporalEncoder(per_joint * len(joints) + extra_features, channels, kernels, dropout, causal)
             for g, joints in self.groups.items()})
         self.receptive_field = next(iter(self.encoders.values())).receptive_field
         self.global_branch = mlp(in_channels * skeleton.num_joints + extra_features, hidden, channels, 1, dropout)
@@ -35,10 +37,11 @@ class RIEBackbone(nn.Module):
         self.channels = channels
 
     def encodings(self, x: torch.Tensor) -> torch.Tensor:
-        """(B, F, J, C) -> (B, F, J, 3C): the input with its positional and temporal encodings."""
-        centre = x.shape[1] // 2
+        """(B, F, J, C) -> (B, F, J, 3C): the input with its positional and temporal (minus the target frame)
+        encodings."""
+        target = target_frame(x.shape[1], self.causal)
         positional = x - x[:, :, :1]
-        temporal = x - x[:, centre:centre + 1]
+        temporal = x - x[:, target:target + 1]
         return torch.cat([x, positional, temporal], dim=-1)
 
     def forward(self, x: torch.Tensor, extra: torch.Tensor | None = None) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
@@ -51,10 +54,10 @@ class RIEBackbone(nn.Module):
             if extra is not None:
                 group_input = torch.cat([group_input, extra], dim=-1)
             features[g] = self.encoders[g](group_input.transpose(1, 2))
-        centre = frames // 2
-        global_input = x[:, centre].reshape(batch, -1)
+        target = target_frame(frames, self.causal)
+        global_input = x[:, target].reshape(batch, -1)
         if extra is not None:
-            global_input = torch.cat([global_input, extra[:, centre]], dim=-1)
+            global_input = torch.cat([global_input, extra[:, target]], dim=-1)
         global_feature = self.global_branch(global_input)
         if self.fusion is not None:
             features = {g: f + self.fusion[g](torch.cat([features[o] for o in self.groups if o != g], dim=-1))
