@@ -1,16 +1,20 @@
-"""Camera set-up without a lab: the camera's pose from floor points with known positions (OpenCV solvePnP)."""
+"""Camera set-up without a lab: the camera's pose from floor points with known positions (OpenCV solvePnP), or
+its height, pitch, roll (and focal length) from a person walking on the floor."""
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 from pathlib import Path
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.json_files import read_json
+from ray3d.skeleton import H36M17, LAYOUTS, convert, convert_confidences
 
 MIN_FLOOR_POINTS = 4
 
@@ -65,3 +69,175 @@ def from_floor_points(floor_xy: np.ndarray, pixels: np.ndarray, intrinsics: Came
     camera = Camera(K, dist, rotation, tvec.ravel(), image_size, name)
     rms = float(np.sqrt(((camera.project(world) - pixels) ** 2).sum(-1).mean()))
     return camera, rms
+
+
+# Heights above the floor, as fractions of the person's stature, of the points on a standing person's vertical
+# axis that from_person uses. Measured on the training performers of the shipped mocap (upright frames, relative
+# to the head joint) and scaled by the head joint's height, 0.94 of stature (shoulders at 0.818 of stature,
+# Drillis & Contini 1966): the mid-ankle, the pelvis, the thorax and the H36M head joint.
+AXIS_HEIGHTS = {"ankles": 0.067, "pelvis": 0.525, "thorax": 0.851, "head": 0.940}
+ADULT_STATURE_SD_M = 0.07
+MIN_PERSON_FRAMES = 10
+_AXIS_JOINTS = {"ankles": ("l_ankle", "r_ankle"), "pelvis": ("pelvis",), "thorax": ("thorax",), "head": ("head",)}
+
+
+@dataclasses.dataclass(frozen=True)
+class PersonCalibration:
+    """A camera estimated from a walking person, with standard deviations (block bootstrap over the frames,
+    and for the height the uncertainty of the person's stature). The world frame is the floor below the
+    camera, x along the direction it looks, z up (as ``Camera.from_height_pitch``)."""
+
+    camera: Camera
+    height_m: float
+    pitch_deg: float
+    roll_deg: float
+    focal_px: float
+    height_sd_m: float
+    pitch_sd_deg: float
+    roll_sd_deg: float
+    focal_sd_px: float       # 0 when the focal length was given
+    rms_px: float            # reprojection error of the upright-body model over the frames used
+    frames_used: int
+
+    def to_dict(self) -> dict:
+        return {k: v for k, v in dataclasses.asdict(self).items() if k != "camera"}
+
+    def summary(self) -> str:
+        focal = (f"focal {self.focal_px:.0f} +- {self.focal_sd_px:.0f} px" if self.focal_sd_px > 0
+                 else f"focal {self.focal_px:.0f} px (given)")
+        return (f"camera height {self.height_m:.2f} +- {self.height_sd_m:.2f} m, pitch {self.pitch_deg:.1f} +- "
+                f"{self.pitch_sd_deg:.1f} deg, roll {self.roll_deg:.1f} +- {self.roll_sd_deg:.1f} deg, {focal}; "
+                f"model fit RMS {self.rms_px:.1f} px over {self.frames_used} frames")
+
+
+def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17") -> np.ndarray:
+    """(T, J, 2) keypoints -> (T, 4, 2) pixels of the mid-ankle, pelvis, thorax and head (NaN where missing)."""
+    if layout not in LAYOUTS:
+        raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
+    skeleton = LAYOUTS[layout]
+    keypoints = np.asarray(keypoints, dtype=np.float64)
+    if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
+        raise InputError(f"keypoints: expected (frames, {skeleton.num_joints}, 2) for layout {layout}, got "
+                         f"{keypoints.shape}")
+    seen = convert_confidences(np.isfinite(keypoints).all(-1).astype(np.float64), skeleton, "h36m17") > 0
+    pixels = np.where(seen[..., None], convert(np.nan_to_num(keypoints), skeleton, "h36m17"), np.nan)
+    return np.stack([pixels[:, [H36M17.index(j) for j in joints]].mean(1) for joints in _AXIS_JOINTS.values()], 1)
+
+
+def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1.70, focal_px: float | None = None,
+                layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
+                seed: int = 0, max_frames: int = 400) -> PersonCalibration:
+    """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints
+    (T, J, 2) of one person standing or walking on the floor, seen by a camera with square pixels and its
+    principal point at the image centre.
+
+    The model: in every frame the person's mid-ankle, pelvis, thorax and head lie on one vertical line at
+    fixed fractions of ``person_height`` (``AXIS_HEIGHTS``). For a candidate camera each point's ray meets the
+    horizontal plane at its height; the vertical line stands at the mean of those four floor positions, and
+    the four points on it are projected back; the parameters minimise the robust (soft L1) reprojection error
+    over the frames. Heights scale with the
+    assumed stature, angles do not. Frames where the person bends or sits fit the model badly and are
+    down-weighted by the robust loss; the more the person moves towards and away from the camera, the better
+    the focal length is determined.
+    """
+    width, height = _image_size(image_size)
+    axis = person_axis_pixels(keypoints, layout)
+    usable = np.isfinite(axis).all(axis=(1, 2))
+    if usable.sum() < MIN_PERSON_FRAMES:
+        raise InputError(f"keypoints: {int(usable.sum())} frame(s) show the ankles, hips, shoulders and head; at "
+                         f"least {MIN_PERSON_FRAMES} are needed")
+    if not 0.5 < person_height < 2.8:
+        raise InputError(f"person_height: expected the person's stature in metres (0.5-2.8), got {person_height}")
+    if focal_px is not None and not focal_px > 0:
+        raise InputError(f"focal_px: expected a positive focal length in pixels, got {focal_px}")
+    frames = np.flatnonzero(usable)
+    frames = frames[np.linspace(0, len(frames) - 1, min(len(frames), max_frames)).astype(int)]
+    axis = axis[frames]
+    problem = _PersonProblem(axis, (width, height), person_height, focal_px)
+    best = problem.solve_from_grid()
+    # Block bootstrap: frames close in time are not independent, so resample ten contiguous blocks.
+    rng = np.random.default_rng(seed)
+    blocks = np.array_split(np.arange(len(axis)), min(10, len(axis)))
+    estimates = []
+    for _ in range(bootstrap):
+        chosen = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
+        estimates.append(_PersonProblem(axis[chosen], (width, height), person_height, focal_px).solve(best.x))
+    spread = np.std(estimates, axis=0) if bootstrap > 1 else np.zeros_like(best.x)
+    pitch, roll, log_height = best.x[:3]
+    camera_height = float(np.exp(log_height))
+    focal = float(np.exp(best.x[3])) if focal_px is None else float(focal_px)
+    height_sd = camera_height * np.hypot(spread[2], person_height_sd / person_height)
+    camera = problem.camera(best.x)
+    residuals = problem.pixel_residuals(best.x)
+    return PersonCalibration(
+        camera=dataclasses.replace(camera, name="person-calibrated"), height_m=camera_height,
+        pitch_deg=float(np.degrees(pitch)), roll_deg=float(np.degrees(roll)), focal_px=focal,
+        height_sd_m=float(height_sd), pitch_sd_deg=float(np.degrees(spread[0])),
+        roll_sd_deg=float(np.degrees(spread[1])), focal_sd_px=float(focal * spread[3]) if focal_px is None else 0.0,
+        rms_px=float(np.sqrt(np.nanmean(residuals ** 2) * 2)), frames_used=len(axis))
+
+
+def _image_size(image_size) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in image_size)
+    except (TypeError, ValueError):
+        raise InputError(f"image_size: expected (width, height) in pixels, got {image_size!r}") from None
+    if width <= 0 or height <= 0:
+        raise InputError(f"image_size: expected positive (width, height), got {image_size!r}")
+    return width, height
+
+
+class _PersonProblem:
+    """The least-squares problem of ``from_person`` over parameters (pitch, roll, log height[, log focal])."""
+
+    def __init__(self, axis: np.ndarray, image_size: tuple[int, int], person_height: float, focal_px: float | None):
+        self.axis, self.image_size, self.focal_px = axis, image_size, focal_px
+        self.heights = person_height * np.array(list(AXIS_HEIGHTS.values()))
+        self.scale = 0.005 * float(np.hypot(*image_size))  # where the robust loss turns linear, pixels
+        width = image_size[0]
+        low = [np.radians(-30), np.radians(-45), np.log(0.2)]
+        high = [np.radians(89), np.radians(45), np.log(50.0)]
+        if focal_px is None:
+            low, high = low + [np.log(0.2 * width)], high + [np.log(10.0 * width)]
+        self.bounds = (np.array(low), np.array(high))
+
+    def camera(self, x: np.ndarray) -> Camera:
+        width, height = self.image_size
+        focal = np.exp(x[3]) if self.focal_px is None else self.focal_px
+        return Camera.from_pose([0.0, 0.0, np.exp(x[2])], 0.0, x[0], x[1], focal, focal, width / 2, height / 2,
+                                self.image_size)
+
+    def pixel_residuals(self, x: np.ndarray) -> np.ndarray:
+        """(T, 4, 2) predicted minus observed pixels of the mid-ankle, pelvis, thorax and head."""
+        camera = self.camera(x)
+        direction = camera.pixels_to_rays(self.axis, frame="camera") @ camera.R  # (T, 4, 3) world directions
+        centre = camera.center
+        # Each point's ray meets the horizontal plane at its height; the body's axis stands at their mean.
+        along = (self.heights - centre[2]) / direction[..., 2]
+        standing = (centre[:2] + along[..., None] * direction[..., :2]).mean(axis=1)
+        points = np.concatenate([np.repeat(standing[:, None], len(self.heights), axis=1),
+                                 np.broadcast_to(self.heights[None, :, None], (*along.shape, 1))], axis=-1)
+        residuals = camera.project(points) - self.axis
+        # A ray that never meets its plane in front of the camera: the candidate camera is wrong.
+        valid = (along > 0).all(axis=1)[:, None, None] & np.isfinite(residuals)
+        return np.where(valid, residuals, float(max(self.image_size)))
+
+    def solve(self, start: np.ndarray) -> np.ndarray:
+        return self._fit(start).x
+
+    def _fit(self, start: np.ndarray):
+        start = np.clip(start, self.bounds[0] + 1e-9, self.bounds[1] - 1e-9)
+        return least_squares(lambda x: self.pixel_residuals(x).ravel(), start, bounds=self.bounds,
+                             loss="soft_l1", f_scale=self.scale, x_scale="jac")
+
+    def solve_from_grid(self):
+        """The best of several starts (pitch, camera height and focal length spread over their usual ranges)."""
+        width = self.image_size[0]
+        focals = [None] if self.focal_px is not None else [0.6 * width, 1.2 * width]
+        fits = []
+        for pitch in np.radians([5.0, 20.0, 35.0, 50.0]):
+            for camera_height in (1.5, 3.0, 6.0):
+                for focal in focals:
+                    start = [pitch, 0.0, np.log(camera_height)] + ([] if focal is None else [np.log(focal)])
+                    fits.append(self._fit(np.array(start)))
+        return min(fits, key=lambda fit: fit.cost)

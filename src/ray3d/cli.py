@@ -241,6 +241,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     from ray3d.calibrate import from_floor_points, read_floor_points
     from ray3d.io.camera_files import save_cameras
 
+    if (args.floor_points is None) == (args.from_person is None):
+        raise InputError("calibrate: pass exactly one of --floor-points FILE and --from-person KEYPOINTS")
+    if args.from_person is not None:
+        return _calibrate_from_person(args)
     floor_xy, pixels = read_floor_points(args.floor_points)
     if args.intrinsics:
         from ray3d.io.camera_files import read_camera
@@ -258,6 +262,35 @@ def _calibrate(args: argparse.Namespace) -> int:
     save_cameras(args.out, [camera], overwrite=args.force, reprojection_rms_px=rms)
     print(f"camera height {camera.camera_height:.3f} m, pitch {np.degrees(camera.pitch):.2f} deg, roll "
           f"{np.degrees(camera.roll):.2f} deg; reprojection RMS {rms:.2f} px over {len(pixels)} floor points -> {args.out}")
+    return 0
+
+
+def _calibrate_from_person(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ray3d.calibrate import from_person
+    from ray3d.geometry.camera import focal_from_hfov
+    from ray3d.io.camera_files import save_cameras
+    from ray3d.io.keypoints import read_keypoints
+
+    if args.image_size is None:
+        raise InputError("calibrate --from-person: pass --image-size WIDTHxHEIGHT (and --focal or --hfov if known)")
+    if args.focal is not None and args.hfov is not None:
+        raise InputError("calibrate --from-person: pass at most one of --focal and --hfov")
+    image_size = _image_size(args.image_size)
+    focal = args.focal or (focal_from_hfov(image_size[0], args.hfov) if args.hfov is not None else None)
+    keypoints = read_keypoints(args.from_person, args.layout)
+    tracks = keypoints.by_track()
+    track = args.track if args.track is not None else max(tracks, key=lambda t: len(tracks[t][0]))
+    if track not in tracks:
+        raise InputError(f"{args.from_person}: no track {track!r}; tracks: {', '.join(map(str, tracks))}")
+    _, pixels, confidences = tracks[track]
+    if confidences is not None:
+        pixels = np.where((confidences > 0)[..., None], pixels, np.nan)
+    result = from_person(pixels, image_size, args.person_height, focal, keypoints.layout)
+    save_cameras(args.out, [result.camera], overwrite=args.force, calibration="from person",
+                 person_height_m=args.person_height, track=str(track), **result.to_dict())
+    print(f"{result.summary()} (person {args.person_height:.2f} m tall, track {track}) -> {args.out}")
     return 0
 
 
@@ -331,6 +364,19 @@ def _bench_robustness(args: argparse.Namespace) -> int:
     files = write(sweeps, args.out)
     print(f"{len(sweeps)} sweeps x {len(args.models)} methods on {clips.num_clips} test clips -> {len(files)} files "
           f"in {args.out} (see {args.out / 'summary.md'})")
+    return 0
+
+
+def _bench_calibration(args: argparse.Namespace) -> int:
+    from ray3d.bench.calibration import run, write
+    from ray3d.data import motion as motion_data
+    from ray3d.lift import Lifter
+
+    rows = run(motion_data.load_shipped(args.data_dir, "test"), Lifter.load(args.checkpoint), args.pairs, args.seed,
+               args.bootstrap)
+    files = write(rows, args.out)
+    print((args.out / "calibration.md").read_text())
+    print(f"{len(rows)} estimates -> {', '.join(map(str, files))}")
     return 0
 
 
@@ -479,6 +525,15 @@ def build_parser() -> argparse.ArgumentParser:
     robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
     robustness.add_argument("--data-dir", help=data_dir_help)
     robustness.set_defaults(handler=_bench_robustness)
+    calibration = bench_commands.add_parser("calibration", help="camera estimation from a walking person: errors "
+                                                                "and their cost to Ray3D (CSV, JSON, markdown)")
+    calibration.add_argument("--out", required=True, type=Path, help="folder for calibration.{csv,json,md}")
+    calibration.add_argument("--pairs", type=int, default=12, help="random (camera, walking clip) pairs")
+    calibration.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
+    calibration.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    calibration.add_argument("--seed", type=int, default=0)
+    calibration.add_argument("--data-dir", help=data_dir_help)
+    calibration.set_defaults(handler=_bench_calibration)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
     speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")
@@ -489,11 +544,19 @@ def build_parser() -> argparse.ArgumentParser:
     speed_bench.add_argument("--force", action="store_true", help="replace --json if it exists")
     speed_bench.set_defaults(handler=_bench_speed)
 
-    calibrate = commands.add_parser("calibrate", help="a camera's pose from floor points with known positions")
-    calibrate.add_argument("--floor-points", required=True, type=Path,
+    calibrate = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
+                                                      "person walking on the floor")
+    calibrate.add_argument("--floor-points", type=Path,
                            help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
+    calibrate.add_argument("--from-person", type=Path, metavar="KEYPOINTS",
+                           help="instead of --floor-points: 2D keypoints of one person standing or walking on the "
+                                "floor (any format ray3d lift reads); estimates height, pitch, roll (and focal)")
+    calibrate.add_argument("--person-height", type=float, default=1.70,
+                           help="with --from-person: the person's stature in metres (default 1.70)")
+    calibrate.add_argument("--track", help="with --from-person: which track (default: the longest)")
+    calibrate.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
     calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
-    _add_lens_arguments(calibrate, "instead of --intrinsics")
+    _add_lens_arguments(calibrate, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
     calibrate.add_argument("--out", required=True, type=Path, help="camera JSON to write")
     calibrate.add_argument("--force", action="store_true", help="replace --out if it exists")
     calibrate.set_defaults(handler=_calibrate)

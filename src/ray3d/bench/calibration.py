@@ -1,0 +1,169 @@
+"""How well ``ray3d.calibrate.from_person`` recovers a camera, and what its errors cost Ray3D: the test
+performers' walking clips seen by random virtual cameras, GT 2D (clean or noisy), the camera estimated from
+the person, then the clip lifted with the estimated camera and with the true one.
+
+Both liftings are compared with the truth in the floor frame below the camera (x along the direction it looks,
+z up): the only world frame a camera estimated from a person can define, and the one ``Camera.from_height_pitch``
+uses. The person's "true" stature is their upright head-joint height over ``AXIS_HEIGHTS["head"]``.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ray3d import metrics
+from ray3d.calibrate import AXIS_HEIGHTS, from_person
+from ray3d.data.motion import MotionSet
+from ray3d.data.virtual_cameras import centre_clip, in_image
+from ray3d.geometry import Camera
+from ray3d.geometry.camera import focal_from_hfov
+from ray3d.io.atomic import atomic_path
+
+IMAGE_SIZE = (1920, 1080)
+# name -> (focal length given, stature given as the person's own (else the 1.70 m default), 2D noise in px)
+CASES = {
+    "focal known, true stature": (True, True, 0.0),
+    "focal known, true stature, 2 px noise": (True, True, 2.0),
+    "focal known, stature 1.70 m": (True, False, 0.0),
+    "focal unknown, true stature": (False, True, 0.0),
+}
+ERRORS = ("pitch_error_deg", "roll_error_deg", "height_error_pct", "focal_error_pct", "abs_mpjpe_mm", "mrpe_mm",
+          "abs_mpjpe_true_camera_mm", "mrpe_true_camera_mm")
+
+
+@dataclasses.dataclass(frozen=True)
+class CameraRange:
+    """Where the random evaluation cameras are: height (m), pitch and roll (deg), horizontal field of view (deg)
+    and horizontal distance to the clip's centre (m)."""
+
+    height_m: tuple[float, float] = (1.5, 4.0)
+    pitch_deg: tuple[float, float] = (5.0, 40.0)
+    roll_deg: tuple[float, float] = (-5.0, 5.0)
+    hfov_deg: tuple[float, float] = (50.0, 80.0)
+    distance_m: tuple[float, float] = (4.0, 10.0)
+
+
+def walking_clips(motion: MotionSet, min_frames: int = 120) -> list[np.ndarray]:
+    """The clips described as walking, centred in the floor plane, (T, 17, 3) each."""
+    chosen = [i for i, text in enumerate(motion.clips["description"])
+              if "walk" in str(text).lower() and motion.clip_lengths()[i] >= min_frames]
+    return [centre_clip(motion.clip(i).astype(np.float64)) for i in chosen]
+
+
+def stature(clip: np.ndarray) -> float:
+    """The person's stature in the model of ``from_person``: the median head-joint height over the fraction."""
+    return float(np.median(clip[:, 10, 2]) / AXIS_HEIGHTS["head"])
+
+
+def random_camera(clip: np.ndarray, rng: np.random.Generator, ranges: CameraRange = CameraRange(),
+                  attempts: int = 100) -> Camera | None:
+    """A camera looking at the clip's centre that sees every joint of every frame, or None."""
+    for _ in range(attempts):
+        distance, yaw = rng.uniform(*ranges.distance_m), rng.uniform(-np.pi, np.pi)
+        centre = [-distance * np.cos(yaw), -distance * np.sin(yaw), rng.uniform(*ranges.height_m)]
+        focal = focal_from_hfov(IMAGE_SIZE[0], rng.uniform(*ranges.hfov_deg))
+        camera = Camera.from_pose(centre, yaw, np.radians(rng.uniform(*ranges.pitch_deg)),
+                                  np.radians(rng.uniform(*ranges.roll_deg)), focal, focal, IMAGE_SIZE[0] / 2,
+                                  IMAGE_SIZE[1] / 2, IMAGE_SIZE)
+        if in_image(camera, clip):
+            return camera
+    return None
+
+
+def floor_frame(camera: Camera) -> Camera:
+    """``camera`` moved, with its view, so that the world is the floor below it and it looks along +x."""
+    focal = camera.K[0, 0]
+    return Camera.from_pose([0.0, 0.0, camera.camera_height], 0.0, camera.pitch, camera.roll, focal, camera.K[1, 1],
+                            camera.K[0, 2], camera.K[1, 2], camera.image_size, camera.dist, camera.name)
+
+
+def run(motion: MotionSet, lifter, pairs: int = 12, seed: int = 0, bootstrap: int = 30,
+        ranges: CameraRange = CameraRange(), cases: dict = CASES) -> list[dict]:
+    """One row per (camera, clip, case) with the estimate, its standard deviations and errors."""
+    rng = np.random.default_rng(seed)
+    clips = walking_clips(motion)
+    if not clips:
+        raise ValueError("no walking clips (description containing 'walk', at least 120 frames) to evaluate on")
+    rows = []
+    for pair in range(pairs):
+        clip = clips[pair % len(clips)]
+        camera = random_camera(clip, rng, ranges)
+        if camera is None:
+            continue
+        truth = floor_frame(camera).camera_to_world(camera.world_to_camera(clip))
+        clean = camera.project(clip)
+        true_lift = lifter.lift(clean, floor_frame(camera)).joints
+        for case, (focal_known, stature_known, noise_px) in cases.items():
+            pixels = clean + rng.normal(0.0, noise_px, clean.shape) if noise_px else clean
+            estimate = from_person(pixels, IMAGE_SIZE, stature(clip) if stature_known else 1.70,
+                                   camera.K[0, 0] if focal_known else None, bootstrap=bootstrap, seed=pair)
+            lifted = lifter.lift(pixels, estimate.camera).joints
+            reference = lifter.lift(pixels, floor_frame(camera)).joints if noise_px else true_lift
+            rows.append({
+                "pair": pair, "case": case, "frames": len(clip), "stature_m": stature(clip),
+                "true_height_m": camera.camera_height, "true_pitch_deg": float(np.degrees(camera.pitch)),
+                "true_roll_deg": float(np.degrees(camera.roll)), "true_focal_px": float(camera.K[0, 0]),
+                **{f"estimated_{k}": v for k, v in estimate.to_dict().items()},
+                "pitch_error_deg": estimate.pitch_deg - float(np.degrees(camera.pitch)),
+                "roll_error_deg": estimate.roll_deg - float(np.degrees(camera.roll)),
+                "height_error_pct": 100 * (estimate.height_m / camera.camera_height - 1),
+                "focal_error_pct": 100 * (estimate.focal_px / camera.K[0, 0] - 1),
+                "abs_mpjpe_mm": 1e3 * float(metrics.abs_mpjpe(lifted, truth)),
+                "mrpe_mm": 1e3 * float(metrics.mrpe(lifted, truth)),
+                "abs_mpjpe_true_camera_mm": 1e3 * float(metrics.abs_mpjpe(reference, truth)),
+                "mrpe_true_camera_mm": 1e3 * float(metrics.mrpe(reference, truth)),
+            })
+    return rows
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Per case: median and 90th percentile of each absolute error, and how often the truth lies within two
+    estimated standard deviations (pitch, height)."""
+    summary = {}
+    for case in dict.fromkeys(r["case"] for r in rows):
+        chosen = [r for r in rows if r["case"] == case]
+        entry = {"pairs": len(chosen)}
+        for key in ERRORS:
+            values = np.abs([r[key] for r in chosen])
+            entry[key] = {"median": float(np.median(values)), "p90": float(np.percentile(values, 90))}
+        entry["pitch_within_2sd"] = float(np.mean([abs(r["pitch_error_deg"]) <= 2 * r["estimated_pitch_sd_deg"]
+                                                   for r in chosen]))
+        entry["height_within_2sd"] = float(np.mean([
+            abs(r["estimated_height_m"] - r["true_height_m"]) <= 2 * r["estimated_height_sd_m"] for r in chosen]))
+        summary[case] = entry
+    return summary
+
+
+def write(rows: list[dict], out_dir: str | Path) -> list[Path]:
+    """``calibration.csv`` (every row), ``calibration.json`` (the summary) and ``calibration.md`` (its table)."""
+    out_dir = Path(out_dir)
+    summary = summarise(rows)
+    with atomic_path(out_dir / "calibration.csv", overwrite=True) as temporary, temporary.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    with atomic_path(out_dir / "calibration.json", overwrite=True) as temporary:
+        temporary.write_text(json.dumps(summary, indent=1))
+    lines = ["| case | pairs | pitch err (deg) | roll err (deg) | height err (%) | focal err (%) | pitch / height "
+             "within 2 sd | Abs-MPJPE estimated / true camera (mm) | MRPE estimated / true camera (mm) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for case, s in summary.items():
+        def cell(key: str) -> str:
+            return f"{s[key]['median']:.2f} ({s[key]['p90']:.2f})"
+
+        focal = cell("focal_error_pct") if not CASES.get(case, (True,))[0] else "given"
+        lines.append(f"| {case} | {s['pairs']} | {cell('pitch_error_deg')} | {cell('roll_error_deg')} | "
+                     f"{cell('height_error_pct')} | {focal} | {100 * s['pitch_within_2sd']:.0f}% / "
+                     f"{100 * s['height_within_2sd']:.0f}% | {s['abs_mpjpe_mm']['median']:.0f} / "
+                     f"{s['abs_mpjpe_true_camera_mm']['median']:.0f} | {s['mrpe_mm']['median']:.0f} / "
+                     f"{s['mrpe_true_camera_mm']['median']:.0f} |")
+    lines.append("\nErrors are absolute: median (90th percentile) over the (camera, clip) pairs; the last two columns "
+                 "are medians.")
+    with atomic_path(out_dir / "calibration.md", overwrite=True) as temporary:
+        temporary.write_text("\n".join(lines) + "\n")
+    return [out_dir / f"calibration.{suffix}" for suffix in ("csv", "json", "md")]
