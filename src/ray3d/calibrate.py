@@ -85,7 +85,11 @@ _AXIS_JOINTS = {"ankles": ("l_ankle", "r_ankle"), "pelvis": ("pelvis",), "thorax
 class PersonCalibration:
     """A camera estimated from a walking person, with standard deviations (block bootstrap over the frames,
     and for the height the uncertainty of the person's stature). The world frame is the floor below the
-    camera, x along the direction it looks, z up (as ``Camera.from_height_pitch``)."""
+    camera, x along the direction it looks, z up (as ``Camera.from_height_pitch``).
+
+    The bootstrap measures how consistently the frames agree, not how far a person's posture and proportions
+    depart from the upright model: on walking mocap the true pitch lay within two standard deviations in only
+    about a third to a half of the cases (``ray3d bench calibration``, docs/RESULTS.md)."""
 
     camera: Camera
     height_m: float

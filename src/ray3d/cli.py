@@ -179,7 +179,7 @@ def _export(args: argparse.Namespace) -> int:
 
     if args.onnx:
         from ray3d.io.atomic import atomic_path
-        from ray3d.models.onnx_backend import export_onnx
+        from ray3d.models.backends import export_onnx
 
         with atomic_path(args.out, overwrite=args.force) as temporary:
             export_onnx(load_model(args.checkpoint)[0], str(temporary), args.image_width)

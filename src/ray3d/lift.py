@@ -65,7 +65,7 @@ class Lifter:
         if isinstance(model, LiftingNetwork):
             self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
             self.model = model.eval().to(self.device)
-        else:  # the ONNX Runtime backend runs on the CPU
+        else:  # the TorchScript and ONNX Runtime backends run on the CPU
             self.device, self.model = torch.device("cpu"), model
 
     @classmethod
@@ -73,16 +73,19 @@ class Lifter:
              image_width: float = 1000.0) -> Lifter:
         """A shipped model by name (``ray3d``, ``videopose3d``, ``rie``, ...) or a checkpoint path.
 
-        ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``); pixel-input models are
-        exported for images ``image_width`` pixels wide.
+        ``backend="torchscript"`` runs a frozen TorchScript trace on the CPU (lowest latency with torch alone:
+        live use); ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``). Pixel-input
+        models are then built for images ``image_width`` pixels wide.
         """
         model, document = load_model(name_or_path)
-        if backend == "onnx":
-            from ray3d.models.onnx_backend import OnnxLiftingModel
+        if backend in ("torchscript", "onnx"):
+            from ray3d.models import backends
 
-            return cls(OnnxLiftingModel(model, image_width), document)
+            runner = (backends.TorchScriptLiftingModel(model, image_width) if backend == "torchscript"
+                      else backends.OnnxLiftingModel(model, image_width))
+            return cls(runner, document)
         if backend != "torch":
-            raise InputError(f"unknown backend {backend!r}; 'torch' or 'onnx'")
+            raise InputError(f"unknown backend {backend!r}; 'torch', 'torchscript' or 'onnx'")
         return cls(model, document, device=device)
 
     @property

@@ -53,17 +53,22 @@ def _inference_times(run, model: LiftingNetwork, repeats: int, batch_size: int, 
                 median_seconds(lambda: [run(c) for c in chunks], max(1, repeats // 2), warmup=1))
 
 
-def measure_onnx(name: str, repeats: int = 5, batch_size: int = 1024, sequence_frames: int = 10_000) -> dict | None:
-    """The same inference figures through ONNX Runtime; None when the onnx extra is not installed."""
-    try:
-        from ray3d.models.onnx_backend import OnnxLiftingModel
+def measure_backend(name: str, backend: str, repeats: int = 5, batch_size: int = 1024,
+                    sequence_frames: int = 10_000) -> dict | None:
+    """The same inference figures through ``backend`` ("torchscript" or "onnxruntime"); None when ONNX Runtime
+    is asked for and the onnx extra is not installed."""
+    from ray3d.models.backends import OnnxLiftingModel, TorchScriptLiftingModel
 
-        model = LiftingNetwork(PRESETS[name]).eval()
-        runtime = OnnxLiftingModel(model, threads=torch.get_num_threads())
-    except Exception:  # the optional extra is missing: the torch rows stand alone
-        return None
+    model = LiftingNetwork(PRESETS[name]).eval()
+    if backend == "torchscript":
+        runtime = TorchScriptLiftingModel(model)
+    else:
+        try:
+            runtime = OnnxLiftingModel(model, threads=torch.get_num_threads())
+        except Exception:  # the optional extra is missing: the other rows stand alone
+            return None
     batch_s, latency_s, sequence_s = _inference_times(runtime, model, repeats, batch_size, sequence_frames)
-    return {"model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": "onnxruntime",
+    return {"model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": backend,
             "params": count_parameters(model), "mflops_per_frame": flops_per_frame(model) / 1e6,
             "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
             "latency_ms": 1e3 * latency_s, "train_samples_per_s": None}
@@ -106,10 +111,12 @@ def measure_all(models: list[str] | None = None, repeats: int = 5, **sizes) -> d
     records = []
     for name in models or list(PRESETS):
         records.append(measure_model(name, repeats, peak_gflops=best, **sizes))
-        onnx = measure_onnx(name, repeats, sizes.get("batch_size", 1024), sizes.get("sequence_frames", 10_000))
-        if onnx is not None:
-            onnx["fraction_of_peak"] = onnx["batch_frames_per_s"] * onnx["mflops_per_frame"] * 1e6 / 1e9 / best
-            records.append(onnx)
+        for backend in ("torchscript", "onnxruntime"):
+            record = measure_backend(name, backend, repeats, sizes.get("batch_size", 1024),
+                                     sizes.get("sequence_frames", 10_000))
+            if record is not None:
+                record["fraction_of_peak"] = record["batch_frames_per_s"] * record["mflops_per_frame"] * 1e6 / 1e9 / best
+                records.append(record)
     return {"matmul_peak_gflops": best, "matmul_paths_gflops": peak, "torch_threads": torch.get_num_threads(),
             "models": records}
 

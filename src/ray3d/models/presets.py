@@ -1,7 +1,10 @@
 """Named model configurations: Ray3D (``lite`` and ``paper`` sizes), its ablations and the baselines.
 
-Sizes: ``lite`` trains on 2 CPU cores in about an hour; ``paper`` has the reference's 256 conv channels and
-1024 hidden units. The learned baselines use the lite budget so comparisons are like for like.
+Sizes: ``lite`` trains on 2 CPU cores in about an hour; ``paper`` is the reference implementation's size
+(46 M parameters, ~96 MFLOPs per frame for pose and trajectory networks together; the reference has ~46 M and
+~92 MFLOPs): 1024 hidden units as the reference, and 640 conv channels because our per-group encoders and fusion
+are laid out differently from its 256-channel ones. The learned baselines use the lite budget so comparisons are
+like for like.
 """
 
 from __future__ import annotations
@@ -11,7 +14,7 @@ import dataclasses
 from ray3d.models.network import ModelConfig
 
 _LITE = dict(channels=128, hidden=256, kernels=(3, 3), dropout=0.1)
-_PAPER = dict(channels=256, hidden=1024, kernels=(3, 3), dropout=0.2, fusion=True)
+_PAPER = dict(channels=640, hidden=1024, kernels=(3, 3), dropout=0.2, fusion=True)
 _BASELINE = dict(camera_embedding=False, output_frame="camera", root="xyz", ground_features=False)
 
 PRESETS: dict[str, ModelConfig] = {

@@ -1,0 +1,111 @@
+"""Inference backends with the ``LiftingNetwork`` interface (``predict``, ``to_world``, ``config``): a frozen
+TorchScript trace (batch-norm folded, no Python per layer: the low-latency path with torch alone), and ONNX
+export with an ONNX Runtime backend (optional extra: ``pip install ray3d[onnx]``)."""
+
+from __future__ import annotations
+
+import io
+import warnings
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ray3d.errors import InputError
+from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world, predict_with_flip
+
+INPUT_NAMES = ("pixels", "rays", "camera_params", "intrinsics", "roll")
+OUTPUT_NAMES = ("pose", "root")
+
+
+class _TensorInputs(torch.nn.Module):
+    """The network with plain tensor inputs, as ONNX needs them."""
+
+    def __init__(self, model: LiftingNetwork, image_width: float):
+        super().__init__()
+        self.model, self.image_width = model, image_width
+
+    def forward(self, pixels, rays, camera_params, intrinsics, roll):
+        return self.model(TensorBatch(pixels, rays, camera_params, intrinsics, roll, self.image_width))
+
+
+def _example_inputs(model: LiftingNetwork, image_width: float) -> tuple[torch.Tensor, ...]:
+    frames, joints = model.receptive_field, model.skeleton.num_joints
+    return (torch.rand(2, frames, joints, 2) * image_width, torch.randn(2, frames, joints, 3) * 0.2 + torch.tensor(
+        [0.0, 0.3, 1.0]), torch.tensor([[1.5, 0.2], [2.0, 0.3]]), torch.tensor([[1000.0, 1000, 500, 500]] * 2),
+            torch.zeros(2))
+
+
+class _Backend:
+    """What every backend shares: flip-test prediction and the way back to the world."""
+
+    def __init__(self, model: LiftingNetwork, image_width: float):
+        self.config, self.skeleton, self.receptive_field = model.config, model.skeleton, model.receptive_field
+        self.image_width = image_width
+
+    def _check_width(self, batch: TensorBatch) -> None:
+        if batch.image_width != self.image_width:
+            raise InputError(f"this {type(self).__name__} was built for {self.image_width:g}-pixel-wide images, got "
+                             f"{batch.image_width:g}")
+
+    def predict(self, batch: TensorBatch, flip_test: bool = False):
+        return predict_with_flip(self, self.skeleton, batch, flip_test)
+
+    def to_world(self, points: torch.Tensor, cameras, camera_params: torch.Tensor) -> torch.Tensor:
+        return frame_to_world(points, self.config.output_frame, cameras, camera_params, self.config.remove_roll)
+
+
+class TorchScriptLiftingModel(_Backend):
+    """A ``LiftingNetwork`` traced and frozen by TorchScript (CPU)."""
+
+    def __init__(self, model: LiftingNetwork, image_width: float = 1000.0):
+        super().__init__(model, image_width)
+        with torch.no_grad(), warnings.catch_warnings():
+            warnings.simplefilter("ignore", category=torch.jit.TracerWarning)
+            warnings.simplefilter("ignore", category=DeprecationWarning)
+            traced = torch.jit.trace(_TensorInputs(model.eval().cpu(), image_width).eval(),
+                                     _example_inputs(model, image_width), check_trace=False)
+            self.module = torch.jit.freeze(traced)
+
+    def __call__(self, batch: TensorBatch) -> tuple[torch.Tensor, torch.Tensor]:
+        self._check_width(batch)
+        with torch.no_grad():
+            return self.module(*(getattr(batch, n).cpu() for n in INPUT_NAMES))
+
+
+def export_onnx(model: LiftingNetwork, target: str | Path | io.BytesIO, image_width: float = 1000.0) -> None:
+    """Write ``model`` as ONNX (batch axis dynamic). Pixel-input models bake in ``image_width``."""
+    model = model.eval().cpu()
+    example = _example_inputs(model, image_width)
+    # The trace warns about the window-length checks (the receptive field is fixed by design) and about the
+    # TorchScript exporter, chosen because the torch.export one needs onnxscript as well.
+    with torch.no_grad(), warnings.catch_warnings():
+        warnings.simplefilter("ignore", category=torch.jit.TracerWarning)
+        warnings.simplefilter("ignore", category=DeprecationWarning)
+        torch.onnx.export(_TensorInputs(model, image_width), example, target, input_names=list(INPUT_NAMES),
+                          output_names=list(OUTPUT_NAMES), dynamic_axes={n: {0: "batch"} for n in INPUT_NAMES + OUTPUT_NAMES},
+                          opset_version=17, dynamo=False)
+
+
+class OnnxLiftingModel(_Backend):
+    """A ``LiftingNetwork`` run by ONNX Runtime."""
+
+    def __init__(self, model: LiftingNetwork, image_width: float = 1000.0, threads: int | None = None):
+        try:
+            import onnxruntime
+        except ImportError:
+            raise InputError("the ONNX backend needs onnxruntime: pip install 'ray3d[onnx]'") from None
+        super().__init__(model, image_width)
+        buffer = io.BytesIO()
+        export_onnx(model, buffer, image_width)
+        options = onnxruntime.SessionOptions()
+        if threads:
+            options.intra_op_num_threads = threads
+        self.session = onnxruntime.InferenceSession(buffer.getvalue(), options, providers=["CPUExecutionProvider"])
+        self.inputs = [i.name for i in self.session.get_inputs()]  # the exporter drops inputs a model never reads
+
+    def __call__(self, batch: TensorBatch) -> tuple[torch.Tensor, torch.Tensor]:
+        self._check_width(batch)
+        values = {n: getattr(batch, n).detach().cpu().numpy().astype(np.float32) for n in self.inputs}
+        pose, root = self.session.run(list(OUTPUT_NAMES), values)
+        return torch.from_numpy(pose), torch.from_numpy(root)
