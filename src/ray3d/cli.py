@@ -216,7 +216,7 @@ def _camera_from_args(args: argparse.Namespace):
     if args.camera:
         return read_camera(args.camera)
     if args.camera_height is None or args.pitch is None or args.image_size is None:
-        raise InputError("lift: pass --camera FILE, or --camera-height, --pitch, --image-size and --hfov or --focal")
+        raise InputError("pass --camera FILE, or --camera-height, --pitch, --image-size and --hfov or --focal")
     return Camera.from_height_pitch(args.camera_height, args.pitch, _image_size(args.image_size), args.roll,
                                     args.focal, args.hfov)
 
@@ -229,10 +229,25 @@ def _image_size(text: str) -> tuple[int, int]:
     return width, height
 
 
-def _add_lens_arguments(parser: argparse.ArgumentParser, role: str) -> None:
+def _add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_note: str = "") -> None:
     parser.add_argument("--hfov", type=float, help=f"{role}: horizontal field of view in degrees")
     parser.add_argument("--focal", type=float, help=f"{role}: focal length in pixels (instead of --hfov)")
-    parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels")
+    parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels{image_size_note}")
+
+
+def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "") -> None:
+    parser.add_argument("--camera", help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
+    parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
+    parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
+    parser.add_argument("--roll", type=float, default=0.0, help="with --pitch: camera roll in degrees (default 0)")
+    _add_lens_arguments(parser, "with --pitch", image_size_note)
+
+
+def _add_lifting_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--checkpoint", default="ray3d", help="shipped model name or checkpoint path (default ray3d)")
+    parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
+    parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
+    parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
 
 
 def _calibrate(args: argparse.Namespace) -> int:
@@ -262,6 +277,26 @@ def _calibrate(args: argparse.Namespace) -> int:
     save_cameras(args.out, [camera], overwrite=args.force, reprojection_rms_px=rms)
     print(f"camera height {camera.camera_height:.3f} m, pitch {np.degrees(camera.pitch):.2f} deg, roll "
           f"{np.degrees(camera.roll):.2f} deg; reprojection RMS {rms:.2f} px over {len(pixels)} floor points -> {args.out}")
+    return 0
+
+
+def _video(args: argparse.Namespace) -> int:
+    from ray3d.lift import Lifter
+    from ray3d.video import lift_video, make_detector, read_video_info
+
+    info = read_video_info(args.input)
+    if args.camera is None and args.image_size is None:
+        args.image_size = f"{info.image_size[0]}x{info.image_size[1]}"
+    camera = _camera_from_args(args)
+    detector = make_detector(args.detector)
+    result = lift_video(args.input, camera, args.out, detector, Lifter.load(args.checkpoint), fps=args.fps,
+                        world_format=args.format, overlay=not args.no_overlay, overwrite=args.force,
+                        smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d, flip_test=args.flip_test)
+    found = int((result.confidences > 0).any(axis=1).sum())
+    print(f"{args.input}: {len(result.keypoints)} frames, a person found in {found}; "
+          f"{100 * result.lifted.missing_fraction:.1f}% of joints filled in from neighbouring frames")
+    for role, path in result.files.items():
+        print(f"  {role:<10}{path}")
     return 0
 
 
@@ -485,23 +520,30 @@ def build_parser() -> argparse.ArgumentParser:
     lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
     lift.add_argument("--keypoints", required=True, type=Path,
                       help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
-    lift.add_argument("--camera", help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
-    lift.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
-    lift.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
-    lift.add_argument("--roll", type=float, default=0.0, help="with --pitch: camera roll in degrees (default 0)")
-    _add_lens_arguments(lift, "with --pitch")
+    _add_camera_arguments(lift)
     lift.add_argument("--out", required=True, type=Path, help="output .json, .csv or .npz")
     lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
     lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
-    lift.add_argument("--checkpoint", default="ray3d", help="shipped model name or checkpoint path (default ray3d)")
-    lift.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
-    lift.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
-    lift.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    _add_lifting_arguments(lift)
     lift.add_argument("--subject", help="VideoPose3D npz: the subject")
     lift.add_argument("--action", help="VideoPose3D npz: the action")
     lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
     lift.add_argument("--force", action="store_true", help="replace --out if it exists")
     lift.set_defaults(handler=_lift)
+
+    video = commands.add_parser("video", help="a video -> 2D detections -> world 3D, viewer and overlay video "
+                                              "(pip install 'ray3d[video]')")
+    video.add_argument("input", type=Path, help="the video file (anything OpenCV reads: .mp4, .avi, ...)")
+    _add_camera_arguments(video, image_size_note=" (default: the video's)")
+    video.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
+                                                                "overlay.mp4")
+    video.add_argument("--detector", default="mediapipe", help="2D detector (default mediapipe)")
+    video.add_argument("--format", choices=[".json", ".csv", ".npz"], default=".json", help="world file format")
+    video.add_argument("--fps", type=float, help="override the frame rate the video reports")
+    video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
+    _add_lifting_arguments(video)
+    video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
+    video.set_defaults(handler=_video)
 
     viz = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift)")
     viz.add_argument("world", nargs="+", type=Path, help="world outputs of ray3d lift (.json/.csv/.npz): one per method")

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Evaluate the models of benchmarks/train_tables.sh (test performers, GT 2D, every 8th frame) and print the
+# ablation, 1-frame vs 9-frame, causal vs centred and cross-data tables of docs/RESULTS.md.
+#   bash benchmarks/paper_tables.sh [RUNS_DIR] [OUT_DIR]
+set -euo pipefail
+runs=${1:-runs/tables}
+out=${2:-results/tables}
+mkdir -p "$out"
+evaluate() {  # NAME CAMERAS [extra evaluate arguments]; skips what exists
+  local name=$1 cameras=$2; shift 2
+  local file="$out/$name@$cameras${1:+@${*// /}}.json"
+  [ -f "$file" ] || .venv/bin/ray3d evaluate --checkpoint "$runs/$name/best.safetensors" --cameras "$cameras" \
+    --frame-stride 8 --json "$file" "$@" > /dev/null
+}
+for name in rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal; do
+  [ -f "$runs/$name/best.safetensors" ] || continue
+  for cameras in h36m extrinsic-test; do evaluate "$name" "$cameras"; done
+done
+for name in ray3d ray3d-cmu ray3d-hdm05; do
+  [ -f "$runs/$name/best.safetensors" ] || continue
+  for dataset in cmu hdm05; do evaluate "$name" extrinsic-test --datasets "$dataset" --joints h36m14; done
+done
+.venv/bin/python benchmarks/paper_tables.py "$out"
