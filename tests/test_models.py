@@ -89,10 +89,31 @@ def test_centre_frame_drives_the_global_branch_and_the_temporal_encoding():
         assert not torch.equal(backbone(centre)[1], global_a)
 
 
-def test_temporal_encoder_aligns_its_residual_with_the_centre():
-    encoder = TemporalEncoder(2, 4, (3, 3), 0.0)
+@pytest.mark.parametrize("causal", [False, True])
+def test_temporal_encoder_aligns_its_residual_with_the_target_frame(causal):
+    encoder = TemporalEncoder(2, 4, (3, 3), 0.0, causal=causal).eval()
     assert encoder.receptive_field == 9
-    assert encoder(torch.randn(5, 2, 9)).shape == (5, 4)
+    with torch.no_grad():
+        for block in encoder.blocks:  # residual blocks that add nothing: only the residual path is left
+            block[0][0].weight.zero_()
+        middle = torch.zeros(5, 9, 2)
+        middle[:, 3:6] = torch.randn(5, 3, 2)   # only the middle three frames move
+        last = torch.zeros(5, 9, 2)
+        last[:, 6:] = torch.randn(5, 3, 2)      # only the last three frames move
+        centred_sees_middle = encoder(middle).abs().sum() > 0
+        causal_sees_last = encoder(last).abs().sum() > 0
+    assert encoder(torch.randn(5, 9, 2)).shape == (5, 4)
+    assert centred_sees_middle != causal and causal_sees_last == causal
+
+
+def test_frame_group_linear_is_a_strided_convolution_and_loads_its_weights():
+    from ray3d.models.blocks import FrameGroupLinear
+
+    conv = torch.nn.Conv1d(5, 7, 3, stride=3, bias=False)
+    layer = FrameGroupLinear(5, 7, 3)
+    layer.load_state_dict(conv.state_dict())  # an older checkpoint's Conv1d weights
+    x = torch.randn(4, 9, 5)
+    torch.testing.assert_close(layer(x), conv(x.transpose(1, 2)).transpose(1, 2))
 
 
 def test_config_rejects_inconsistent_combinations():

@@ -407,7 +407,7 @@ def _bench_calibration(args: argparse.Namespace) -> int:
     from ray3d.data import motion as motion_data
     from ray3d.lift import Lifter
 
-    rows = run(motion_data.load_shipped(args.data_dir, "test"), Lifter.load(args.checkpoint), args.pairs, args.seed,
+    rows = run(motion_data.load_shipped(args.data_dir, args.split), Lifter.load(args.checkpoint), args.pairs, args.seed,
                args.bootstrap)
     files = write(rows, args.out)
     print((args.out / "calibration.md").read_text())
@@ -574,6 +574,8 @@ def build_parser() -> argparse.ArgumentParser:
     calibration.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
     calibration.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
     calibration.add_argument("--seed", type=int, default=0)
+    calibration.add_argument("--split", choices=["train", "validation", "test"], default="test",
+                             help="whose walking clips (default: the test performers)")
     calibration.add_argument("--data-dir", help=data_dir_help)
     calibration.set_defaults(handler=_bench_calibration)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")

@@ -13,13 +13,41 @@ def receptive_field(kernels: tuple[int, ...]) -> int:
     return math.prod(kernels)
 
 
+class FrameGroupLinear(nn.Linear):
+    """A width-k, stride-k temporal convolution, channels last: (B, L, C_in) -> (B, L / k, C_out), computed as
+    one Linear over each k consecutive frames stacked. The same maths as ``nn.Conv1d(kernel=k, stride=k)``, but
+    the GEMM runs through ``nn.Linear`` (MKL), which is faster than the convolution path on the CPUs measured
+    (docs/RESULTS.md). Older checkpoints' Conv1d weights (C_out, C_in, k) are converted when loaded."""
+
+    def __init__(self, in_channels: int, out_channels: int, kernel: int):
+        super().__init__(kernel * in_channels, out_channels, bias=False)
+        self.kernel = kernel
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        batch, length, channels = x.shape
+        return super().forward(x.reshape(batch, length // self.kernel, self.kernel * channels))
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        weight = state_dict.get(prefix + "weight")
+        if weight is not None and weight.dim() == 3:  # Conv1d layout: (out, in, k) -> (out, k * in)
+            state_dict[prefix + "weight"] = weight.permute(0, 2, 1).reshape(weight.shape[0], -1)
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
+
+
+class ChannelsLastBatchNorm(nn.BatchNorm1d):
+    """``BatchNorm1d`` over the last axis of (B, L, C): statistics over B and L, as for (B, C, L)."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return super().forward(x.reshape(-1, x.shape[-1])).reshape(x.shape)
+
+
 def _conv_unit(in_channels: int, out_channels: int, kernel: int, dropout: float) -> nn.Sequential:
-    return nn.Sequential(nn.Conv1d(in_channels, out_channels, kernel, stride=kernel, bias=False),
-                         nn.BatchNorm1d(out_channels, momentum=0.1), nn.LeakyReLU(0.2), nn.Dropout(dropout))
+    return nn.Sequential(FrameGroupLinear(in_channels, out_channels, kernel),
+                         ChannelsLastBatchNorm(out_channels, momentum=0.1), nn.LeakyReLU(0.2), nn.Dropout(dropout))
 
 
 class TemporalEncoder(nn.Module):
-    """(B, features, F) -> (B, channels): an expanding conv of width kernels[0], then one residual block per
+    """(B, F, features) -> (B, channels): an expanding conv of width kernels[0], then one residual block per
     further kernel (a width-k stride-k conv and a 1x1 conv), each shortening time by k, down to one frame.
 
     The residual path takes the centre frame of every k-frame stride window (the last one when ``causal``),
@@ -38,12 +66,12 @@ class TemporalEncoder(nn.Module):
             for k in self.kernels[1:])
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        if x.shape[-1] != self.receptive_field:
-            raise ValueError(f"TemporalEncoder: expected {self.receptive_field} frames, got {x.shape[-1]}")
+        if x.shape[1] != self.receptive_field:
+            raise ValueError(f"TemporalEncoder: expected {self.receptive_field} frames, got {x.shape[1]}")
         x = self.expand(x)
         for k, block in zip(self.kernels[1:], self.blocks):
-            x = x[..., (k - 1 if self.causal else k // 2)::k] + block(x)
-        return x[..., 0]
+            x = x[:, (k - 1 if self.causal else k // 2)::k] + block(x)
+        return x[:, 0]
 
 
 def mlp(in_features: int, hidden: int, out_features: int, depth: int, dropout: float) -> nn.Sequential:

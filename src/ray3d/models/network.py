@@ -163,13 +163,13 @@ class _Branch(nn.Module):
                 pose = x.new_zeros(batch, self.skeleton.num_joints, 3)
                 for g, joints in self.backbone.groups.items():
                     decoded = self.decoders[g](torch.cat([features[g], global_feature, *tail], dim=-1))
-                    pose[:, joints] = decoded.view(batch, len(joints), 3)
+                    pose = pose.index_copy(1, self.backbone.group_index(g), decoded.view(batch, len(joints), 3))
                 return pose
             return self.head(torch.cat([*features.values(), global_feature, *tail], dim=-1))
         flat = x.reshape(batch, x.shape[1], -1)
         if extra is not None:
             flat = torch.cat([flat, extra], dim=-1)
-        feature = self.backbone(flat.transpose(1, 2)) if self.config.backbone == "tcn" else self.backbone(flat[:, 0])
+        feature = self.backbone(flat) if self.config.backbone == "tcn" else self.backbone(flat[:, 0])
         out = self.head(torch.cat([feature, *tail], dim=-1))
         return out.view(batch, self.skeleton.num_joints, 3) if self.outputs == "pose" else out
 

@@ -25,6 +25,9 @@ class RIEBackbone(nn.Module):
         super().__init__()
         self.skeleton, self.causal = skeleton, causal
         self.groups = {g: list(skeleton.groups[g]) for g in GROUP_NAMES if skeleton.groups[g]}
+        # Index tensors for index_select, much faster than indexing with Python lists; not saved in checkpoints.
+        for g, joints in self.groups.items():
+            self.register_buffer(f"_joints_{g}", torch.tensor(joints), persistent=False)
         per_joint = 3 * in_channels  # input, positional encoding, temporal encoding
         self.encoders = nn.ModuleDict({
             g: TemporalEncoder(per_joint * len(joints) + extra_features, channels, kernels, dropout, causal)
@@ -35,6 +38,10 @@ class RIEBackbone(nn.Module):
             g: nn.Sequential(nn.Linear(channels * (len(self.groups) - 1), channels), nn.LeakyReLU(0.2))
             for g in self.groups}) if fusion else None
         self.channels = channels
+
+    def group_index(self, group: str) -> torch.Tensor:
+        """The joints of ``group`` as an index tensor (on the module's device)."""
+        return getattr(self, f"_joints_{group}")
 
     def encodings(self, x: torch.Tensor) -> torch.Tensor:
         """(B, F, J, C) -> (B, F, J, 3C): the input with its positional and temporal (minus the target frame)
@@ -49,11 +56,11 @@ class RIEBackbone(nn.Module):
         batch, frames = x.shape[:2]
         encoded = self.encodings(x)
         features = {}
-        for g, joints in self.groups.items():
-            group_input = encoded[:, :, joints].reshape(batch, frames, -1)
+        for g in self.groups:
+            group_input = encoded.index_select(2, self.group_index(g)).reshape(batch, frames, -1)
             if extra is not None:
                 group_input = torch.cat([group_input, extra], dim=-1)
-            features[g] = self.encoders[g](group_input.transpose(1, 2))
+            features[g] = self.encoders[g](group_input)
         target = target_frame(frames, self.causal)
         global_input = x[:, target].reshape(batch, -1)
         if extra is not None:
