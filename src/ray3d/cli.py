@@ -427,11 +427,12 @@ def _bench_speed(args: argparse.Namespace) -> int:
     print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s (nn.Linear {paths['linear_gflops']:.0f}, "
           f"1x1 conv1d {paths['conv1d_gflops']:.0f}); torch threads {result['torch_threads']}")
     print(f"{'model':<15}{'backend':<13}{'params':>12}{'MFLOP/f':>9}{'batch f/s':>11}{'seq f/s':>10}"
-          f"{'latency ms':>11}{'train s/s':>10}{'% peak':>8}")
+          f"{'latency ms':>11}{'stream ms':>10}{'train s/s':>10}{'% peak':>8}")
     for r in result["models"]:
         train = f"{r['train_samples_per_s']:>10,.0f}" if r["train_samples_per_s"] else f"{'-':>10}"
         print(f"{r['model']:<15}{r['backend']:<13}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}"
-              f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}{train}"
+              f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}"
+              f"{r['stream_ms_per_frame']:>10.2f}{train}"
               f"{100 * r['fraction_of_peak']:>8.1f}")
     if args.json:
         with atomic_path(args.json, overwrite=args.force) as temporary:

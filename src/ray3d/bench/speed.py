@@ -1,5 +1,5 @@
 """Speed of every model on this machine: parameters, FLOPs per frame, batched and whole-sequence inference
-throughput, single-window latency, training samples/s, and the machine's measured fp32 matmul peak (through
+throughput, single-window latency, live-mode latency per frame (``LiftStream.push``), training samples/s, and the machine's measured fp32 matmul peak (through
 ``nn.Linear`` / MKL and through a 1x1 ``conv1d`` / oneDNN) so each model's achieved fraction of it is shown.
 Medians over repetitions after warm-up."""
 
@@ -53,6 +53,26 @@ def _inference_times(run, model: LiftingNetwork, repeats: int, batch_size: int, 
                 median_seconds(lambda: [run(c) for c in chunks], max(1, repeats // 2), warmup=1))
 
 
+def stream_ms_per_frame(runner, frames: int = 240) -> float:
+    """Median wall time of one ``LiftStream.push`` (keypoints in, world joints out: rays, window, network and
+    the way back to the world), the live-mode latency, over the bundled demo clip seen by an H36M camera."""
+    from ray3d import cameras
+    from ray3d.demo import demo_clip
+    from ray3d.lift import Lifter
+
+    camera = cameras.h36m("S9", "54138969")
+    pixels = camera.project(demo_clip()[:frames])
+    stream = Lifter(runner, {}).stream(camera)
+    for keypoints in pixels[:20]:  # warm-up
+        stream.push(keypoints)
+    times = []
+    for keypoints in pixels[20:]:
+        start = time.perf_counter()
+        stream.push(keypoints)
+        times.append(time.perf_counter() - start)
+    return 1e3 * float(np.median(times))
+
+
 def measure_backend(name: str, backend: str, repeats: int = 5, batch_size: int = 1024,
                     sequence_frames: int = 10_000) -> dict | None:
     """The same inference figures through ``backend`` ("torchscript" or "onnxruntime"); None when ONNX Runtime
@@ -71,7 +91,8 @@ def measure_backend(name: str, backend: str, repeats: int = 5, batch_size: int =
     return {"model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": backend,
             "params": count_parameters(model), "mflops_per_frame": flops_per_frame(model) / 1e6,
             "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
-            "latency_ms": 1e3 * latency_s, "train_samples_per_s": None}
+            "latency_ms": 1e3 * latency_s, "stream_ms_per_frame": stream_ms_per_frame(runtime),
+            "train_samples_per_s": None}
 
 
 def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_frames: int = 10_000,
@@ -98,7 +119,8 @@ def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_
         "model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": "torch",
         "params": count_parameters(model), "mflops_per_frame": flops / 1e6,
         "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
-        "latency_ms": 1e3 * latency_s, "train_samples_per_s": train_batch / train_s,
+        "latency_ms": 1e3 * latency_s, "stream_ms_per_frame": stream_ms_per_frame(model),
+        "train_samples_per_s": train_batch / train_s,
     }
     if peak_gflops:
         record["fraction_of_peak"] = record["batch_frames_per_s"] * flops / 1e9 / peak_gflops
