@@ -88,7 +88,7 @@ def _model_walker(stature: float = 1.75, frames: int = 120) -> np.ndarray:
 
 
 def test_a_person_who_fits_the_model_gives_the_exact_camera():
-    from ray3d.calibrate import from_person
+    from ray3d.calibrate import MODEL_ERROR_SD, from_person
 
     truth = _truth()
     pixels = truth.project(_model_walker())
@@ -100,7 +100,7 @@ def test_a_person_who_fits_the_model_gives_the_exact_camera():
     assert unknown.focal_px == pytest.approx(900.0, rel=5e-3) and unknown.pitch_deg == pytest.approx(28.0, abs=0.1)
     # With 1 px of noise the estimate moves, and its bootstrap standard deviation says by about how much.
     noisy = from_person(pixels + np.random.default_rng(0).normal(0, 1.0, pixels.shape), truth.image_size, 1.75,
-                        bootstrap=20)
+                        bootstrap=20, model_error=False)
     assert noisy.focal_sd_px > 0 and noisy.pitch_sd_deg > 0
     assert abs(noisy.focal_px - 900.0) < 4 * noisy.focal_sd_px + 1.0
     assert abs(noisy.pitch_deg - 28.0) < 4 * noisy.pitch_sd_deg + 0.05
@@ -109,6 +109,11 @@ def test_a_person_who_fits_the_model_gives_the_exact_camera():
     assert taller.height_m == pytest.approx(1.1 * known.height_m, rel=1e-3)
     assert taller.pitch_deg == pytest.approx(known.pitch_deg, abs=1e-3)
     assert known.height_sd_m > taller.height_sd_m / 1.1
+    # The standard deviations include the model error however well the frames agree.
+    assert known.pitch_sd_deg == pytest.approx(MODEL_ERROR_SD["pitch_deg"], rel=1e-3)
+    exact = from_person(pixels, truth.image_size, 1.75, focal_px=900.0, bootstrap=5, model_error=False,
+                        person_height_sd=0.0)
+    assert exact.pitch_sd_deg < 0.01 and exact.height_sd_m < 0.01
 
 
 def test_a_walking_mocap_performer_gives_pitch_within_2_deg_and_height_within_10_percent(test_motion):

@@ -77,19 +77,22 @@ def from_floor_points(floor_xy: np.ndarray, pixels: np.ndarray, intrinsics: Came
 # Drillis & Contini 1966): the mid-ankle, the pelvis, the thorax and the H36M head joint.
 AXIS_HEIGHTS = {"ankles": 0.067, "pelvis": 0.525, "thorax": 0.851, "head": 0.940}
 ADULT_STATURE_SD_M = 0.07
+# How far real walking departs from the upright model: the RMS errors of from_person with the true focal length
+# and stature on 40 random (camera, walking clip) pairs of the training performers (`ray3d bench calibration
+# --split train --pairs 40 --bootstrap 2 --seed 1`, docs/RESULTS.md). Added in quadrature to the bootstrap.
+MODEL_ERROR_SD = {"pitch_deg": 2.9, "roll_deg": 2.3, "height_fraction": 0.10}
 MIN_PERSON_FRAMES = 10
 _AXIS_JOINTS = {"ankles": ("l_ankle", "r_ankle"), "pelvis": ("pelvis",), "thorax": ("thorax",), "head": ("head",)}
 
 
 @dataclasses.dataclass(frozen=True)
 class PersonCalibration:
-    """A camera estimated from a walking person, with standard deviations (block bootstrap over the frames,
-    and for the height the uncertainty of the person's stature). The world frame is the floor below the
-    camera, x along the direction it looks, z up (as ``Camera.from_height_pitch``).
+    """A camera estimated from a walking person, with standard deviations. The world frame is the floor below
+    the camera, x along the direction it looks, z up (as ``Camera.from_height_pitch``).
 
-    The bootstrap measures how consistently the frames agree, not how far a person's posture and proportions
-    depart from the upright model: on walking mocap the true pitch lay within two standard deviations in only
-    about a third to a half of the cases (``ray3d bench calibration``, docs/RESULTS.md)."""
+    Each standard deviation combines a block bootstrap over the frames (how consistently they agree), the
+    model error (``MODEL_ERROR_SD``: how far real walking departs from the upright model, measured on the
+    training performers) and, for the height, the uncertainty of the person's stature."""
 
     camera: Camera
     height_m: float
@@ -130,7 +133,7 @@ def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17") -> np.ndar
 
 def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1.70, focal_px: float | None = None,
                 layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
-                seed: int = 0, max_frames: int = 400) -> PersonCalibration:
+                seed: int = 0, max_frames: int = 400, model_error: bool = True) -> PersonCalibration:
     """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints
     (T, J, 2) of one person standing or walking on the floor, seen by a camera with square pixels and its
     principal point at the image centre.
@@ -142,7 +145,8 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
     over the frames. Heights scale with the
     assumed stature, angles do not. Frames where the person bends or sits fit the model badly and are
     down-weighted by the robust loss; the more the person moves towards and away from the camera, the better
-    the focal length is determined.
+    the focal length is determined. ``model_error=False`` leaves ``MODEL_ERROR_SD`` out of the standard
+    deviations (e.g. for a synthetic person who fits the model exactly).
     """
     width, height = _image_size(image_size)
     axis = person_axis_pixels(keypoints, layout)
@@ -170,14 +174,17 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
     pitch, roll, log_height = best.x[:3]
     camera_height = float(np.exp(log_height))
     focal = float(np.exp(best.x[3])) if focal_px is None else float(focal_px)
-    height_sd = camera_height * np.hypot(spread[2], person_height_sd / person_height)
+    floor = MODEL_ERROR_SD if model_error else dict.fromkeys(MODEL_ERROR_SD, 0.0)
+    height_sd = camera_height * float(np.linalg.norm([spread[2], person_height_sd / person_height,
+                                                      floor["height_fraction"]]))
     camera = problem.camera(best.x)
     residuals = problem.pixel_residuals(best.x)
     return PersonCalibration(
         camera=dataclasses.replace(camera, name="person-calibrated"), height_m=camera_height,
         pitch_deg=float(np.degrees(pitch)), roll_deg=float(np.degrees(roll)), focal_px=focal,
-        height_sd_m=float(height_sd), pitch_sd_deg=float(np.degrees(spread[0])),
-        roll_sd_deg=float(np.degrees(spread[1])), focal_sd_px=float(focal * spread[3]) if focal_px is None else 0.0,
+        height_sd_m=height_sd, pitch_sd_deg=float(np.hypot(np.degrees(spread[0]), floor["pitch_deg"])),
+        roll_sd_deg=float(np.hypot(np.degrees(spread[1]), floor["roll_deg"])),
+        focal_sd_px=float(focal * spread[3]) if focal_px is None else 0.0,
         rms_px=float(np.sqrt(np.nanmean(residuals ** 2) * 2)), frames_used=len(axis))
 
 
