@@ -34,6 +34,9 @@ table("Ablation (mm; every model trained 10 x 100 batches of 1024):", [
     ("ray3d-xyz", "+ camera embedding of (height, pitch): the paper's Ray3D"),
     ("ray3d", "+ root as depth along its ray, ground-plane features (ours)"),
 ])
+table("A single-frame baseline (mm; same budget):", [
+    ("poselifter", "PoseLifter-style: one frame, pixels minus the principal point, depth x focal length"),
+])
 table("Temporal window (mm; same budget):", [
     ("ray3d-1frame", "1 frame"), ("ray3d", "9 frames, centred"), ("ray3d-causal", "9 frames, past only (live)"),
 ])
