@@ -562,7 +562,8 @@ def build_parser() -> argparse.ArgumentParser:
     robustness = bench_commands.add_parser("robustness", help="the paper's robustness sweeps (CSV, markdown, PNG)")
     robustness.add_argument("--out", required=True, type=Path, help="folder for the sweep files")
     robustness.add_argument("--models", nargs="+", default=["ray3d", "videopose3d", "rie", "rfrh"],
-                            help="shipped names, checkpoint paths or rfrh (default: the shipped ones and rfrh)")
+                            help="shipped names, checkpoint paths or rfrh, optionally LABEL=MODEL (default: the "
+                                 "shipped ones and rfrh)")
     robustness.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
     robustness.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
     robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")

@@ -80,8 +80,10 @@ def _rows(method: str, result: dict, key_of) -> list[dict]:
 
 def run(models: list[str], motion: MotionSet, frame_stride: int = 4, camera_stride: int = 1,
         seed: int = 0) -> list[Sweep]:
-    """Every sweep for every method (shipped model names, checkpoint paths, or ``rfrh``)."""
-    networks = {m: (m if m == RFRH else load_model(m)[0]) for m in models}
+    """Every sweep for every method: shipped model names, checkpoint paths, or ``rfrh``, each optionally
+    labelled as ``LABEL=MODEL`` (the label names it in the tables and plots)."""
+    sources = {m.partition("=")[0] if "=" in m else m: m.partition("=")[2] or m for m in models}
+    networks = {label: (m if m == RFRH else load_model(m)[0]) for label, m in sources.items()}
     intrinsic = grid("intrinsic-test")[::camera_stride]
     extrinsic = grid("extrinsic-test")[::camera_stride]
     scale_cameras = grid("scale-test")
