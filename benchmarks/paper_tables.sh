@@ -13,7 +13,8 @@ finished() {  # whether the run NAME has trained all its epochs
 }
 evaluate() {  # NAME CAMERAS [extra evaluate arguments]; skips what exists
   local name=$1 cameras=$2; shift 2
-  local file="$out/$name@$cameras${1:+@${*// /}}.json"
+  local options="$*"
+  local file="$out/$name@$cameras${options:+@${options// /}}.json"
   [ -f "$file" ] || .venv/bin/ray3d evaluate --checkpoint "$runs/$name/best.safetensors" --cameras "$cameras" \
     --frame-stride 8 --json "$file" "$@" > /dev/null
 }
@@ -21,7 +22,7 @@ for name in rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-cau
   finished "$name" || continue
   for cameras in h36m extrinsic-test; do evaluate "$name" "$cameras"; done
 done
-for name in ray3d ray3d-cmu ray3d-hdm05; do
+for name in ray3d ray3d-cmu ray3d-hdm05 rie-cmu; do
   finished "$name" || continue
   for dataset in cmu hdm05; do evaluate "$name" extrinsic-test --datasets "$dataset" --joints h36m14; done
 done

@@ -18,9 +18,10 @@ declare -A how=(
   [ray3d-cmu]="--config configs/ray3d-cmu.json"
   [ray3d-hdm05]="--config configs/ray3d-hdm05.json"
   [poselifter]="--config configs/ray3d.json --preset poselifter"
+  [rie-cmu]="--config configs/ray3d-cmu.json --preset rie"
 )
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal ray3d-cmu ray3d-hdm05 poselifter)
+[ ${#names[@]} -gt 0 ] || names=(rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal ray3d-cmu ray3d-hdm05 poselifter rie-cmu)
 for name in "${names[@]}"; do
   start=$(date +%s)
   resume=(); [ -f "$runs/$name/last.json" ] && resume=(--resume)
