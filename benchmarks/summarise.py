@@ -1,4 +1,4 @@
-"""Markdown tables from ``ray3d evaluate --json`` files named MODEL-CAMERAS.json in one folder.
+"""Markdown tables from ``ray3d evaluate --json`` files named MODEL@CAMERAS.json in one folder.
 
     .venv/bin/python benchmarks/summarise.py results
 """
@@ -11,7 +11,7 @@ from pathlib import Path
 folder = Path(sys.argv[1] if len(sys.argv) > 1 else "results")
 results = {}
 for path in sorted(folder.glob("*.json")):
-    model, cameras = path.stem.split("-", 1)
+    model, cameras = path.stem.split("@", 1)
     results[(model, cameras)] = json.loads(path.read_text())
 models = list(dict.fromkeys(m for m, _ in results))
 sets = list(dict.fromkeys(c for _, c in results))
