@@ -41,7 +41,7 @@ table("Temporal window (mm; same budget):", [
     ("ray3d-1frame", "1 frame"), ("ray3d", "9 frames, centred"), ("ray3d-causal", "9 frames, past only (live)"),
 ])
 print("\nCross-data, 14-joint layout, extrinsic-test cameras, test performers of each dataset (mm, Abs-MPJPE / MRPE):\n")
-print("| model, trained on | tested on CMU (cmu_02, cmu_07) | tested on HDM05 (mm) |")
+print("| model, trained on | tested on CMU (cmu_02, cmu_07) | tested on HDM05 (hdm05_mm) |")
 print("|---|---|---|")
 for name, data in (("ray3d-cmu", "Ray3D, CMU only"), ("ray3d-hdm05", "Ray3D, HDM05 only"),
                    ("ray3d", "Ray3D, CMU + HDM05"), ("rie-cmu", "RIE (pixels), CMU only")):
