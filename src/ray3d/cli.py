@@ -424,8 +424,9 @@ def _bench_speed(args: argparse.Namespace) -> int:
     result = measure_all(args.models, args.repeats, batch_size=args.batch, sequence_frames=args.sequence_frames,
                          train_batch=args.train_batch)
     paths = result["matmul_paths_gflops"]
-    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s (nn.Linear {paths['linear_gflops']:.0f}, "
-          f"1x1 conv1d {paths['conv1d_gflops']:.0f}); torch threads {result['torch_threads']}")
+    by_path = ", ".join(f"{name.removesuffix('_gflops')} {rate:.0f}" for name, rate in paths.items())
+    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s ({by_path}); torch threads "
+          f"{result['torch_threads']}")
     print(f"{'model':<15}{'backend':<13}{'params':>12}{'MFLOP/f':>9}{'batch f/s':>11}{'seq f/s':>10}"
           f"{'latency ms':>11}{'stream ms':>10}{'train s/s':>10}{'% peak':>8}")
     for r in result["models"]:
