@@ -7,7 +7,7 @@ import json
 from ray3d.cli import main
 
 KEYS = {"model", "preset", "backend", "params", "mflops_per_frame", "batch_frames_per_s", "sequence_frames_per_s",
-        "latency_ms", "stream_ms_per_frame", "train_samples_per_s"}
+        "latency_ms", "stream_ms_per_frame", "train_samples_per_s", "gemm_path"}
 
 
 def test_bench_speed_writes_the_documented_json(tmp_path, capsys):
@@ -22,4 +22,5 @@ def test_bench_speed_writes_the_documented_json(tmp_path, capsys):
         assert KEYS <= set(record)
         assert record["params"] > 0 and record["batch_frames_per_s"] > 0 and record["latency_ms"] > 0
         assert (record["train_samples_per_s"] is None) == (record["backend"] != "torch")
+        assert f"{record['gemm_path']}_gflops" in result["matmul_paths_gflops"]
     assert "GFLOP/s" in capsys.readouterr().out

@@ -16,6 +16,11 @@ from ray3d.models import PRESETS, LiftingNetwork
 from ray3d.models.network import TensorBatch, count_parameters, flops_per_frame, lifting_loss
 
 
+# Where each backend's matrix products run: every layer of our networks, the temporal convolutions included
+# (``FrameGroupLinear``), is a Linear, so torch takes the nn.Linear path of the GEMM probe.
+GEMM_PATHS = {"torch": "linear", "torchscript": "linear", "onnxruntime": "onnxruntime"}
+
+
 def median_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> float:
     for _ in range(warmup):
         function()
@@ -131,6 +136,7 @@ def measure_backend(name: str, backend: str, repeats: int = 5, batch_size: int =
             return None
     batch_s, latency_s, sequence_s = _inference_times(runtime, model, repeats, batch_size, sequence_frames)
     return {"model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": backend,
+            "gemm_path": GEMM_PATHS[backend],
             "params": count_parameters(model), "mflops_per_frame": flops_per_frame(model) / 1e6,
             "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
             "latency_ms": 1e3 * latency_s, "stream_ms_per_frame": stream_ms_per_frame(runtime),
@@ -159,6 +165,7 @@ def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_
     train_s = median_seconds(step, max(2, repeats // 2), warmup=1)
     record = {
         "model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": "torch",
+        "gemm_path": GEMM_PATHS["torch"],
         "params": count_parameters(model), "mflops_per_frame": flops / 1e6,
         "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
         "latency_ms": 1e3 * latency_s, "stream_ms_per_frame": stream_ms_per_frame(model),
