@@ -21,26 +21,20 @@ from ray3d.models.network import TensorBatch, count_parameters, flops_per_frame,
 GEMM_PATHS = {"torch": "linear", "torchscript": "linear", "onnxruntime": "onnxruntime"}
 
 
+def repetition_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> np.ndarray:
+    """Wall time of each of ``repeats`` calls after ``warmup`` untimed ones."""
+    for _ in range(warmup):
+        function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return np.array(times)
+
+
 def median_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> float:
-    for _ in range(warmup):
-        function()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return float(np.median(times))
-
-
-def fastest_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> float:
-    for _ in range(warmup):
-        function()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return float(np.min(times))
+    return float(np.median(repetition_seconds(function, repeats, warmup)))
 
 
 @torch.no_grad()
@@ -60,7 +54,7 @@ def matmul_peak_gflops(shapes: tuple[tuple[int, int], ...] = ((1024, 8192), (204
         if onnx_matmul is not None:
             runs["onnxruntime_gflops"] = onnx_matmul
         for path, run in runs.items():
-            rates[path] = max(rates.get(path, 0.0), flops / fastest_seconds(run, repeats) / 1e9)
+            rates[path] = max(rates.get(path, 0.0), flops / repetition_seconds(run, repeats).min() / 1e9)
     return rates
 
 
