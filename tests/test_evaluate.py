@@ -27,7 +27,7 @@ def _standing_clip(frames=20, pelvis_height=0.9395):
 def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch, causal):
     target = 8 if causal else 4
     monkeypatch.setattr(evaluation, "predict_world",
-                        lambda model, windows, camera, flip_test=False, given=None: windows[:, target])
+                        lambda model, windows, camera, flip_test=False, **options: windows[:, target])
 
     class Oracle:
         receptive_field = 9
@@ -42,7 +42,7 @@ def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch, causal):
 
 
 def test_the_14_joint_score_ignores_spine_thorax_and_neck(monkeypatch):
-    def wrong_trunk(model, windows, camera, flip_test=False, given=None):
+    def wrong_trunk(model, windows, camera, flip_test=False, **options):
         predicted = windows[:, 4].copy()
         predicted[:, [7, 8, 9]] += 0.1  # spine, thorax, neck/nose
         return predicted
@@ -65,6 +65,15 @@ def test_rfrh_is_exact_when_the_pelvis_is_at_its_height():
     result = evaluation.evaluate("rfrh", motion, grid("h36m")[:4])
     assert result["mrpe_mm"] == pytest.approx(0.0, abs=1e-3)
     assert result["abs_mpjpe_mm"] is None  # RFRH places the root only
+
+
+def test_2d_noise_moves_rfrh_off_the_exact_answer_reproducibly():
+    motion = MotionSet.from_clips([_standing_clip()], clip_id=["stand"])
+    cameras = grid("h36m")[:2]
+    noisy = evaluation.evaluate("rfrh", motion, cameras, noise_px=5.0, seed=3)
+    assert noisy["mrpe_mm"] > 1.0 and noisy["noise_px"] == 5.0
+    assert evaluation.evaluate("rfrh", motion, cameras, noise_px=5.0, seed=3)["mrpe_mm"] == noisy["mrpe_mm"]
+    assert evaluation.evaluate("rfrh", motion, cameras)["mrpe_mm"] == pytest.approx(0.0, abs=1e-3)
 
 
 def test_evaluate_cli_writes_the_documented_json(tmp_path, capsys):

@@ -153,7 +153,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     if clips.num_clips == 0:
         raise InputError(f"{source}: no clips to evaluate")
     cameras = grid(args.cameras) if args.cameras in SET_NAMES else load_cameras(args.cameras)
-    result = evaluate(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride, joints=args.joints)
+    result = evaluate(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride, joints=args.joints,
+                      noise_px=args.noise_px)
     result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, **result}
     print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
           f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
@@ -512,6 +513,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--datasets", help="with the shipped mocap: cmu, hdm05 or cmu,hdm05 (default both)")
     evaluation.add_argument("--joints", choices=["h36m17", "h36m14"], default="h36m17",
                             help="joints scored (h36m14: without spine, thorax and neck/nose)")
+    evaluation.add_argument("--noise-px", type=float, default=0.0,
+                            help="Gaussian noise on the 2D input, standard deviation in pixels (a detector's jitter)")
     evaluation.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
     evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
     evaluation.add_argument("--json", type=Path, help="write the results here")

@@ -29,22 +29,27 @@ SCORED_LAYOUTS = ("h36m17", "h36m14")
 
 @torch.no_grad()
 def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
-                  chunk: int = 8192, given: Camera | None = None) -> np.ndarray:
+                  chunk: int = 8192, given: Camera | None = None, noise_px: float = 0.0,
+                  rng: np.random.Generator | None = None) -> np.ndarray:
     """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the target
     frames (centre, or last for a causal model); for RFRH only the root (joint 0) is predicted and the other joints are NaN.
 
     ``given`` is the camera the model is told about (default: the true one), e.g. a mis-calibrated copy: the
     pixels come from ``camera``, the rays, camera parameters and the way back to the world from ``given``.
+    ``noise_px`` adds Gaussian noise (standard deviation in pixels, drawn from ``rng``) to every pixel of every
+    window, as a detector's jitter.
     """
     given = given or camera
+    if noise_px > 0 and rng is None:
+        rng = np.random.default_rng(0)
     out = []
     for start in range(0, len(windows), chunk):
         part = windows[start:start + chunk]
         index = np.zeros(len(part), dtype=int)
         remove_roll = model != RFRH and model.config.remove_roll
         causal = model != RFRH and model.config.causal
-        batch = observe(part, CameraBatch.from_cameras([camera]).take(index),
-                        config=SampleConfig(frames=part.shape[1], causal=causal, remove_roll=remove_roll))
+        batch = observe(part, CameraBatch.from_cameras([camera]).take(index), rng if noise_px > 0 else None,
+                        SampleConfig(frames=part.shape[1], causal=causal, remove_roll=remove_roll, noise_px=noise_px))
         told, rays = batch.cameras, batch.rays
         if given is not camera:  # the pixels stay the true camera's; everything else is the given camera's
             told = CameraBatch.from_cameras([given]).take(index)
@@ -80,13 +85,15 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
              frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
-             joints: str = "h36m17") -> dict:
+             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0) -> dict:
     """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
 
     ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
     error); ``bone_scale`` multiplies every bone of every clip, re-grounded (smaller or larger people);
-    ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose).
+    ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose);
+    ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_world``; ``seed`` fixes it).
     """
+    rng = np.random.default_rng(seed)
     if joints not in SCORED_LAYOUTS:
         raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
     scored = [H36M17.joint_names.index(name) for name in LAYOUTS[joints].joint_names]
@@ -110,7 +117,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         if not seen:
             continue
         stacked = np.concatenate([windows[i] for i in seen])
-        predicted = predict_world(model, stacked, camera, flip_test, given=given)
+        predicted = predict_world(model, stacked, camera, flip_test, given=given, noise_px=noise_px, rng=rng)
         errors = _per_frame(predicted[:, scored], stacked[:, target_frame(frames, causal)][:, scored])
         bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
         for k, i in enumerate(seen):
@@ -123,6 +130,6 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     geometry = {c.name: {"height_m": c.camera_height, "pitch_deg": float(np.degrees(c.pitch)),
                          "horizontal_distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}
     return {**_summarise(everything), "pairs": len(everything), "skipped_pairs": skipped, "flip_test": flip_test,
-            "frame_stride": frame_stride, "joints": joints,
+            "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},
             "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}
