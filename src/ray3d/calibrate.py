@@ -14,7 +14,7 @@ from scipy.optimize import least_squares
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.json_files import read_json
-from ray3d.skeleton import H36M17, LAYOUTS, convert, convert_confidences
+from ray3d.skeleton import H36M17, LAYOUTS, convert_keypoints
 
 MIN_FLOOR_POINTS = 4
 
@@ -95,10 +95,6 @@ class PersonCalibration:
     training performers) and, for the height, the uncertainty of the person's stature."""
 
     camera: Camera
-    height_m: float
-    pitch_deg: float
-    roll_deg: float
-    focal_px: float
     height_sd_m: float
     pitch_sd_deg: float
     roll_sd_deg: float
@@ -106,8 +102,26 @@ class PersonCalibration:
     rms_px: float            # reprojection error of the upright-body model over the frames used
     frames_used: int
 
+    @property
+    def height_m(self) -> float:
+        return self.camera.camera_height
+
+    @property
+    def pitch_deg(self) -> float:
+        return float(np.degrees(self.camera.pitch))
+
+    @property
+    def roll_deg(self) -> float:
+        return float(np.degrees(self.camera.roll))
+
+    @property
+    def focal_px(self) -> float:
+        return float(self.camera.K[0, 0])
+
     def to_dict(self) -> dict:
-        return {k: v for k, v in dataclasses.asdict(self).items() if k != "camera"}
+        estimate = {"height_m": self.height_m, "pitch_deg": self.pitch_deg, "roll_deg": self.roll_deg,
+                    "focal_px": self.focal_px}
+        return {**estimate, **{k: v for k, v in dataclasses.asdict(self).items() if k != "camera"}}
 
     def summary(self) -> str:
         focal = (f"focal {self.focal_px:.0f} +- {self.focal_sd_px:.0f} px" if self.focal_sd_px > 0
@@ -126,8 +140,7 @@ def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17") -> np.ndar
     if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
         raise InputError(f"keypoints: expected (frames, {skeleton.num_joints}, 2) for layout {layout}, got "
                          f"{keypoints.shape}")
-    seen = convert_confidences(np.isfinite(keypoints).all(-1).astype(np.float64), skeleton, "h36m17") > 0
-    pixels = np.where(seen[..., None], convert(np.nan_to_num(keypoints), skeleton, "h36m17"), np.nan)
+    pixels, _ = convert_keypoints(keypoints, skeleton)
     return np.stack([pixels[:, [H36M17.index(j) for j in joints]].mean(1) for joints in _AXIS_JOINTS.values()], 1)
 
 
@@ -142,8 +155,7 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
     fixed fractions of ``person_height`` (``AXIS_HEIGHTS``). For a candidate camera each point's ray meets the
     horizontal plane at its height; the vertical line stands at the mean of those four floor positions, and
     the four points on it are projected back; the parameters minimise the robust (soft L1) reprojection error
-    over the frames. Heights scale with the
-    assumed stature, angles do not. Frames where the person bends or sits fit the model badly and are
+    over the frames. Heights scale with the assumed stature, angles do not. Frames where the person bends or sits fit the model badly and are
     down-weighted by the robust loss; the more the person moves towards and away from the camera, the better
     the focal length is determined. ``model_error=False`` leaves ``MODEL_ERROR_SD`` out of the standard
     deviations (e.g. for a synthetic person who fits the model exactly).
@@ -171,20 +183,16 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
         chosen = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
         estimates.append(_PersonProblem(axis[chosen], (width, height), person_height, focal_px).solve(best.x))
     spread = np.std(estimates, axis=0) if bootstrap > 1 else np.zeros_like(best.x)
-    pitch, roll, log_height = best.x[:3]
-    camera_height = float(np.exp(log_height))
-    focal = float(np.exp(best.x[3])) if focal_px is None else float(focal_px)
     floor = MODEL_ERROR_SD if model_error else dict.fromkeys(MODEL_ERROR_SD, 0.0)
-    height_sd = camera_height * float(np.linalg.norm([spread[2], person_height_sd / person_height,
-                                                      floor["height_fraction"]]))
-    camera = problem.camera(best.x)
+    camera = dataclasses.replace(problem.camera(best.x), name="person-calibrated")
+    height_sd = camera.camera_height * float(np.linalg.norm([spread[2], person_height_sd / person_height,
+                                                             floor["height_fraction"]]))
     residuals = problem.pixel_residuals(best.x)
     return PersonCalibration(
-        camera=dataclasses.replace(camera, name="person-calibrated"), height_m=camera_height,
-        pitch_deg=float(np.degrees(pitch)), roll_deg=float(np.degrees(roll)), focal_px=focal,
-        height_sd_m=height_sd, pitch_sd_deg=float(np.hypot(np.degrees(spread[0]), floor["pitch_deg"])),
+        camera=camera, height_sd_m=height_sd,
+        pitch_sd_deg=float(np.hypot(np.degrees(spread[0]), floor["pitch_deg"])),
         roll_sd_deg=float(np.hypot(np.degrees(spread[1]), floor["roll_deg"])),
-        focal_sd_px=float(focal * spread[3]) if focal_px is None else 0.0,
+        focal_sd_px=float(camera.K[0, 0] * spread[3]) if focal_px is None else 0.0,
         rms_px=float(np.sqrt(np.nanmean(residuals ** 2) * 2)), frames_used=len(axis))
 
 

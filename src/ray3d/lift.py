@@ -21,7 +21,7 @@ from ray3d.data.virtual_cameras import CameraBatch
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.models.network import LiftingNetwork, TensorBatch
-from ray3d.skeleton import H36M17, LAYOUTS, convert, convert_confidences
+from ray3d.skeleton import H36M17, LAYOUTS, convert_keypoints
 from ray3d.smoothing import smooth
 
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
@@ -116,15 +116,12 @@ class Lifter:
                              f"{keypoints.shape}")
         if len(keypoints) == 0:
             raise InputError("keypoints: no frames")
-        missing = ~np.isfinite(keypoints).all(-1)
         if confidences is not None:
             confidences = np.asarray(confidences, dtype=np.float64)
             if confidences.shape != keypoints.shape[:2]:
                 raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {confidences.shape}")
-            missing |= ~(confidences > 0)
-        # A derived joint (e.g. the pelvis from two hips) is missing when any of its sources is.
-        missing = convert_confidences((~missing).astype(np.float64), skeleton, "h36m17") <= 0
-        pixels = convert(np.where(np.isfinite(keypoints), keypoints, 0.0), skeleton, "h36m17")
+        pixels, found = convert_keypoints(keypoints, skeleton, confidences)
+        missing = ~found
         never_seen = [H36M17.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
         if never_seen:
             raise InputError(f"keypoints: joint(s) {', '.join(never_seen)} missing in every frame (NaN or confidence 0)")
@@ -181,9 +178,11 @@ class Lifter:
         return out
 
     @torch.no_grad()
-    def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, camera: CameraBatch, flip_test: bool) -> np.ndarray:
-        """(N, F, 17, 2) pixel and (N, F, 17, 3) ray windows seen by one camera -> (N, 17, 3) world joints."""
-        cameras = camera.take(np.zeros(len(pixels), dtype=int))
+    def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, one_camera: CameraBatch,
+                      flip_test: bool) -> np.ndarray:
+        """(N, F, 17, 2) pixel and (N, F, 17, 3) ray windows seen by ``one_camera`` (a batch of one) -> (N, 17, 3)
+        world joints."""
+        cameras = one_camera.take(np.zeros(len(pixels), dtype=int))
         batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device)
         pose, root = self.model.predict(batch, flip_test)
         world = self.model.to_world(pose.double() + root.double()[:, None], cameras, batch.camera_params.double())
@@ -244,14 +243,11 @@ class LiftStream:
         if keypoints.shape != (self.skeleton.num_joints, 2):
             raise InputError(f"keypoints: expected ({self.skeleton.num_joints}, 2) for layout {self.skeleton.name}, "
                              f"got {keypoints.shape}")
-        seen = np.isfinite(keypoints).all(-1)
         if confidences is not None:
             confidences = np.asarray(confidences, dtype=np.float64)
-            if confidences.shape != seen.shape:
-                raise InputError(f"confidences: expected shape {seen.shape}, got {confidences.shape}")
-            seen &= confidences > 0
-        seen = convert_confidences(seen.astype(np.float64)[None], self.skeleton, "h36m17")[0] > 0
-        pixels = convert(np.where(np.isfinite(keypoints), keypoints, 0.0)[None], self.skeleton, "h36m17")[0]
+            if confidences.shape != keypoints.shape[:1]:
+                raise InputError(f"confidences: expected shape {keypoints.shape[:1]}, got {confidences.shape}")
+        pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences)
         self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
         filled = self._last_seen.copy()
         if np.isnan(filled[0]).any():

@@ -205,6 +205,19 @@ def convert_confidences(confidences: Array, source: str | Skeleton, target: str 
     return xp.amin(xp.where(used, confidences[..., None, :], inf), -1)
 
 
+def convert_keypoints(keypoints: np.ndarray, source: str | Skeleton,
+                      confidences: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A detector's (..., J_source, 2) pixels (NaN where missing; optional (..., J_source) confidences, 0 =
+    missing) -> (..., 17, 2) H36M-17 pixels, NaN where missing, and (..., 17) whether each joint was seen. A
+    derived joint (e.g. the pelvis from two hips) is missing when any of its sources is."""
+    seen = np.isfinite(keypoints).all(-1)
+    if confidences is not None:
+        seen &= np.asarray(confidences) > 0
+    found = convert_confidences(seen.astype(np.float64), source, "h36m17") > 0
+    pixels = convert(np.where(seen[..., None], keypoints, 0.0), source, "h36m17")
+    return np.where(found[..., None], pixels, np.nan), found
+
+
 def flip(points: Array, layout: str | Skeleton = "h36m17") -> Array:
     """Mirror (..., J, D) joints: negate the first coordinate and swap left and right joints."""
     skeleton = _layout(layout)

@@ -147,7 +147,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     torch.manual_seed(config.seed)
     model = LiftingNetwork(config.model).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
-    generator = SampleGenerator(load_shipped(config.data_dir, "train", config.datasets), config.samples, seed=config.seed + 1000 * rank)
+    generator = SampleGenerator(load_shipped(config.data_dir, "train", config.datasets), config.samples,
+                                seed=config.seed + 1000 * rank)
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")

@@ -18,7 +18,7 @@ from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.io.exports import write_world
 from ray3d.lift import LiftResult, Lifter
-from ray3d.skeleton import H36M17, convert, convert_confidences
+from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.detectors import PoseDetector
 from ray3d.viz.html_viewer import write_viewer
 
@@ -123,8 +123,7 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
     write_viewer(targets["viewer"], {"ray3d": lifted.joints}, fps, camera, title=f"ray3d: {info.path.name}",
                  overwrite=overwrite)
     if overlay:
-        found = convert_confidences(confidences, detector.layout, "h36m17") > 0
-        pixels = np.where(found[..., None], convert(np.nan_to_num(keypoints), detector.layout, "h36m17"), np.nan)
+        pixels, _ = convert_keypoints(keypoints, detector.layout, confidences)
         write_overlay(info.path, targets["overlay"], pixels, camera.project(lifted.joints), fps, overwrite, progress)
     return VideoResult(keypoints, confidences, detector.layout, lifted, targets)
 
