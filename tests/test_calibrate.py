@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from ray3d import Camera, InputError
-from ray3d.calibrate import from_floor_points, read_floor_points
+from ray3d.calibrate import from_floor_points
 from ray3d.cli import main
 from ray3d.io.camera_files import load_cameras
+from ray3d.io.floor_points import read_floor_points
 
 
 def _truth() -> Camera:

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 import torch
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from ray3d import Camera, InputError, cameras
@@ -336,3 +336,69 @@ def test_from_height_pitch_agrees_with_the_full_model():
                                [[960, 540]], atol=1e-9)
     with pytest.raises(InputError, match="exactly one of focal_px and hfov_deg"):
         Camera.from_height_pitch(2.4, 25.0, (1920, 1080))
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(-np.pi, np.pi), st.floats(-1.2, 1.2), st.floats(0.5, 40.0))
+def test_a_camera_placed_looking_at_a_point_sees_it_on_its_axis(yaw, pitch, distance):
+    from ray3d.geometry import centre_looking_at
+
+    target = np.array([1.0, -2.0, 1.5])
+    centre = centre_looking_at(target, yaw, pitch, distance)
+    assume(centre[2] > 0.05)  # cameras stand above the floor
+    camera = Camera.from_pose(centre, yaw, pitch, 0.0, 1000.0, 1000.0, 500.0, 400.0, (1000, 800))
+    np.testing.assert_allclose(camera.world_to_camera(target), [0.0, 0.0, distance], atol=1e-9)
+    np.testing.assert_allclose(camera.project(target), [500.0, 400.0], atol=1e-6)
+    assert camera.sees(target) and not camera.sees(centre - (target - centre))  # behind it
+
+
+def test_the_floor_frame_keeps_the_view_height_pitch_and_roll():
+    camera = cameras.h36m("S9", "54138969")
+    floor = camera.in_floor_frame()
+    assert floor.camera_height == pytest.approx(camera.camera_height)
+    assert floor.pitch == pytest.approx(camera.pitch) and floor.roll == pytest.approx(camera.roll)
+    np.testing.assert_allclose(floor.center, [0.0, 0.0, camera.camera_height], atol=1e-9)
+    points = np.array([[0.5, 0.2, 1.0], [-1.0, 2.0, 0.1]]) + camera.center * [1, 1, 0]
+    np.testing.assert_allclose(floor.project(floor.camera_to_world(camera.world_to_camera(points))),
+                               camera.project(points), atol=1e-6)
+
+
+@pytest.mark.parametrize("value, expected", [("1920x1080", (1920, 1080)), ((640, 480), (640, 480)),
+                                             ("800X600", (800, 600))])
+def test_image_sizes_parse(value, expected):
+    from ray3d.geometry import parse_image_size
+
+    assert parse_image_size(value) == expected
+
+
+@pytest.mark.parametrize("value, message", [("1920", "WIDTHxHEIGHT"), ("0x10", "positive"), (None, "WIDTHxHEIGHT"),
+                                            ((1, 2, 3), "WIDTHxHEIGHT"), ("axb", "WIDTHxHEIGHT")])
+def test_bad_image_sizes_name_the_field(value, message):
+    from ray3d.geometry import parse_image_size
+
+    with pytest.raises(InputError, match=f"--image-size: .*{message}"):
+        parse_image_size(value, "--image-size")
+
+
+def test_pinhole_intrinsics_from_focal_or_field_of_view():
+    from ray3d.geometry import pinhole_intrinsics
+
+    assert pinhole_intrinsics((1000, 800), focal_px=700.0) == (700.0, 700.0, 500.0, 400.0)
+    fx, fy, cx, cy = pinhole_intrinsics("1000x800", hfov_deg=90.0)
+    assert fx == pytest.approx(500.0) and (cx, cy) == (500.0, 400.0)
+    with pytest.raises(InputError, match="exactly one of focal_px and hfov_deg"):
+        pinhole_intrinsics((1000, 800))
+
+
+def test_a_camera_batch_repeats_one_camera_and_packs_height_and_pitch():
+    from ray3d.geometry import CameraBatch
+
+    camera = cameras.h36m("S9", "54138969")
+    batch = CameraBatch.repeated(camera, 3)
+    assert len(batch) == 3 and batch.has_distortion and batch.image_size == camera.image_size
+    np.testing.assert_allclose(batch.height_pitch, [[camera.camera_height, camera.pitch]] * 3)
+    again = batch.camera(2)
+    np.testing.assert_allclose(again.R, camera.R)
+    np.testing.assert_allclose(again.t, camera.t)
+    with pytest.raises(InputError, match="no cameras"):
+        CameraBatch.from_cameras([])

@@ -11,7 +11,7 @@ import pytest
 
 from ray3d import cameras
 from ray3d.cli import main
-from ray3d.io.exports import read_world
+from ray3d.io.world import read_world
 from ray3d.skeleton import BODY25, COCO17, H36M17, convert
 
 CAMERA = cameras.h36m("S9", "55011271")
@@ -102,7 +102,7 @@ def test_every_input_format_lifts_to_the_same_world(tmp_path, tiny_checkpoint, c
         code = main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(out),
                      "--checkpoint", str(tiny_checkpoint), *extra])
         assert code == 0, capsys.readouterr().err
-        joints = read_world(out)["joints"]
+        joints = read_world(out).track().joints
         assert joints.shape == (FRAMES, 17, 3)
         if reference is None:
             reference = joints
@@ -128,13 +128,15 @@ def test_every_output_format_states_units_axes_joints_fps_camera(tmp_path, tiny_
         assert main(["lift", "--keypoints", str(keypoints), "--camera", str(_cameras(tmp_path)["ours.json"]),
                      "--out", str(out), "--checkpoint", str(tiny_checkpoint)]) == 0
         outputs[suffix] = read_world(out)
-    assert outputs["json"]["units"] == "metres" and "z up" in outputs["json"]["axes"]
-    assert outputs["json"]["joint_names"] == list(H36M17.joint_names) and outputs["json"]["fps"] == 60.0
-    assert outputs["json"]["camera"]["fx"] == pytest.approx(CAMERA.K[0, 0])
-    assert "units: metres" in outputs["csv"]["header"] and "z up" in outputs["csv"]["header"]
-    assert str(outputs["npz"]["units"]) == "metres" and list(outputs["npz"]["joint_names"]) == list(H36M17.joint_names)
+    for suffix, world in outputs.items():  # every format states them, and read_world gives them back
+        assert world.units == "metres" and "z up" in world.axes, suffix
+        assert list(world.joint_names) == list(H36M17.joint_names) and world.fps == 60.0, suffix
+        assert world.camera.K[0, 0] == pytest.approx(CAMERA.K[0, 0]), suffix
+    header = (tmp_path / "world.csv").read_text().splitlines()[0]
+    assert "units: metres" in header and "z up" in header
     for suffix in ("csv", "npz"):
-        np.testing.assert_allclose(outputs[suffix]["joints"], outputs["json"]["joints"], atol=2e-5)
+        np.testing.assert_allclose(outputs[suffix].track().joints, outputs["json"].track().joints, atol=2e-5)
+        np.testing.assert_array_equal(outputs[suffix].track().interpolated, outputs["json"].track().interpolated)
 
 
 def test_refuses_to_overwrite_without_force(tmp_path, tiny_checkpoint, capsys):
@@ -180,7 +182,7 @@ def test_camera_from_height_and_pitch_flags(tmp_path, tiny_checkpoint, capsys):
     out = tmp_path / "w.json"
     assert main(["lift", "--keypoints", str(keypoints), "--camera-height", "1.6", "--pitch", "12", "--hfov", "60",
                  "--image-size", "1000x1000", "--out", str(out), "--checkpoint", str(tiny_checkpoint)]) == 0
-    assert read_world(out)["camera"]["name"] == "height1.6m-pitch12deg"
+    assert read_world(out).camera.name == "height1.6m-pitch12deg"
     assert main(["lift", "--keypoints", str(keypoints), "--pitch", "12", "--out", str(tmp_path / "x.json"),
                  "--checkpoint", str(tiny_checkpoint)]) == 2
     assert "--camera-height" in capsys.readouterr().err

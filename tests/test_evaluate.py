@@ -26,7 +26,7 @@ def _standing_clip(frames=20, pelvis_height=0.9395):
 @pytest.mark.parametrize("causal", [False, True])
 def test_a_model_that_outputs_the_truth_scores_zero(monkeypatch, causal):
     target = 8 if causal else 4
-    monkeypatch.setattr(evaluation, "predict_world",
+    monkeypatch.setattr(evaluation, "predict_windows",
                         lambda model, windows, camera, flip_test=False, **options: windows[:, target])
 
     class Oracle:
@@ -47,7 +47,7 @@ def test_the_14_joint_score_ignores_spine_thorax_and_neck(monkeypatch):
         predicted[:, [7, 8, 9]] += 0.1  # spine, thorax, neck/nose
         return predicted
 
-    monkeypatch.setattr(evaluation, "predict_world", wrong_trunk)
+    monkeypatch.setattr(evaluation, "predict_windows", wrong_trunk)
 
     class Model:
         receptive_field = 9

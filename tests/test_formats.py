@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from ray3d import InputError
-from ray3d.data.formats import H36M32_TO_17, load_positions_2d, load_positions_3d, to_motion_set
+from ray3d.data.motion import to_motion_set
+from ray3d.io.dataset_files import H36M32_TO_17, load_positions_2d, load_positions_3d
 from ray3d.io.safe_npz import read_npz_entries
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ray3d import InputError
-from ray3d.data.importers import import_amc, import_bvh, resample
+from ray3d.data.importers import import_amc, import_bvh
 from ray3d.skeleton import H36M17
 
 RIGID_BONES = [(1, 2), (2, 3), (4, 5), (5, 6), (11, 12), (12, 13), (14, 15), (15, 16)]
@@ -63,13 +63,6 @@ def test_left_and_right_are_not_mirrored_on_a_walk(raw, expected):
     moving = np.linalg.norm(travel, axis=-1) > 0.5 / 60  # faster than 0.5 m/s
     cosine = (facing * travel).sum(-1) / np.linalg.norm(facing, axis=-1) / np.linalg.norm(travel, axis=-1)
     assert moving.mean() > 0.5 and np.median(cosine[moving]) > 0.9
-
-
-def test_resample_decimates_whole_ratios_and_interpolates_others():
-    signal = np.arange(121, dtype=float)[:, None]
-    np.testing.assert_array_equal(resample(signal, 120.0, 60.0)[:, 0], np.arange(0, 121, 2))
-    out = resample(signal, 100.0, 60.0)[:, 0]
-    np.testing.assert_allclose(out, np.arange(len(out)) * 100 / 60)
 
 
 def _edit(path, tmp_path, transform):

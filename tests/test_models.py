@@ -136,7 +136,8 @@ def test_flip_test_is_consistent_for_a_mirror_symmetric_input():
 
 
 def test_gravity_aligned_model_round_trips_its_targets():
-    from ray3d.data.virtual_cameras import CameraBatch, CameraRanges, sample_cameras
+    from ray3d.data.virtual_cameras import CameraRanges, sample_cameras
+    from ray3d.geometry import CameraBatch
     import numpy as np
 
     model = LiftingNetwork(preset("rie-decoupled", remove_roll=True, **TINY)).eval()

@@ -6,11 +6,14 @@ import numpy as np
 import pytest
 
 from ray3d.data.motion import MotionSet
-from ray3d.data.samples import (Batch, SampleConfig, SampleGenerator, clip_windows, flip_batch, observe,
-                                scale_bones, window_indices)
-from ray3d.data.virtual_cameras import CameraBatch, CameraRanges, grid
+from ray3d.data.samples import Batch, SampleConfig, SampleGenerator, flip_batch, observe, scale_bones
+from ray3d.data.virtual_cameras import CameraRanges, grid
+from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
 from ray3d.skeleton import H36M17
+from ray3d.temporal import Window, sequence_windows, window_indices
+
+NINE = Window(9)
 
 
 def _motion(rng, lengths=(30, 3, 50)) -> MotionSet:
@@ -22,27 +25,18 @@ def _motion(rng, lengths=(30, 3, 50)) -> MotionSet:
     return MotionSet.from_clips(clips, clip_id=[f"c{i}" for i in range(len(lengths))], subject="s")
 
 
-def test_windows_replicate_the_clip_edges():
-    clip = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 17, 3))
-    windows = clip_windows(clip, 5)
-    assert windows[:, :, 0, 0].tolist() == [[0, 0, 0, 1, 2], [0, 0, 1, 2, 3], [0, 1, 2, 3, 4], [1, 2, 3, 4, 4],
-                                            [2, 3, 4, 4, 4]]
-    idx = window_indices(np.array([10, 12]), np.array([10, 10]), np.array([12, 12]), 3)
-    assert idx.tolist() == [[10, 10, 11], [11, 12, 12]]
-
-
 def test_generator_windows_stay_inside_their_clip(rng):
     motion = _motion(rng)
-    generator = SampleGenerator(motion, SampleConfig(frames=9), seed=1)
+    generator = SampleGenerator(motion, SampleConfig(), NINE, seed=1)
     centres = np.arange(motion.num_frames)
-    idx = window_indices(centres, generator.first[centres], generator.last[centres], 9)
+    idx = window_indices(centres, generator.first[centres], generator.last[centres], NINE)
     clip_of = np.searchsorted(motion.clip_start, idx, side="right") - 1
     assert np.all(clip_of == clip_of[:, 4:5])
 
 
 def test_rays_and_targets_satisfy_the_ncs_identity(rng):
-    config = SampleConfig(frames=9, flip_probability=0.0, cameras=CameraRanges(distortion_k1=(-0.2, 0.0), roll_deg=4))
-    batch = SampleGenerator(_motion(rng), config, seed=2).batch(64)
+    config = SampleConfig(flip_probability=0.0, cameras=CameraRanges(distortion_k1=(-0.2, 0.0), roll_deg=4))
+    batch = SampleGenerator(_motion(rng), config, NINE, seed=2).batch(64)
     assert batch.rays.shape == (64, 9, 17, 3) and batch.pixels.shape == (64, 9, 17, 2)
     assert batch.pose.shape == (64, 17, 3) and batch.root.shape == (64, 3) and batch.camera_params.shape == (64, 2)
     np.testing.assert_array_equal(batch.pose[:, 0], 0.0)
@@ -59,7 +53,7 @@ def test_rays_and_targets_satisfy_the_ncs_identity(rng):
 
 
 def test_flip_twice_is_the_identity_and_flip_mirrors(rng):
-    batch = SampleGenerator(_motion(rng), SampleConfig(flip_probability=0.0), seed=3).batch(16)
+    batch = SampleGenerator(_motion(rng), SampleConfig(flip_probability=0.0), NINE, seed=3).batch(16)
     mask = np.arange(16) % 2 == 0
     twice = flip_batch(flip_batch(batch, mask), mask)
     for field in ("pixels", "rays", "pose", "root", "visible"):
@@ -83,7 +77,7 @@ def test_bone_scaling_keeps_directions_and_regrounds(rng):
 
 def test_noise_and_dropped_joints(rng):
     config = SampleConfig(noise_px=3.0, drop_probability=0.2, flip_probability=0.0)
-    batch = SampleGenerator(_motion(rng), config, seed=4).batch(512)
+    batch = SampleGenerator(_motion(rng), config, NINE, seed=4).batch(512)
     cams = batch.cameras
     clean = tf.camera_to_pixels(tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None]),
                                 cams.intrinsics[:, None])
@@ -99,7 +93,7 @@ def test_noise_and_dropped_joints(rng):
 
 def test_same_seed_same_batches(rng):
     motion = _motion(rng)
-    a, b = (SampleGenerator(motion, SampleConfig(noise_px=1.0), seed=7).batch(32) for _ in range(2))
+    a, b = (SampleGenerator(motion, SampleConfig(noise_px=1.0), NINE, seed=7).batch(32) for _ in range(2))
     np.testing.assert_array_equal(a.rays, b.rays)
     np.testing.assert_array_equal(a.root, b.root)
 
@@ -107,17 +101,17 @@ def test_same_seed_same_batches(rng):
 def test_observe_without_rng_is_exact_for_fixed_cameras(rng):
     camera = grid("extrinsic-test")[0]
     clip = _motion(rng).clip(0).astype(np.float64)
-    windows = clip_windows(clip, 9)
+    windows = sequence_windows(clip, NINE)
     cams = CameraBatch.from_cameras([camera] * len(windows))
-    batch = observe(windows, cams)
+    batch = observe(windows, cams, NINE)
     np.testing.assert_allclose(batch.root, camera.world_to_normalized(clip[:, 0]), atol=1e-5)
     np.testing.assert_allclose(batch.rays[:, 4], camera.pixels_to_rays(camera.project(clip)), atol=1e-6)
     assert isinstance(batch, Batch)
 
 
 def test_gravity_aligned_samples_keep_the_ncs_identity(rng):
-    config = SampleConfig(flip_probability=0.0, remove_roll=True, cameras=CameraRanges(roll_deg=6.0))
-    batch = SampleGenerator(_motion(rng), config, seed=5).batch(64)
+    config = SampleConfig(flip_probability=0.0, cameras=CameraRanges(roll_deg=6.0))
+    batch = SampleGenerator(_motion(rng), config, NINE, remove_roll=True, seed=5).batch(64)
     cams = batch.cameras
     assert np.abs(cams.roll).max() > np.radians(1)
     depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]
@@ -128,13 +122,10 @@ def test_gravity_aligned_samples_keep_the_ncs_identity(rng):
     np.testing.assert_allclose(up_in_ncs, np.tile([0.0, -1.0, 0.0], (64, 1)), atol=1e-9)
 
 
-def test_causal_windows_end_at_their_target(rng):
-    clip = np.arange(5, dtype=float)[:, None, None] * np.ones((1, 17, 3))
-    windows = clip_windows(clip, 3, causal=True)
-    assert windows[:, :, 0, 0].tolist() == [[0, 0, 0], [0, 0, 1], [0, 1, 2], [1, 2, 3], [2, 3, 4]]
+def test_causal_samples_target_the_window_end(rng):
     motion = _motion(rng)
-    batch = SampleGenerator(motion, SampleConfig(frames=9, causal=True, flip_probability=0.0, bone_scale=(1, 1),
-                                                 bone_jitter=0.0), seed=3).batch(32)
+    batch = SampleGenerator(motion, SampleConfig(flip_probability=0.0, bone_scale=(1, 1), bone_jitter=0.0),
+                            Window(9, causal=True), seed=3).batch(32)
     cams = batch.cameras
     depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]
     expected = depth * batch.rays[:, -1] + np.stack([np.zeros(32), -cams.height, np.zeros(32)], -1)[:, None]

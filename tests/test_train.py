@@ -13,8 +13,7 @@ import torch
 from ray3d.checkpoints import load_model, read_checkpoint
 from ray3d.errors import InputError
 from ray3d.models import preset
-from ray3d.models.network import TensorBatch
-from ray3d.train import TrainConfig, train, validation_batch
+from ray3d.train import TrainConfig, batch_tensors, train, validation_batch
 
 
 def _config(data_dir, **overrides) -> TrainConfig:
@@ -37,12 +36,12 @@ def test_save_load_gives_identical_outputs_and_resume_continues(tiny_data_dir, t
     assert [h["epoch"] for h in first["history"]] == [1, 2]
     model, document = load_model(run / "best.safetensors")
     assert "CMU" in document["trained_on"] and "CC BY-SA 3.0" in document["trained_on"]
-    batch = TensorBatch.from_batch(validation_batch(config))
+    batch = batch_tensors(validation_batch(config))
     tensors, _ = read_checkpoint(run / "best.safetensors")
     again, _ = load_model(run / "best.safetensors")
     with torch.no_grad():
         torch.testing.assert_close(model(batch), again(batch), rtol=0, atol=0)
-    with pytest.raises(Exception, match="pass --resume"):
+    with pytest.raises(Exception, match="resume it or choose another output folder"):
         train(config, run, progress=False)
     resumed = train(TrainConfig(**{**config.to_dict(), "epochs": 3}), run, resume=True, progress=False)
     assert [h["epoch"] for h in resumed["history"]] == [1, 2, 3]
@@ -84,7 +83,7 @@ def test_export_keeps_weights_and_provenance_only(tiny_data_dir, tmp_path):
     assert document["training"]["command"] == "ray3d train" and "trained_on" in document
     model, _ = load_model(target)
     reference, _ = load_model(run / "last.safetensors")
-    batch = TensorBatch.from_batch(validation_batch(_config(tiny_data_dir)))
+    batch = batch_tensors(validation_batch(_config(tiny_data_dir)))
     with torch.no_grad():
         torch.testing.assert_close(model(batch), reference(batch), rtol=0, atol=0)
     with pytest.raises(InputError, match="already exists"):
@@ -104,3 +103,22 @@ def test_training_on_one_dataset_only(tiny_data_dir, tmp_path):
 def _write(path, document):
     path.write_text(json.dumps(document))
     return path
+
+
+def test_a_config_names_a_preset_and_its_overrides(tmp_path):
+    from ray3d.train import training_config
+
+    path = _write(tmp_path / "c.json", {"preset": "rie", "model": {"name": "rie-small", "channels": 64},
+                                        "epochs": 3, "samples": {"noise_px": 2.0}})
+    config = training_config(path)
+    assert config.model == preset("rie", name="rie-small", channels=64)
+    assert config.epochs == 3 and config.samples.noise_px == 2.0 and config.batch_size == TrainConfig().batch_size
+    swapped = training_config(path, "videopose3d", epochs=5, seed=None)
+    assert swapped.model == preset("videopose3d") and swapped.epochs == 5 and swapped.samples.noise_px == 2.0
+    # A saved config.json (the whole configuration, no preset) loads as it was.
+    saved = _write(tmp_path / "saved.json", config.to_dict())
+    assert TrainConfig.from_json(saved) == config
+    with pytest.raises(InputError, match="unknown model preset 'nope'"):
+        training_config(_write(tmp_path / "bad.json", {"preset": "nope"}))
+    with pytest.raises(InputError, match="not a training config"):
+        training_config(_write(tmp_path / "typo.json", {"preset": "ray3d", "epoch": 3}))

@@ -13,7 +13,7 @@ import pytest
 from ray3d import Camera, InputError, Lifter
 from ray3d.cli import main
 from ray3d.demo import demo_clip
-from ray3d.io.exports import read_world
+from ray3d.io.world import read_world
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, lift_video, read_video_info
 
@@ -81,7 +81,7 @@ def test_the_pipeline_writes_every_output_and_equals_lifting_the_detections(vide
     direct = lifter.lift(result.keypoints, camera, result.confidences, FPS, "h36m17").joints
     np.testing.assert_allclose(result.lifted.joints, direct)
     saved = read_world(result.files["world"])
-    np.testing.assert_allclose(np.asarray(saved["joints"]), result.lifted.joints, atol=1e-5)
+    np.testing.assert_allclose(saved.track().joints, result.lifted.joints, atol=1e-5)
     assert np.abs(result.lifted.joints - world).mean() < 0.5  # metres: a sanity bound, not an accuracy claim
     # The detections can be lifted again without detecting: the frames without anybody are left out.
     detections = json.loads(result.files["keypoints"].read_text())
@@ -89,7 +89,7 @@ def test_the_pipeline_writes_every_output_and_equals_lifting_the_detections(vide
     assert main(["lift", "--keypoints", str(result.files["keypoints"]), "--camera-height", "2", "--pitch", "15",
                  "--hfov", "70", "--image-size", "640x480", "--out", str(tmp_path / "again.json")]) == 0
     again = read_world(tmp_path / "again.json")
-    np.testing.assert_allclose(np.asarray(again["joints"]), result.lifted.joints, atol=1e-4)
+    np.testing.assert_allclose(again.track().joints, result.lifted.joints, atol=1e-4)
     assert "ray3d: walk.mp4" in result.files["viewer"].read_text()
     overlay = read_video_info(result.files["overlay"])
     assert overlay.frames == FRAMES and overlay.image_size == SIZE

@@ -3,45 +3,15 @@ its height, pitch, roll (and focal length) from a person walking on the floor.""
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-from pathlib import Path
 
 import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
 from ray3d.errors import InputError
-from ray3d.geometry import Camera
-from ray3d.io.json_files import read_json
-from ray3d.skeleton import H36M17, LAYOUTS, convert_keypoints
-
-MIN_FLOOR_POINTS = 4
-
-
-def read_floor_points(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """(N, 2) floor positions in metres (z = 0) and (N, 2) pixels from a CSV (columns x, y, u, v) or a JSON list
-    of {"x", "y", "u", "v"} objects."""
-    path = Path(path)
-    if path.suffix.lower() == ".json":
-        rows = read_json(path)
-        if not isinstance(rows, list):
-            raise InputError(f"{path}: expected a list of {{\"x\", \"y\", \"u\", \"v\"}} objects")
-    else:
-        try:
-            with path.open(newline="") as handle:
-                rows = list(csv.DictReader(handle))
-        except (OSError, UnicodeDecodeError) as err:
-            raise InputError(f"{path}: cannot read ({err})") from None
-    try:
-        values = np.array([[float(r[k]) for k in ("x", "y", "u", "v")] for r in rows])
-    except (KeyError, TypeError):
-        raise InputError(f"{path}: every floor point needs x, y (metres) and u, v (pixels)") from None
-    except ValueError as err:
-        raise InputError(f"{path}: non-numeric floor point value ({err})") from None
-    if len(values) < MIN_FLOOR_POINTS:
-        raise InputError(f"{path}: {len(values)} floor point(s); at least {MIN_FLOOR_POINTS} are needed")
-    return values[:, :2], values[:, 2:]
+from ray3d.geometry import Camera, parse_image_size
+from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
 
 
 def from_floor_points(floor_xy: np.ndarray, pixels: np.ndarray, intrinsics: Camera | tuple, image_size=None,
@@ -131,22 +101,24 @@ class PersonCalibration:
                 f"model fit RMS {self.rms_px:.1f} px over {self.frames_used} frames")
 
 
-def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17") -> np.ndarray:
-    """(T, J, 2) keypoints -> (T, 4, 2) pixels of the mid-ankle, pelvis, thorax and head (NaN where missing)."""
-    if layout not in LAYOUTS:
-        raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
-    skeleton = LAYOUTS[layout]
+def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17", confidences=None) -> np.ndarray:
+    """(T, J, 2) keypoints (optional (T, J) confidences, 0 = missing) -> (T, 4, 2) pixels of the mid-ankle,
+    pelvis, thorax and head (NaN where missing)."""
+    skeleton = layout_skeleton(layout)
     keypoints = np.asarray(keypoints, dtype=np.float64)
     if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
         raise InputError(f"keypoints: expected (frames, {skeleton.num_joints}, 2) for layout {layout}, got "
                          f"{keypoints.shape}")
-    pixels, _ = convert_keypoints(keypoints, skeleton)
+    if confidences is not None and np.shape(confidences) != keypoints.shape[:2]:
+        raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {np.shape(confidences)}")
+    pixels, _ = convert_keypoints(keypoints, skeleton, confidences)
     return np.stack([pixels[:, [H36M17.index(j) for j in joints]].mean(1) for joints in _AXIS_JOINTS.values()], 1)
 
 
 def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1.70, focal_px: float | None = None,
                 layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
-                seed: int = 0, max_frames: int = 400, model_error: bool = True) -> PersonCalibration:
+                seed: int = 0, max_frames: int = 400, model_error: bool = True,
+                confidences=None) -> PersonCalibration:
     """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints
     (T, J, 2) of one person standing or walking on the floor, seen by a camera with square pixels and its
     principal point at the image centre.
@@ -158,10 +130,11 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
     over the frames. Heights scale with the assumed stature, angles do not. Frames where the person bends or sits fit the model badly and are
     down-weighted by the robust loss; the more the person moves towards and away from the camera, the better
     the focal length is determined. ``model_error=False`` leaves ``MODEL_ERROR_SD`` out of the standard
-    deviations (e.g. for a synthetic person who fits the model exactly).
+    deviations (e.g. for a synthetic person who fits the model exactly). Joints with ``confidences`` (T, J) of 0
+    count as missing.
     """
-    width, height = _image_size(image_size)
-    axis = person_axis_pixels(keypoints, layout)
+    width, height = parse_image_size(image_size)
+    axis = person_axis_pixels(keypoints, layout, confidences)
     usable = np.isfinite(axis).all(axis=(1, 2))
     if usable.sum() < MIN_PERSON_FRAMES:
         raise InputError(f"keypoints: {int(usable.sum())} frame(s) show the ankles, hips, shoulders and head; at "
@@ -194,16 +167,6 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
         roll_sd_deg=float(np.hypot(np.degrees(spread[1]), floor["roll_deg"])),
         focal_sd_px=float(camera.K[0, 0] * spread[3]) if focal_px is None else 0.0,
         rms_px=float(np.sqrt(np.nanmean(residuals ** 2) * 2)), frames_used=len(axis))
-
-
-def _image_size(image_size) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in image_size)
-    except (TypeError, ValueError):
-        raise InputError(f"image_size: expected (width, height) in pixels, got {image_size!r}") from None
-    if width <= 0 or height <= 0:
-        raise InputError(f"image_size: expected positive (width, height), got {image_size!r}")
-    return width, height
 
 
 class _PersonProblem:

@@ -97,7 +97,7 @@ def export(source: str | Path, target: str | Path, overwrite: bool = False, **pr
     model_from_checkpoint(weights, document)  # refuse to export something that does not load
     target = Path(target).with_suffix(".safetensors")
     if target.exists() and not overwrite:
-        raise InputError(f"{target}: already exists; refusing to overwrite it (use --force to replace it)")
+        raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
     keep = ("model", "trained_on", "epoch", "validation", "train_config")
     save_checkpoint(target, weights, {**{k: document[k] for k in keep if k in document}, **provenance})
     return target

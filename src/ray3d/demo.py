@@ -14,7 +14,7 @@ from ray3d import cameras, metrics
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import shipped_models
 from ray3d.data.motion import MotionSet
-from ray3d.data.virtual_cameras import centre_clip, in_image
+from ray3d.data.virtual_cameras import centre_clip
 from ray3d.lift import Lifter
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
@@ -36,7 +36,7 @@ def run_demo(out_dir: str | Path = "ray3d-demo", checkpoint: str = "ray3d", base
     out_dir = Path(out_dir)
     truth = demo_clip()[:frames]
     camera = cameras.h36m(*DEMO_CAMERA)
-    assert in_image(camera, truth), "the demo clip must be fully in view"
+    assert camera.sees(truth), "the demo clip must be fully in view"
     pixels = camera.project(truth)
 
     def errors(predicted: np.ndarray) -> dict[str, float | None]:

@@ -1,5 +1,28 @@
 """The one exception type for bad input: a ValueError whose message names the offending field and problem."""
 
+from __future__ import annotations
+
 
 class InputError(ValueError):
-    """Raised for input that is malformed, non-finite, wrongly shaped or physically impossible."""
+    """Raised for input that is malformed, non-finite, wrongly shaped or physically impossible.
+
+    ``arguments`` names the parameters (of the function the caller called) that would settle the problem, e.g.
+    ``("overwrite",)``; the message states them in Python's terms, and the command line names its own flags
+    for them instead (``message_for``)."""
+
+    def __init__(self, message: str, arguments: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.message, self.arguments = message, tuple(arguments)
+
+    def __str__(self) -> str:
+        return self.message_for({})
+
+    def message_for(self, names: dict[str, str]) -> str:
+        """The message, each argument called by its name in ``names`` (e.g. ``{"overwrite": "--force"}``) or,
+        without one, as the Python parameter it is."""
+        if not self.arguments:
+            return self.message
+        if all(a in names for a in self.arguments):
+            return f"{self.message} ({', '.join(names[a] for a in self.arguments)})"
+        label = "argument" if len(self.arguments) == 1 else "arguments"
+        return f"{self.message} ({label}: {', '.join(self.arguments)})"

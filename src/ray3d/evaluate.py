@@ -9,6 +9,7 @@ Overall values are frame-weighted over all evaluated (camera, clip, frame) tripl
 from __future__ import annotations
 
 from collections import defaultdict
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -16,19 +17,27 @@ import torch
 from ray3d import metrics
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import RFRH, load_model
+from ray3d.data import motion as motion_data
 from ray3d.data.motion import MotionSet
-from ray3d.data.samples import SampleConfig, clip_windows, observe, scale_bones, target_frame
-from ray3d.data.virtual_cameras import CameraBatch, centre_clip, in_image
-from ray3d.geometry import Camera
-from ray3d.models.network import LiftingNetwork, TensorBatch
-from ray3d.skeleton import H36M17, LAYOUTS
+from ray3d.data.samples import SampleConfig, observe, scale_bones
+from ray3d.data.virtual_cameras import SET_NAMES, centre_clip, grid
+from ray3d.errors import InputError
+from ray3d.geometry import Camera, CameraBatch
+from ray3d.io.camera_files import load_cameras
+from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
+from ray3d.skeleton import H36M17, layout_skeleton
+from ray3d.temporal import Window, sequence_windows
 
 METRICS = ("mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm")
 SCORED_LAYOUTS = ("h36m17", "h36m14")
 
 
+def _window(model: LiftingNetwork | str) -> Window:
+    return Window(1) if model == RFRH else model.config.window
+
+
 @torch.no_grad()
-def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
+def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
                   chunk: int = 8192, given: Camera | None = None, noise_px: float = 0.0,
                   rng: np.random.Generator | None = None) -> np.ndarray:
     """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the target
@@ -42,25 +51,21 @@ def predict_world(model: LiftingNetwork | str, windows: np.ndarray, camera: Came
     given = given or camera
     if noise_px > 0 and rng is None:
         rng = np.random.default_rng(0)
+    window, remove_roll = _window(model), model != RFRH and model.config.remove_roll
     out = []
     for start in range(0, len(windows), chunk):
         part = windows[start:start + chunk]
-        index = np.zeros(len(part), dtype=int)
-        remove_roll = model != RFRH and model.config.remove_roll
-        causal = model != RFRH and model.config.causal
-        batch = observe(part, CameraBatch.from_cameras([camera]).take(index), rng if noise_px > 0 else None,
-                        SampleConfig(frames=part.shape[1], causal=causal, remove_roll=remove_roll, noise_px=noise_px))
+        batch = observe(part, CameraBatch.repeated(camera, len(part)), window, remove_roll,
+                        rng if noise_px > 0 else None, SampleConfig(noise_px=noise_px))
         told, rays = batch.cameras, batch.rays
         if given is not camera:  # the pixels stay the true camera's; everything else is the given camera's
-            told = CameraBatch.from_cameras([given]).take(index)
+            told = CameraBatch.repeated(given, len(part))
             rays = given.pixels_to_rays(batch.pixels.astype(np.float64), remove_roll=remove_roll)
         if model == RFRH:
             predicted = np.full(part.shape[:1] + part.shape[2:], np.nan)
-            predicted[:, 0] = rfrh_root(batch.pixels[:, part.shape[1] // 2, 0].astype(np.float64), given)
+            predicted[:, 0] = rfrh_root(batch.pixels[:, window.target, 0].astype(np.float64), given)
         else:
-            tensors = TensorBatch.from_arrays(batch.pixels, rays, told)
-            pose, root = model.predict(tensors, flip_test)
-            predicted = model.to_world(pose + root[:, None], told, tensors.camera_params).numpy()
+            predicted = predict_world(model, TensorBatch.from_arrays(batch.pixels, rays, told), told, flip_test).numpy()
         out.append(predicted)
     return np.concatenate(out)
 
@@ -91,16 +96,15 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
     error); ``bone_scale`` multiplies every bone of every clip, re-grounded (smaller or larger people);
     ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose);
-    ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_world``; ``seed`` fixes it).
+    ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_windows``; ``seed`` fixes it).
     """
     rng = np.random.default_rng(seed)
     if joints not in SCORED_LAYOUTS:
         raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
-    scored = [H36M17.joint_names.index(name) for name in LAYOUTS[joints].joint_names]
+    scored = [H36M17.index(name) for name in layout_skeleton(joints).joint_names]
     if isinstance(model, str) and model != RFRH:
         model = load_model(model)[0]
-    frames = 1 if model == RFRH else model.receptive_field
-    causal = model != RFRH and model.config.causal
+    window = _window(model)
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)
     clips = [motion.clip(i).astype(np.float64) for i in range(motion.num_clips)]
@@ -108,17 +112,17 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         clips = [scale_bones(clip, np.full(clip.shape[:2], bone_scale)) for clip in clips]
     clips = [centre_clip(clip) for clip in clips]
     given_cameras = given_cameras or cameras
-    windows = [clip_windows(clip, frames, causal)[::frame_stride] for clip in clips]
+    windows = [sequence_windows(clip, window)[::frame_stride] for clip in clips]
     skipped = 0
     for camera, given in zip(cameras, given_cameras):
         # All clips this camera sees go through the network together; errors are split back per clip.
-        seen = [i for i, clip in enumerate(clips) if in_image(camera, clip)]
+        seen = [i for i, clip in enumerate(clips) if camera.sees(clip)]
         skipped += len(clips) - len(seen)
         if not seen:
             continue
         stacked = np.concatenate([windows[i] for i in seen])
-        predicted = predict_world(model, stacked, camera, flip_test, given=given, noise_px=noise_px, rng=rng)
-        errors = _per_frame(predicted[:, scored], stacked[:, target_frame(frames, causal)][:, scored])
+        predicted = predict_windows(model, stacked, camera, flip_test, given=given, noise_px=noise_px, rng=rng)
+        errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored])
         bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}
@@ -133,3 +137,27 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
             "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},
             "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}
+
+
+def evaluation_motion(mocap: str | Path | None = None, split: str | None = None,
+                      datasets: tuple[str, ...] | None = None, data_dir: str | Path | None = None) -> tuple[MotionSet, str]:
+    """The clips to evaluate on and a description of them: the shipped mocap's ``split`` (default the test
+    performers) of ``datasets`` (default all), or a motion npz of one's own (its ``split``: default ``test`` for
+    a shipped file, every clip for any other)."""
+    if mocap is None:
+        datasets = tuple(datasets or motion_data.DATASETS)
+        clips = motion_data.load_shipped(data_dir, split or "test", datasets)
+        source = f"shipped mocap ({', '.join(datasets)}), {split or 'test'} performers"
+    else:
+        mocap = Path(mocap)
+        split = split or ("test" if mocap.name in motion_data.SHIPPED_FILES else "all")
+        clips = motion_data.select_split(MotionSet.load(mocap), split)
+        source = f"{mocap} ({split} clips)"
+    if clips.num_clips == 0:
+        raise InputError(f"{source}: no clips to evaluate")
+    return clips, source
+
+
+def evaluation_cameras(spec: str | Path) -> list[Camera]:
+    """A named camera set (``extrinsic-test``, ``h36m``, ...) or the cameras of a JSON file."""
+    return grid(str(spec)) if str(spec) in SET_NAMES else load_cameras(spec)

@@ -14,54 +14,24 @@ import dataclasses
 import numpy as np
 import torch
 
+from ray3d import temporal
 from ray3d.checkpoints import load_model
-from ray3d.data.importers import resample
-from ray3d.data.samples import sequence_window_indices
-from ray3d.data.virtual_cameras import CameraBatch
 from ray3d.errors import InputError
-from ray3d.geometry import Camera
-from ray3d.models.network import LiftingNetwork, TensorBatch
-from ray3d.skeleton import H36M17, LAYOUTS, convert_keypoints
-from ray3d.smoothing import smooth
+from ray3d.geometry import Camera, CameraBatch
+from ray3d.io.keypoints import Keypoints
+from ray3d.io.world import LiftResult, World
+from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
+from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
 
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
-
-
-@dataclasses.dataclass
-class LiftResult:
-    """World joints (T, 17, 3) in metres (z up, floor z = 0, H36M-17 order), the root trajectory (T, 3), and
-    which input joints were missing and filled in from neighbouring frames (T, 17)."""
-
-    joints: np.ndarray
-    root: np.ndarray
-    interpolated: np.ndarray
-    fps: float
-    frames: np.ndarray
-    joint_names: tuple[str, ...] = H36M17.joint_names
-
-    @property
-    def missing_fraction(self) -> float:
-        return float(self.interpolated.mean())
-
-
-def fill_missing(pixels: np.ndarray, missing: np.ndarray) -> np.ndarray:
-    """Linear interpolation in time of (T, J, 2) pixels where (T, J) ``missing``; held constant at the ends."""
-    filled = pixels.copy()
-    times = np.arange(len(pixels))
-    for joint in range(pixels.shape[1]):
-        valid = ~missing[:, joint]
-        if valid.all():
-            continue
-        for axis in range(2):
-            filled[:, joint, axis] = np.interp(times, times[valid], pixels[valid, joint, axis])
-    return filled
 
 
 class Lifter:
     """A trained network ready to lift. ``Lifter.load()`` gives the shipped Ray3D weights."""
 
-    def __init__(self, model, document: dict, device: str | torch.device | None = None):
+    def __init__(self, model, document: dict, device: str | torch.device | None = None, name: str | None = None):
         self.document = document
+        self.name = name or model.config.name  # how world files name the model that lifted them
         if isinstance(model, LiftingNetwork):
             self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
             self.model = model.eval().to(self.device)
@@ -83,10 +53,10 @@ class Lifter:
 
             runner = (backends.TorchScriptLiftingModel(model, image_width) if backend == "torchscript"
                       else backends.OnnxLiftingModel(model, image_width))
-            return cls(runner, document)
+            return cls(runner, document, name=str(name_or_path))
         if backend != "torch":
             raise InputError(f"unknown backend {backend!r}; 'torch', 'torchscript' or 'onnx'")
-        return cls(model, document, device=device)
+        return cls(model, document, device=device, name=str(name_or_path))
 
     @property
     def receptive_field(self) -> int:
@@ -108,9 +78,7 @@ class Lifter:
             scores = [None] * len(keypoints) if confidences is None else confidences
             return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk)
                     for k, c in zip(keypoints, scores)]
-        skeleton = LAYOUTS.get(layout)
-        if skeleton is None:
-            raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
+        skeleton = layout_skeleton(layout)
         if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
             raise InputError(f"keypoints: expected (frames, {skeleton.num_joints}, 2) for layout {layout}, got "
                              f"{keypoints.shape}")
@@ -125,20 +93,15 @@ class Lifter:
         never_seen = [H36M17.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
         if never_seen:
             raise InputError(f"keypoints: joint(s) {', '.join(never_seen)} missing in every frame (NaN or confidence 0)")
-        pixels = smooth(fill_missing(pixels, missing), smooth_2d, fps or MODEL_FPS)
-
         input_fps = fps or MODEL_FPS
-        resampled = abs(input_fps / MODEL_FPS - 1) > 1e-3
-        model_pixels = resample(pixels, input_fps, MODEL_FPS) if resampled else pixels
+        pixels = temporal.smooth(temporal.fill_missing(pixels, missing), smooth_2d, input_fps)
+        resampled = temporal.needs_resampling(input_fps, MODEL_FPS)
+        model_pixels = temporal.resample(pixels, input_fps, MODEL_FPS) if resampled else pixels
         joints = self._lift_pixels(model_pixels, camera, flip_test, chunk)
         if resampled:
-            times = np.arange(len(pixels)) / input_fps * MODEL_FPS  # input frames on the model's time axis
-            lower = np.clip(np.floor(times).astype(int), 0, len(joints) - 1)
-            upper = np.minimum(lower + 1, len(joints) - 1)
-            weight = np.clip(times - lower, 0, 1)[:, None, None]
-            joints = (1 - weight) * joints[lower] + weight * joints[upper]
-        joints = smooth(joints, smooth_3d, input_fps)
-        return LiftResult(joints, joints[:, 0].copy(), missing, input_fps, np.arange(len(joints)))
+            joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
+        joints = temporal.smooth(joints, smooth_3d, input_fps)
+        return LiftResult(joints, missing, input_fps, np.arange(len(joints)))
 
     def lift_tracks(self, tracks: dict, camera: Camera, layout: str = "h36m17", fps: float | None = None,
                     **options) -> dict:
@@ -150,7 +113,7 @@ class Lifter:
             frames = np.asarray(frames, dtype=np.int64)
             order = np.argsort(frames)
             span = np.arange(frames[order[0]], frames[order[-1]] + 1)
-            joints = LAYOUTS[layout].num_joints if layout in LAYOUTS else np.shape(keypoints)[1]
+            joints = layout_skeleton(layout).num_joints
             dense = np.full((len(span), joints, 2), np.nan)
             dense[frames[order] - span[0]] = np.asarray(keypoints, dtype=np.float64)[order]
             dense_conf = None
@@ -161,6 +124,12 @@ class Lifter:
             results[track] = dataclasses.replace(result, frames=span)
         return results
 
+    def lift_keypoints(self, keypoints: Keypoints, camera: Camera, **options) -> World:
+        """Every track of a keypoint file (``ray3d.io.keypoints.read_keypoints``) lifted into one world frame;
+        ``options`` as for ``lift``."""
+        return World(self.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps, **options),
+                     camera, self.name)
+
     @torch.no_grad()
     def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int) -> np.ndarray:
         rays = camera.pixels_to_rays(pixels, remove_roll=self.model.config.remove_roll)
@@ -169,7 +138,7 @@ class Lifter:
                              "(far outside the image?)")
         count = len(pixels)
         # Windows are gathered chunk by chunk (never all at once), which keeps memory bounded.
-        index = sequence_window_indices(count, self.receptive_field, self.model.config.causal)
+        index = temporal.sequence_window_indices(count, self.model.config.window)
         cameras = CameraBatch.from_cameras([camera])
         out = np.empty((count, 17, 3))
         for start in range(0, count, chunk):
@@ -184,9 +153,7 @@ class Lifter:
         world joints."""
         cameras = one_camera.take(np.zeros(len(pixels), dtype=int))
         batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device)
-        pose, root = self.model.predict(batch, flip_test)
-        world = self.model.to_world(pose.double() + root.double()[:, None], cameras, batch.camera_params.double())
-        return world.cpu().numpy()
+        return predict_world(self.model, batch, cameras, flip_test).cpu().numpy()
 
     def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False) -> LiftStream:
         """Lift frame by frame as keypoints arrive (live use); see ``LiftStream``."""
@@ -207,12 +174,10 @@ class LiftStream:
     """
 
     def __init__(self, lifter: Lifter, camera: Camera, layout: str = "h36m17", flip_test: bool = False):
-        if layout not in LAYOUTS:
-            raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
         config = lifter.model.config
-        self.lifter, self.camera, self.skeleton, self.flip_test = lifter, camera, LAYOUTS[layout], flip_test
+        self.lifter, self.camera, self.skeleton, self.flip_test = lifter, camera, layout_skeleton(layout), flip_test
         self.frames = lifter.receptive_field
-        self.delay = self.frames - 1 - config.target_frame
+        self.delay = config.window.delay
         self.remove_roll = config.remove_roll
         self._cameras = CameraBatch.from_cameras([camera])
         self._pixels: np.ndarray | None = None   # (F, 17, 2) the current window

@@ -13,7 +13,7 @@ import functools
 import numpy as np
 
 from ray3d.errors import InputError
-from ray3d.geometry.arrays import Array, like, namespace
+from ray3d.geometry.arrays import Array, like, namespace, stack_last
 
 ARM_PARTS = ("shoulder", "elbow", "wrist")
 LEG_PARTS = ("hip", "knee", "ankle")
@@ -148,11 +148,13 @@ _RECIPES: dict[tuple[str, str], dict[str, dict[str, float]]] = {
 }
 
 
-def _layout(layout: str | Skeleton) -> Skeleton:
+def layout_skeleton(layout: str | Skeleton) -> Skeleton:
+    """The skeleton of a joint layout given by name (``h36m17``, ``coco17``, ...) or as a ``Skeleton``."""
     if isinstance(layout, Skeleton):
         return layout
     if layout not in LAYOUTS:
-        raise InputError(f"unknown joint layout {layout!r}; known: {', '.join(LAYOUTS)}")
+        raise InputError(f"unknown joint layout {layout!r}; known: {', '.join(LAYOUTS)} (for an unknown layout, "
+                         "convert the keypoints to one of these)")
     return LAYOUTS[layout]
 
 
@@ -168,7 +170,7 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
     Joints are matched by name; a target joint missing from the source comes from a recipe of derived joints
     (brief section 8). Raises ``InputError`` when the source lacks what the target needs.
     """
-    src, dst = _layout(source), _layout(target)
+    src, dst = layout_skeleton(source), layout_skeleton(target)
     missing = _missing_joints(src, dst)
     if missing:
         reachable = [name for name, layout in LAYOUTS.items() if not _missing_joints(src, layout)]
@@ -185,7 +187,7 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
 
 def convert(points: Array, source: str | Skeleton, target: str | Skeleton = "h36m17") -> Array:
     """Convert (..., J_source, D) joints (pixels or 3D, numpy or torch) to the ``target`` layout."""
-    src, dst = _layout(source), _layout(target)
+    src, dst = layout_skeleton(source), layout_skeleton(target)
     if points.shape[-2] != src.num_joints:
         raise InputError(f"layout {src.name}: expected {src.num_joints} joints on axis -2, got shape "
                          f"{tuple(points.shape)}")
@@ -195,7 +197,7 @@ def convert(points: Array, source: str | Skeleton, target: str | Skeleton = "h36
 
 def convert_confidences(confidences: Array, source: str | Skeleton, target: str | Skeleton = "h36m17") -> Array:
     """(..., J_source) confidences -> (..., J_target): a derived joint is as sure as its least sure source."""
-    src, dst = _layout(source), _layout(target)
+    src, dst = layout_skeleton(source), layout_skeleton(target)
     if confidences.shape[-1] != src.num_joints:
         raise InputError(f"layout {src.name}: expected {src.num_joints} confidences on the last axis, got shape "
                          f"{tuple(confidences.shape)}")
@@ -220,10 +222,17 @@ def convert_keypoints(keypoints: np.ndarray, source: str | Skeleton,
 
 def flip(points: Array, layout: str | Skeleton = "h36m17") -> Array:
     """Mirror (..., J, D) joints: negate the first coordinate and swap left and right joints."""
-    skeleton = _layout(layout)
+    skeleton = layout_skeleton(layout)
     if points.shape[-2] != skeleton.num_joints:
         raise InputError(f"flip: layout {skeleton.name} has {skeleton.num_joints} joints, got shape "
                          f"{tuple(points.shape)}")
     mirrored = points[..., list(skeleton.flip_permutation), :]
     sign = like(np.array([-1.0] + [1.0] * (points.shape[-1] - 1)), points)
     return mirrored * sign
+
+
+def mirror_pixels(pixels: Array, cx: Array, layout: str | Skeleton = "h36m17") -> Array:
+    """Mirror (..., J, 2) pixels about the image column ``cx`` (broadcast against (...)), swapping left and
+    right joints: the image of the mirrored scene, as :func:`flip` mirrors the scene itself."""
+    mirrored = flip(pixels, layout)
+    return stack_last([mirrored[..., 0] + 2 * cx, mirrored[..., 1]])

@@ -21,7 +21,8 @@ from ray3d.data.motion import load_shipped
 from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
 from ray3d.errors import InputError
-from ray3d.models.network import LiftingNetwork, ModelConfig, TensorBatch, lifting_loss
+from ray3d.models.network import LiftingNetwork, ModelConfig, TensorBatch, lifting_loss, predict_world
+from ray3d.models.presets import preset
 
 DATA_PROVENANCE = ("CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu; free for research and commercial "
                    "use, not for resale; created with funding from NSF EIA-0196217) and HDM05 (Mueller et al. 2007, "
@@ -30,6 +31,9 @@ DATA_PROVENANCE = ("CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu; 
 
 @dataclasses.dataclass
 class TrainConfig:
+    """Everything a run depends on, saved as ``config.json`` beside its checkpoints. The model's window and
+    NCS variant (``model.window``, ``model.remove_roll``) decide how the samples are cut and seen."""
+
     model: ModelConfig = ModelConfig()
     samples: SampleConfig = SampleConfig()
     epochs: int = 30
@@ -44,6 +48,7 @@ class TrainConfig:
     threads: int | None = None
 
     def __post_init__(self) -> None:
+        # JSON gives lists and dicts where the fields hold tuples and dataclasses.
         self.datasets = tuple(self.datasets)
         if isinstance(self.model, dict):
             self.model = ModelConfig(**self.model)
@@ -53,19 +58,24 @@ class TrainConfig:
                 samples["cameras"] = CameraRanges(**{k: tuple(v) if isinstance(v, list) else v
                                                      for k, v in samples["cameras"].items()})
             self.samples = SampleConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in samples.items()})
-        # The samples must be made the way the model reads them.
-        model = self.model
-        if (self.samples.frames, self.samples.causal, self.samples.remove_roll) != (model.frames, model.causal,
-                                                                                     model.remove_roll):
-            self.samples = dataclasses.replace(self.samples, frames=model.frames, causal=model.causal,
-                                               remove_roll=model.remove_roll)
+
+    @classmethod
+    def from_dict(cls, document: dict[str, Any]) -> TrainConfig:
+        """From a config file's form: ``{"preset": NAME, "model": {overrides}, ...other fields}``, or, without
+        a preset, a whole configuration as saved beside a checkpoint."""
+        document = dict(document)
+        name = document.pop("preset", None)
+        if name is not None:
+            document["model"] = preset(name, **document.get("model", {}))
+        return cls(**document)
 
     @classmethod
     def from_json(cls, path: str | Path) -> TrainConfig:
         try:
-            document = json.loads(Path(path).read_text())
-            return cls(**document)
-        except (OSError, json.JSONDecodeError, TypeError) as err:
+            return cls.from_dict(json.loads(Path(path).read_text()))
+        except (OSError, json.JSONDecodeError, TypeError, KeyError, ValueError) as err:
+            if isinstance(err, InputError):
+                raise
             raise InputError(f"{path}: not a training config ({err})") from None
 
     def to_dict(self) -> dict[str, Any]:
@@ -80,12 +90,31 @@ def _distributed() -> tuple[int, int]:
     return (torch.distributed.get_rank(), world) if world > 1 else (0, 1)
 
 
+def training_config(path: str | Path | None = None, model_preset: str | None = None, **overrides: Any) -> TrainConfig:
+    """The configuration of a run: the file at ``path`` (default: every default, the ``ray3d`` lite model), its
+    model replaced by ``model_preset`` when given, then the fields in ``overrides`` (None values ignored)."""
+    config = TrainConfig.from_json(path) if path else TrainConfig()
+    if model_preset:
+        config = dataclasses.replace(config, model=preset(model_preset))
+    return dataclasses.replace(config, **{k: v for k, v in overrides.items() if v is not None})
+
+
+def sample_generator(config: TrainConfig, split: str, samples: SampleConfig, seed: int) -> SampleGenerator:
+    """Samples of ``split``'s performers cut and seen the way ``config.model`` reads them."""
+    motion = load_shipped(config.data_dir, split, config.datasets)
+    return SampleGenerator(motion, samples, config.model.window, config.model.remove_roll, seed=seed)
+
+
 def validation_batch(config: TrainConfig) -> Batch:
     """A fixed batch from the validation performers: same windows and cameras for every epoch and run."""
-    motion = load_shipped(config.data_dir, "validation", config.datasets)
     clean = dataclasses.replace(config.samples, flip_probability=0.0, noise_px=0.0, drop_probability=0.0,
                                 bone_scale=(1.0, 1.0), bone_jitter=0.0)
-    return SampleGenerator(motion, clean, seed=10_000 + config.seed).batch(config.validation_samples)
+    return sample_generator(config, "validation", clean, 10_000 + config.seed).batch(config.validation_samples)
+
+
+def batch_tensors(batch: Batch, device: str | torch.device = "cpu") -> TensorBatch:
+    """A training batch as the network's input."""
+    return TensorBatch.from_arrays(batch.pixels, batch.rays, batch.cameras, device)
 
 
 @torch.no_grad()
@@ -97,11 +126,8 @@ def world_errors_mm(model: LiftingNetwork, batch: Batch, device: torch.device, c
     predictions = []
     for start in range(0, len(batch.root), chunk):
         part = _slice(batch, slice(start, start + chunk))
-        tensors = TensorBatch.from_batch(part, device)
-        pose, root = model(tensors)
-        world = model.to_world(pose + root[:, None], part.cameras, tensors.camera_params)
-        predictions.append(world.cpu().numpy())
-    predicted = np.concatenate(predictions).astype(np.float64)
+        predictions.append(predict_world(model, batch_tensors(part, device), part.cameras).cpu().numpy())
+    predicted = np.concatenate(predictions)
     target = batch.world.astype(np.float64)
     return {"abs_mpjpe_mm": 1e3 * float(metrics.abs_mpjpe(predicted, target)),
             "mpjpe_mm": 1e3 * float(metrics.mpjpe(predicted, target)),
@@ -140,15 +166,15 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     if config.threads:
         torch.set_num_threads(config.threads)
     if (out / "last.json").exists() and not resume:
-        raise InputError(f"{out}: holds a run already; pass --resume to continue it or choose another --out")
+        raise InputError(f"{out}: holds a run already; resume it or choose another output folder",
+                         arguments=("resume", "out"))
     if config.batch_size % world:
         raise InputError(f"batch size {config.batch_size} does not split over {world} processes")
     device = torch.device(f"cuda:{rank % torch.cuda.device_count()}" if torch.cuda.is_available() else "cpu")
     torch.manual_seed(config.seed)
     model = LiftingNetwork(config.model).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
-    generator = SampleGenerator(load_shipped(config.data_dir, "train", config.datasets), config.samples,
-                                seed=config.seed + 1000 * rank)
+    generator = sample_generator(config, "train", config.samples, config.seed + 1000 * rank)
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")
@@ -175,7 +201,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
                    disable=not progress or rank != 0, leave=False)
         for step in bar:
             batch = generator.batch(local_batch)
-            tensors = TensorBatch.from_batch(batch, device)
+            tensors = batch_tensors(batch, device)
             target_pose, target_root = model.targets(tensors, torch.from_numpy(batch.pose).to(device),
                                                      torch.from_numpy(batch.root).to(device))
             pose, root = trained(tensors)

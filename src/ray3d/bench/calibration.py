@@ -19,9 +19,9 @@ import numpy as np
 from ray3d import metrics
 from ray3d.calibrate import AXIS_HEIGHTS, from_person
 from ray3d.data.motion import MotionSet
-from ray3d.data.virtual_cameras import centre_clip, in_image
-from ray3d.geometry import Camera
-from ray3d.geometry.camera import focal_from_hfov
+from ray3d.data.virtual_cameras import centre_clip
+from ray3d.geometry import Camera, centre_looking_at, focal_from_hfov
+from ray3d.skeleton import H36M17
 from ray3d.io.atomic import atomic_path
 
 IMAGE_SIZE = (1920, 1080)
@@ -57,7 +57,7 @@ def walking_clips(motion: MotionSet, min_frames: int = 120) -> list[np.ndarray]:
 
 def stature(clip: np.ndarray) -> float:
     """The person's stature in the model of ``from_person``: the median head-joint height over the fraction."""
-    return float(np.median(clip[:, 10, 2]) / AXIS_HEIGHTS["head"])
+    return float(np.median(clip[:, H36M17.index("head"), 2]) / AXIS_HEIGHTS["head"])
 
 
 def random_camera(clip: np.ndarray, rng: np.random.Generator, ranges: CameraRange = CameraRange(),
@@ -65,21 +65,15 @@ def random_camera(clip: np.ndarray, rng: np.random.Generator, ranges: CameraRang
     """A camera looking at the clip's centre that sees every joint of every frame, or None."""
     for _ in range(attempts):
         distance, yaw = rng.uniform(*ranges.distance_m), rng.uniform(-np.pi, np.pi)
-        centre = [-distance * np.cos(yaw), -distance * np.sin(yaw), rng.uniform(*ranges.height_m)]
+        # At that height, ``distance`` metres from the clip's centre in the floor plan, facing it.
+        centre = centre_looking_at([0.0, 0.0, rng.uniform(*ranges.height_m)], yaw, 0.0, distance)
         focal = focal_from_hfov(IMAGE_SIZE[0], rng.uniform(*ranges.hfov_deg))
         camera = Camera.from_pose(centre, yaw, np.radians(rng.uniform(*ranges.pitch_deg)),
                                   np.radians(rng.uniform(*ranges.roll_deg)), focal, focal, IMAGE_SIZE[0] / 2,
                                   IMAGE_SIZE[1] / 2, IMAGE_SIZE)
-        if in_image(camera, clip):
+        if camera.sees(clip):
             return camera
     return None
-
-
-def floor_frame(camera: Camera) -> Camera:
-    """``camera`` moved, with its view, so that the world is the floor below it and it looks along +x."""
-    focal = camera.K[0, 0]
-    return Camera.from_pose([0.0, 0.0, camera.camera_height], 0.0, camera.pitch, camera.roll, focal, camera.K[1, 1],
-                            camera.K[0, 2], camera.K[1, 2], camera.image_size, camera.dist, camera.name)
 
 
 def run(motion: MotionSet, lifter, pairs: int = 12, seed: int = 0, bootstrap: int = 30,
@@ -95,15 +89,15 @@ def run(motion: MotionSet, lifter, pairs: int = 12, seed: int = 0, bootstrap: in
         camera = random_camera(clip, rng, ranges)
         if camera is None:
             continue
-        truth = floor_frame(camera).camera_to_world(camera.world_to_camera(clip))
+        truth = camera.in_floor_frame().camera_to_world(camera.world_to_camera(clip))
         clean = camera.project(clip)
-        true_lift = lifter.lift(clean, floor_frame(camera)).joints
+        true_lift = lifter.lift(clean, camera.in_floor_frame()).joints
         for case, (focal_known, stature_known, noise_px) in cases.items():
             pixels = clean + rng.normal(0.0, noise_px, clean.shape) if noise_px else clean
             estimate = from_person(pixels, IMAGE_SIZE, stature(clip) if stature_known else 1.70,
                                    camera.K[0, 0] if focal_known else None, bootstrap=bootstrap, seed=pair)
             lifted = lifter.lift(pixels, estimate.camera).joints
-            reference = lifter.lift(pixels, floor_frame(camera)).joints if noise_px else true_lift
+            reference = lifter.lift(pixels, camera.in_floor_frame()).joints if noise_px else true_lift
             rows.append({
                 "pair": pair, "case": case, "frames": len(clip), "stature_m": stature(clip),
                 "true_height_m": camera.camera_height, "true_pitch_deg": float(np.degrees(camera.pitch)),

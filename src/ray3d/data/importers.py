@@ -16,6 +16,12 @@ from ray3d.data import asf_amc, bvh, mapping
 from ray3d.data.motion import MotionSet
 from ray3d.data.skeleton_fk import KinematicTree
 from ray3d.errors import InputError
+from ray3d.geometry import y_up_to_z_up
+from ray3d.skeleton import H36M17
+from ray3d.temporal import resample
+
+HEAD, PELVIS = H36M17.index("head"), H36M17.index("pelvis")
+ANKLES = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254, "cmu": 0.0254 / 0.45}
 DEFAULT_BVH_UNITS = {"cgspeed-motionbuilder": "cmu", "cgspeed-3dsmax": "cmu", "cgspeed-daz": "cm"}
@@ -37,24 +43,6 @@ class ImportedClip:
     naming: str
 
 
-def y_up_to_z_up(points: np.ndarray) -> np.ndarray:
-    """(x, y, z) y-up -> (x, -z, y) z-up: a rotation about x, no mirroring."""
-    return np.stack([points[..., 0], -points[..., 2], points[..., 1]], -1)
-
-
-def resample(positions: np.ndarray, native_fps: float, fps: float) -> np.ndarray:
-    """(F, ...) frames at ``native_fps`` -> ``fps``: every k-th frame when the ratio is a whole number k
-    (no interpolation, as the shipped data), else linear interpolation in time."""
-    ratio = native_fps / fps
-    if abs(ratio - round(ratio)) < 1e-3 and round(ratio) >= 1:  # BVH frame times carry few decimals
-        return positions[:: int(round(ratio))]
-    times = np.arange(0.0, (len(positions) - 1) / native_fps + 1e-9, 1.0 / fps) * native_fps
-    lower = np.floor(times).astype(int)
-    upper = np.minimum(lower + 1, len(positions) - 1)
-    weight = (times - lower).reshape(-1, *([1] * (positions.ndim - 1)))
-    return (1 - weight) * positions[lower] + weight * positions[upper]
-
-
 def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit_m: float, native_fps: float,
             fps: float, drop_native_frames: int, floor: bool, source: str) -> ImportedClip:
     if fps <= 0:
@@ -65,9 +53,9 @@ def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit
     feet = y_up_to_z_up(nodes[:, mapping.foot_nodes(tree, naming)] * unit_m)
     joints, feet = joints[drop_native_frames:], feet[drop_native_frames:]
     joints, feet = resample(joints, native_fps, fps), resample(feet, native_fps, fps)
-    height = np.median(joints[:, 10, 2] - np.minimum(joints[:, 3, 2], joints[:, 6, 2]))
-    chain = np.median(np.linalg.norm(joints[:, 10] - joints[:, 0], axis=-1) + np.linalg.norm(
-        joints[:, 0] - joints[:, 3], axis=-1))
+    height = np.median(joints[:, HEAD, 2] - joints[:, ANKLES, 2].min(axis=1))
+    chain = np.median(np.linalg.norm(joints[:, HEAD] - joints[:, PELVIS], axis=-1) + np.linalg.norm(
+        joints[:, PELVIS] - joints[:, ANKLES[1]], axis=-1))
     low, high = PLAUSIBLE_BODY_HEIGHT_M
     if not low <= chain <= high:
         raise InputError(f"{source}: the body comes out {chain:.2f} m from ankle to head (standing height "

@@ -15,6 +15,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.io.atomic import atomic_path
+from ray3d.io.dataset_files import DATASET_FPS
 from ray3d.skeleton import H36M17
 
 DATA_DIR_ENV = "RAY3D_DATA_DIR"
@@ -163,9 +164,9 @@ def resolve_data_dir(data_dir: str | Path | None = None) -> Path:
     """``data_dir`` or the default; an error that says what to do when there is no data."""
     path = Path(data_dir) if data_dir else default_data_dir()
     if path is None:
-        raise InputError(f"no motion data found: pass --data-dir DIR or set {DATA_DIR_ENV} to a folder holding "
-                         f"{' and '.join(SHIPPED_FILES)} (the repository's ../shared/data/mocap), or give a motion "
-                         "npz of your own (ray3d data import-bvh / import-amc make one)")
+        raise InputError(f"no motion data found: name a folder holding {' and '.join(SHIPPED_FILES)} (the "
+                         f"repository's ../shared/data/mocap) or set {DATA_DIR_ENV} to one, or give a motion npz of "
+                         "your own (the BVH and ASF/AMC importers make one)", arguments=("data_dir",))
     found = [f for f in SHIPPED_FILES if (path / f).is_file()]
     if not found:
         raise InputError(f"{path}: holds none of {', '.join(SHIPPED_FILES)}")
@@ -206,3 +207,21 @@ def summary(motion: MotionSet) -> dict:
         "splits": by(np.array([split_of(s) for s in motion.clips["orig_subject"]])),
         "performers": by(motion.clips["orig_subject"]), "bodies": by(motion.clips["subject"]),
     }
+
+
+def to_motion_set(positions: dict[str, dict[str, np.ndarray]], dataset: str) -> MotionSet:
+    """A motion set (one clip per subject and action) from 17-joint positions (``ray3d.io.dataset_files``),
+    e.g. to evaluate on them."""
+    clips, ids, subjects = [], [], []
+    for subject, actions in positions.items():
+        for action, array in actions.items():
+            if array.shape[1] != H36M17.num_joints:
+                raise InputError(f"{dataset} {subject}/{action}: motion sets hold H36M-17 joints, got "
+                                 f"{array.shape[1]} (HumanEva converts to the 14-joint layout only)")
+            clips.append(array)
+            ids.append(f"{subject}_{action}".replace(" ", "_"))
+            subjects.append(subject)
+    if not clips:
+        raise InputError(f"{dataset}: no clips")
+    return MotionSet.from_clips(clips, clip_id=ids, subject=subjects, source=dataset, fps=DATASET_FPS[dataset],
+                                description=[i.split("_", 1)[1] for i in ids])

@@ -1,7 +1,7 @@
 """Training and evaluation samples: windows of world motion seen through cameras, as the networks see them.
 
-For each (clip, frame, camera): the centred window of ``frames`` frames (edge-replicated at clip ends) of
-pixels and of rays in the NCS, the camera's (height, pitch), and the centre frame's targets in the NCS (the
+For each (clip, frame, camera): the model's window (``ray3d.temporal.Window``, edge-replicated at clip ends)
+of pixels and of rays in the NCS, the camera's (height, pitch), and the target frame's targets in the NCS (the
 root-relative pose and the root). Everything is vectorised over the batch; nothing loops over frames.
 """
 
@@ -12,29 +12,25 @@ import dataclasses
 import numpy as np
 
 from ray3d.data.motion import MotionSet
-from ray3d.data.virtual_cameras import CameraBatch, CameraRanges, sample_cameras
+from ray3d.data.virtual_cameras import CameraRanges, sample_cameras
 from ray3d.errors import InputError
+from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
-from ray3d.skeleton import H36M17, Skeleton
+from ray3d.skeleton import H36M17, Skeleton, flip, mirror_pixels
+from ray3d.temporal import Window, window_indices
 
 
 @dataclasses.dataclass(frozen=True)
 class SampleConfig:
-    """How samples are made. ``frames`` is the receptive field (odd)."""
+    """How samples are made. The window and the NCS variant are the model's (``ModelConfig.window``,
+    ``ModelConfig.remove_roll``), given beside this configuration."""
 
-    frames: int = 9
-    causal: bool = False                           # the target is the window's last frame (past frames only)
     flip_probability: float = 0.5
     bone_scale: tuple[float, float] = (0.9, 1.1)   # whole-body factor per sample
     bone_jitter: float = 0.04                      # extra per-bone factor sd (left/right kept equal)
     noise_px: float = 0.0                          # Gaussian 2D noise, like a detector's
     drop_probability: float = 0.0                  # a dropped joint collapses onto its parent (a detector miss)
-    remove_roll: bool = False                      # gravity-aligned NCS (also undo the camera's roll)
     cameras: CameraRanges = CameraRanges()
-
-    def __post_init__(self) -> None:
-        if self.frames < 1 or self.frames % 2 == 0:
-            raise InputError(f"SampleConfig.frames must be odd and positive, got {self.frames}")
 
 
 @dataclasses.dataclass
@@ -42,8 +38,7 @@ class Batch:
     """One batch (B samples, F frames, J joints), float32 numpy arrays.
 
     pixels (B, F, J, 2); rays (B, F, J, 3) in the NCS; camera_params (B, 2) = (height m, pitch rad);
-    pose (B, J, 3) root-relative NCS pose of the target frame (row 0 is zero; the centre frame, or the last
-    for a causal model); root (B, 3) NCS root; visible (B, F, J) False where a joint was dropped; cameras and
+    pose (B, J, 3) root-relative NCS pose of the window's target frame (row 0 is zero); root (B, 3) NCS root; visible (B, F, J) False where a joint was dropped; cameras and
     world (B, J, 3): the cameras and the target frame's world joints, to go back to the world (they describe the scene before any flip).
     """
 
@@ -55,21 +50,6 @@ class Batch:
     visible: np.ndarray
     cameras: CameraBatch
     world: np.ndarray
-
-
-def target_frame(frames: int, causal: bool = False) -> int:
-    """Which frame of a window the network predicts: the centre (``frames // 2``), or the last for a causal
-    model, which sees only the present and past frames."""
-    return frames - 1 if causal else frames // 2
-
-
-def window_indices(targets: np.ndarray, clip_first: np.ndarray, clip_last: np.ndarray, frames: int,
-                   causal: bool = False) -> np.ndarray:
-    """(B, frames) frame indices of the windows predicting frames ``targets`` (centred on them, or ending at
-    them when ``causal``), clamped into each sample's clip [first, last] so the edges replicate the clip's first
-    or last frame."""
-    offsets = np.arange(frames) - target_frame(frames, causal)
-    return np.clip(targets[:, None] + offsets, clip_first[:, None], clip_last[:, None])
 
 
 def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton = H36M17) -> np.ndarray:
@@ -88,38 +68,37 @@ def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton =
 
 
 def flip_batch(batch: Batch, mask: np.ndarray, skeleton: Skeleton = H36M17) -> Batch:
-    """Mirror the samples where (B,) ``mask`` is True: negate x of rays and NCS targets, swap left and right,
-    mirror pixels about the principal point; (height, pitch) are unchanged. Flipping twice is the identity."""
-    perm = list(skeleton.flip_permutation)
-    sign = np.array([-1.0, 1.0, 1.0], dtype=np.float32)
-
-    def mirror(x: np.ndarray, axis_sign: np.ndarray) -> np.ndarray:
-        out = x.copy()
-        out[mask] = x[mask][..., perm, :] * axis_sign
+    """Mirror the samples where (B,) ``mask`` is True: the scene mirrored in the NCS (rays and targets) and its
+    image about the principal point; (height, pitch) are unchanged. Flipping twice is the identity."""
+    def where_masked(flipped: np.ndarray, original: np.ndarray) -> np.ndarray:
+        out = original.copy()
+        out[mask] = flipped
         return out
 
-    cx = batch.cameras.intrinsics[:, 2].astype(np.float32)
-    pixels = batch.pixels.copy()
-    pixels[mask] = batch.pixels[mask][..., perm, :]
-    pixels[mask, ..., 0] = 2 * cx[mask, None, None] - pixels[mask, ..., 0]
-    visible = batch.visible.copy()
-    visible[mask] = batch.visible[mask][..., perm]
-    return dataclasses.replace(batch, pixels=pixels, rays=mirror(batch.rays, sign), pose=mirror(batch.pose, sign),
-                               root=np.where(mask[:, None], batch.root * sign, batch.root), visible=visible)
+    cx = batch.cameras.intrinsics[mask, 2].astype(np.float32)
+    return dataclasses.replace(
+        batch, pixels=where_masked(mirror_pixels(batch.pixels[mask], cx[:, None, None], skeleton), batch.pixels),
+        rays=where_masked(flip(batch.rays[mask], skeleton), batch.rays),
+        pose=where_masked(flip(batch.pose[mask], skeleton), batch.pose),
+        root=where_masked(batch.root[mask] * np.array([-1.0, 1.0, 1.0], dtype=np.float32), batch.root),
+        visible=where_masked(batch.visible[mask][..., list(skeleton.flip_permutation)], batch.visible))
 
 
-def observe(windows: np.ndarray, cameras: CameraBatch, rng: np.random.Generator | None = None,
-            config: SampleConfig = SampleConfig()) -> Batch:
-    """See (B, F, J, 3) world windows through one camera each and build the network's inputs and targets.
+def observe(windows: np.ndarray, cameras: CameraBatch, window: Window, remove_roll: bool = False,
+            rng: np.random.Generator | None = None, config: SampleConfig = SampleConfig()) -> Batch:
+    """See (B, F, J, 3) world windows (F = ``window.frames``) through one camera each and build the network's
+    inputs and the targets of the window's target frame.
 
     With ``rng`` None nothing random happens (evaluation); otherwise the 2D noise and dropped joints of
-    ``config`` are applied (flip and bone scaling are the generator's). ``config.remove_roll`` selects the
+    ``config`` are applied (flip and bone scaling are the generator's). ``remove_roll`` selects the
     gravity-aligned NCS for the rays and targets.
     """
     count, frames, joints, _ = windows.shape
+    if frames != window.frames:
+        raise ValueError(f"observe: windows of {frames} frames for a {window.frames}-frame window")
     R, t = cameras.R[:, None, None], cameras.t[:, None, None]
     intrinsics, dist = cameras.intrinsics[:, None, None], cameras.dist[:, None, None]
-    has_distortion = bool(np.any(cameras.dist != 0))
+    has_distortion = cameras.has_distortion
     points_camera = tf.world_to_camera(windows, R, t)
     pixels = tf.camera_to_pixels(points_camera, intrinsics, dist if has_distortion else None)
     rays_camera = points_camera / points_camera[..., 2:3]  # exact, no round trip through the lens
@@ -135,15 +114,15 @@ def observe(windows: np.ndarray, cameras: CameraBatch, rng: np.random.Generator 
         # The clean ray is a close start for undistorting the noisy pixel.
         rays_camera = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
                                                initial_rays=rays_camera)
-    roll = cameras.roll if config.remove_roll else None
+    roll = cameras.roll if remove_roll else None
     rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None],
                                         None if roll is None else roll[:, None, None])
-    index = target_frame(frames, config.causal)
+    index = window.target
     target = tf.camera_to_normalized(points_camera[:, index], cameras.height[:, None], cameras.pitch[:, None],
                                      None if roll is None else roll[:, None])
     return Batch(
         pixels=pixels.astype(np.float32), rays=rays.astype(np.float32),
-        camera_params=np.stack([cameras.height, cameras.pitch], -1).astype(np.float32),
+        camera_params=cameras.height_pitch.astype(np.float32),
         pose=(target - target[:, :1]).astype(np.float32), root=target[:, 0].astype(np.float32),
         visible=visible, cameras=cameras, world=windows[:, index].astype(np.float32))
 
@@ -152,10 +131,11 @@ class SampleGenerator:
     """Random training batches from a motion set: uniform (clip, frame) draws, a random camera per sample,
     bone scaling, flips and detector-like 2D noise, all vectorised."""
 
-    def __init__(self, motion: MotionSet, config: SampleConfig = SampleConfig(), seed: int = 0):
+    def __init__(self, motion: MotionSet, config: SampleConfig, window: Window, remove_roll: bool = False,
+                 seed: int = 0):
         if motion.num_frames == 0:
             raise InputError("SampleGenerator: the motion set has no frames")
-        self.motion, self.config = motion, config
+        self.motion, self.config, self.window, self.remove_roll = motion, config, window, remove_roll
         self.rng = np.random.default_rng(seed)
         clip_of_frame = np.repeat(np.arange(motion.num_clips), motion.clip_lengths())
         self.first = motion.clip_start[:-1][clip_of_frame]
@@ -164,34 +144,31 @@ class SampleGenerator:
     def batch(self, size: int) -> Batch:
         rng, config = self.rng, self.config
         targets = rng.integers(0, self.motion.num_frames, size)
-        indices = window_indices(targets, self.first[targets], self.last[targets], config.frames, config.causal)
+        indices = window_indices(targets, self.first[targets], self.last[targets], self.window)
         windows = self.motion.positions[indices].astype(np.float64)  # (B, F, J, 3)
-        factors = rng.uniform(*config.bone_scale, (size, 1)) * np.exp(rng.normal(0, config.bone_jitter, (size, 17)))
+        factors = rng.uniform(*config.bone_scale, (size, 1)) * np.exp(rng.normal(0, config.bone_jitter,
+                                                                                (size, H36M17.num_joints)))
         factors[:, H36M17.left] = factors[:, list(H36M17.flip_permutation[i] for i in H36M17.left)]
         windows = scale_bones(windows, factors[:, None])
-        cameras = sample_cameras(windows[:, target_frame(config.frames, config.causal), 0], rng, config.cameras)
-        batch = observe(windows, cameras, rng, config)
+        cameras = sample_cameras(windows[:, self.window.target, 0], rng, config.cameras)
+        batch = observe(windows, cameras, self.window, self.remove_roll, rng, config)
         return flip_batch(batch, rng.random(size) < config.flip_probability)
 
 
-def sequence_window_indices(count: int, frames: int, causal: bool = False) -> np.ndarray:
-    """(count, frames): every frame's window (centred, or ending at it when ``causal``) in one sequence of
-    ``count`` frames, edges replicated."""
-    targets = np.arange(count)
-    return window_indices(targets, np.zeros_like(targets), np.full_like(targets, count - 1), frames, causal)
+THROUGHPUT_CASES = {
+    "pinhole, clean 2D": SampleConfig(),
+    "pinhole, 2 px noise + 5% dropped": SampleConfig(noise_px=2.0, drop_probability=0.05),
+    "distortion + roll, 2 px noise": SampleConfig(noise_px=2.0, cameras=CameraRanges(distortion_k1=(-0.25, 0.0),
+                                                                                       roll_deg=5.0)),
+}
 
 
-def clip_windows(clip: np.ndarray, frames: int, causal: bool = False) -> np.ndarray:
-    """(T, frames, J, 3): every frame of a (T, J, 3) clip with its edge-replicated window."""
-    return clip[sequence_window_indices(len(clip), frames, causal)]
-
-
-def measure_throughput(motion: MotionSet, config: SampleConfig, batch_size: int = 1024, repeats: int = 20,
-                       seed: int = 0) -> dict:
+def measure_throughput(motion: MotionSet, config: SampleConfig, window: Window, batch_size: int = 1024,
+                       repeats: int = 20, seed: int = 0) -> dict:
     """Median time of ``repeats`` batches after one warm-up batch: {"ms_per_batch", "samples_per_s"}."""
     import time
 
-    generator = SampleGenerator(motion, config, seed)
+    generator = SampleGenerator(motion, config, window, seed=seed)
     generator.batch(batch_size)
     times = []
     for _ in range(repeats):

@@ -15,7 +15,7 @@ import numpy as np
 
 from ray3d import cameras as camera_tables
 from ray3d.errors import InputError
-from ray3d.geometry import Camera, rotation_from_angles
+from ray3d.geometry import CameraBatch, Camera, centre_looking_at, rotation_from_angles
 
 ORBIT_TARGET = np.array([0.0, 0.0, 1.8])
 BASE_CAMERA_ID = "55011271"
@@ -47,9 +47,8 @@ def orbit_camera(yaw_deg: float, pitch_deg: float, distance_m: float, name: str,
     """A pinhole camera looking at ORBIT_TARGET from ``distance_m`` away at the given yaw and pitch."""
     fx, fy, cx, cy = intrinsics or base_intrinsics()
     yaw, pitch = np.radians(yaw_deg), np.radians(pitch_deg)
-    forward = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)])
-    return Camera.from_pose(ORBIT_TARGET - distance_m * forward, yaw, pitch, 0.0, fx, fy, cx, cy, IMAGE_SIZE,
-                            name=name)
+    return Camera.from_pose(centre_looking_at(ORBIT_TARGET, yaw, pitch, distance_m), yaw, pitch, 0.0, fx, fy, cx, cy,
+                            IMAGE_SIZE, name=name)
 
 
 def _orbit_name(prefix: str, yaw: float, pitch: float, distance: float) -> str:
@@ -99,16 +98,9 @@ def centre_clip(positions: np.ndarray) -> np.ndarray:
     return positions - np.array([offset[0], offset[1], 0.0], dtype=positions.dtype)
 
 
-def in_image(camera: Camera, positions: np.ndarray) -> bool:
-    """Whether every joint of every frame projects inside the image (and in front of the camera)."""
-    pixels = camera.project(positions.reshape(-1, 3))
-    width, height = camera.image_size
-    return bool(np.all(np.isfinite(pixels)) and np.all((pixels >= 0) & (pixels <= [width - 1, height - 1])))
-
-
 def visibility(cams: list[Camera], clips: list[np.ndarray]) -> np.ndarray:
     """(cameras, clips) bool: camera i sees every joint of every frame of clip j."""
-    return np.array([[in_image(camera, clip) for clip in clips] for camera in cams], dtype=bool)
+    return np.array([[camera.sees(clip) for clip in clips] for camera in cams], dtype=bool)
 
 
 def camera_set(set_name: str, clips: list[np.ndarray] | None = None) -> list[Camera]:
@@ -117,6 +109,12 @@ def camera_set(set_name: str, clips: list[np.ndarray] | None = None) -> list[Cam
     if clips is None:
         return cams
     return [c for c, sees_all in zip(cams, visibility(cams, clips).all(axis=1)) if sees_all]
+
+
+def cameras_seeing(set_name: str, motion) -> list[Camera]:
+    """The named set, keeping only cameras that see every clip of ``motion`` (a ``MotionSet``) entirely once
+    the clips are centred, as evaluation places them."""
+    return camera_set(set_name, [centre_clip(motion.clip(i)) for i in range(motion.num_clips)])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -139,42 +137,6 @@ class CameraRanges:
     aim_jitter_m: float = 0.3
 
 
-@dataclasses.dataclass
-class CameraBatch:
-    """A batch of cameras as arrays (B leading): what the sample generator consumes."""
-
-    R: np.ndarray           # (B, 3, 3)
-    t: np.ndarray           # (B, 3)
-    intrinsics: np.ndarray  # (B, 4) fx, fy, cx, cy
-    dist: np.ndarray        # (B, 5)
-    height: np.ndarray      # (B,)
-    pitch: np.ndarray       # (B,)
-    roll: np.ndarray        # (B,)
-    image_size: tuple[int, int]
-
-    def __len__(self) -> int:
-        return len(self.t)
-
-    FIELDS = ("R", "t", "intrinsics", "dist", "height", "pitch", "roll")
-
-    def take(self, index) -> CameraBatch:
-        """The cameras at ``index`` (a slice, an index array, or ``np.zeros(n, int)`` to repeat one camera)."""
-        return dataclasses.replace(self, **{f: getattr(self, f)[index] for f in self.FIELDS})
-
-    @classmethod
-    def from_cameras(cls, cams: list[Camera]) -> CameraBatch:
-        if len({c.image_size for c in cams}) > 1:
-            raise InputError("CameraBatch: all cameras must share one image size")
-        return cls(np.stack([c.R for c in cams]), np.stack([c.t for c in cams]),
-                   np.stack([c.intrinsics for c in cams]), np.stack([c.dist for c in cams]),
-                   np.array([c.camera_height for c in cams]), np.array([c.pitch for c in cams]),
-                   np.array([c.roll for c in cams]), cams[0].image_size)
-
-    def camera(self, i: int, name: str = "") -> Camera:
-        fx, fy, cx, cy = self.intrinsics[i]
-        return Camera.from_intrinsics(fx, fy, cx, cy, self.dist[i], self.R[i], self.t[i], self.image_size, name)
-
-
 def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: CameraRanges = CameraRanges()) -> CameraBatch:
     """One random camera per (B, 3) world target point (e.g. each sample's centre-frame pelvis)."""
     count = len(targets)
@@ -183,8 +145,7 @@ def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: Camera
     roll = np.radians(rng.uniform(-ranges.roll_deg, ranges.roll_deg, count))
     distance = rng.uniform(*ranges.distance_m, count)
     aim = targets + rng.normal(0.0, ranges.aim_jitter_m, (count, 3))
-    forward = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], -1)
-    centre = aim - distance[:, None] * forward
+    centre = centre_looking_at(aim, yaw, pitch, distance)
     centre[:, 2] = np.maximum(centre[:, 2], ranges.min_height_m)
     R = rotation_from_angles(yaw, pitch, roll)
     focal = rng.uniform(*ranges.focal_px, count)

@@ -21,6 +21,34 @@ def focal_from_hfov(width_px: float, hfov_deg: float) -> float:
     if not 0 < hfov_deg < 180:
         raise InputError(f"horizontal field of view must be in (0, 180) degrees, got {hfov_deg}")
     return width_px / 2 / np.tan(np.radians(hfov_deg) / 2)
+
+
+def parse_image_size(value: Any, field: str = "image_size") -> tuple[int, int]:
+    """(width, height) in pixels from a pair or a ``"WIDTHxHEIGHT"`` string; both must be positive integers."""
+    try:
+        parts = value.lower().split("x") if isinstance(value, str) else value
+        width, height = (int(v) for v in parts)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"{field}: expected (width, height) in pixels or WIDTHxHEIGHT, e.g. 1920x1080, got "
+                         f"{value!r}") from None
+    if width <= 0 or height <= 0:
+        raise InputError(f"{field}: width and height must be positive, got {(width, height)}")
+    return width, height
+
+
+def pinhole_intrinsics(image_size: Any, focal_px: float | None = None,
+                       hfov_deg: float | None = None) -> tuple[float, float, float, float]:
+    """(fx, fy, cx, cy) of a lens with square pixels and its principal point at the image centre, from exactly
+    one of its focal length in pixels and its horizontal field of view in degrees."""
+    if (focal_px is None) == (hfov_deg is None):
+        raise InputError("give exactly one of focal_px and hfov_deg", arguments=("focal_px", "hfov_deg"))
+    width, height = parse_image_size(image_size)
+    focal = focal_from_hfov(width, hfov_deg) if hfov_deg is not None else float(focal_px)
+    if not focal > 0:
+        raise InputError(f"focal_px: expected a positive focal length in pixels, got {focal_px}")
+    return focal, focal, width / 2, height / 2
+
+
 DICT_FIELDS = ("fx", "fy", "cx", "cy", "dist", "R", "t", "width", "height")
 
 
@@ -78,12 +106,7 @@ class Camera:
             raise InputError(
                 f"camera field R: not a rotation (|R R^T - I| = {error:.2e}, det = {np.linalg.det(R):.4f})")
         t = _frozen(self.t, (3,), "t")
-        try:
-            width, height = (int(v) for v in self.image_size)
-        except (TypeError, ValueError):
-            raise InputError(f"camera field image_size: expected (width, height), got {self.image_size!r}") from None
-        if width <= 0 or height <= 0:
-            raise InputError(f"camera field image_size: width and height must be positive, got {(width, height)}")
+        width, height = parse_image_size(self.image_size, "camera field image_size")
         for field, value in (("K", K), ("dist", dist), ("R", R), ("t", t), ("image_size", (width, height))):
             object.__setattr__(self, field, value)
         center_z = tf.camera_center(R, t)[2]
@@ -156,13 +179,9 @@ class Camera:
         """A camera placed by what a user can measure: its height above the floor, how far it looks down and
         its field of view (or focal length in pixels). The world frame is the floor below the camera: the
         centre is (0, 0, height) and the camera looks along +x; the principal point is the image centre."""
-        if (focal_px is None) == (hfov_deg is None):
-            raise InputError("from_height_pitch: give exactly one of focal_px and hfov_deg")
-        width, height = image_size
-        if hfov_deg is not None:
-            focal_px = focal_from_hfov(width, hfov_deg)
-        return cls.from_pose([0.0, 0.0, height_m], 0.0, np.radians(pitch_deg), np.radians(roll_deg), focal_px, focal_px,
-                             width / 2, height / 2, image_size, dist, name or f"height{height_m:g}m-pitch{pitch_deg:g}deg")
+        fx, fy, cx, cy = pinhole_intrinsics(image_size, focal_px, hfov_deg)
+        return cls.from_pose([0.0, 0.0, height_m], 0.0, np.radians(pitch_deg), np.radians(roll_deg), fx, fy, cx, cy,
+                             image_size, dist, name or f"height{height_m:g}m-pitch{pitch_deg:g}deg")
 
     # ---------------------------------------------------------------------------------------------- pose
     @property
@@ -248,6 +267,19 @@ class Camera:
         rays = tf.pixels_to_camera_rays(uv, like(self.intrinsics, uv), like(self.dist, uv) if self.has_distortion else None)
         return rays if frame == "camera" else tf.rays_camera_to_normalized(rays, like(self.pitch, uv),
                                                                            self._roll_like(uv, remove_roll))
+
+    def sees(self, points_world: np.ndarray) -> bool:
+        """Whether every (..., 3) world point lies in front of the camera and projects inside the image."""
+        pixels = self.project(np.asarray(points_world, dtype=np.float64).reshape(-1, 3))
+        width, height = self.image_size
+        return bool(np.all(np.isfinite(pixels)) and np.all((pixels >= 0) & (pixels <= [width - 1, height - 1])))
+
+    def in_floor_frame(self) -> Camera:
+        """This camera, with its view, in the world frame of the floor below it, looking along +x (the frame of
+        :meth:`from_height_pitch`, and the only one a camera estimated from a person can define)."""
+        fx, fy, cx, cy = self.intrinsics
+        return Camera.from_pose([0.0, 0.0, self.camera_height], 0.0, self.pitch, self.roll, fx, fy, cx, cy,
+                                self.image_size, self.dist, self.name)
 
     def __repr__(self) -> str:
         fx, fy, cx, cy = self.intrinsics

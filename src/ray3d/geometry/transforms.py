@@ -152,8 +152,27 @@ def rotation_from_angles(yaw: Array, pitch: Array, roll: Array = 0.0) -> np.ndar
     Inverse of (:func:`camera_pitch`, :func:`camera_roll`) for the pitch and roll. Angles broadcast.
     """
     yaw, pitch, roll = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (yaw, pitch, roll)))
-    forward = np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], -1)
+    forward = forward_direction(yaw, pitch)
     right_level = np.stack([np.sin(yaw), -np.cos(yaw), np.zeros_like(yaw)], -1)
     down_level = np.cross(forward, right_level)
     c, s = np.cos(roll)[..., None], np.sin(roll)[..., None]
     return np.stack([c * right_level - s * down_level, s * right_level + c * down_level, forward], -2)
+
+
+def forward_direction(yaw: Array, pitch: Array) -> np.ndarray:
+    """(..., 3) unit world direction of the optical axis of cameras with heading ``yaw`` and ``pitch`` (radians,
+    as :func:`rotation_from_angles`)."""
+    yaw, pitch = np.asarray(yaw, dtype=np.float64), np.asarray(pitch, dtype=np.float64)
+    return np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], -1)
+
+
+def centre_looking_at(target: Array, yaw: Array, pitch: Array, distance: Array) -> np.ndarray:
+    """(..., 3) world centres of cameras that look at (..., 3) ``target`` along (yaw, pitch) from ``distance``
+    metres away: the one way every camera set, sampler and benchmark places its cameras."""
+    return np.asarray(target, dtype=np.float64) - np.asarray(distance, dtype=np.float64)[..., None] * \
+        forward_direction(yaw, pitch)
+
+
+def y_up_to_z_up(points: Array) -> Array:
+    """(..., 3) points of a y-up frame (x, y, z) -> the z-up world (x, -z, y): a rotation about x, no mirroring."""
+    return stack_last([points[..., 0], -points[..., 2], points[..., 1]])

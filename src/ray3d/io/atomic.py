@@ -21,7 +21,7 @@ def atomic_path(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     """
     target = Path(target)
     if target.exists() and not overwrite:
-        raise InputError(f"{target}: already exists; refusing to overwrite it (use --force to replace it)")
+        raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
     target.parent.mkdir(parents=True, exist_ok=True)
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp" + target.suffix, dir=target.parent)
     os.close(handle)

@@ -6,13 +6,17 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.io.atomic import atomic_path
+from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.json_files import read_json
-from ray3d.skeleton import LAYOUTS
+from ray3d.io.safe_npz import read_npz_entries
+from ray3d.skeleton import LAYOUTS, layout_skeleton
 
 
 @dataclasses.dataclass
@@ -26,6 +30,7 @@ class Keypoints:
     layout: str
     fps: float | None
     source: str
+    path: Path | None = None
 
     def by_track(self) -> dict:
         """{track: (frames, pixels, confidences)} for ``Lifter.lift_tracks``."""
@@ -36,18 +41,30 @@ class Keypoints:
                           None if self.confidences is None else self.confidences[rows])
         return out
 
+    def track(self, name=None) -> tuple:
+        """(track id, frames, pixels, confidences) of the track called ``name`` (its id or the id's text;
+        default: the track with most detections)."""
+        tracks = self.by_track()
+        if name is None:
+            chosen = max(tracks, key=lambda t: len(tracks[t][0]))
+        else:
+            found = [t for t in tracks if t == name or str(t) == str(name)]
+            if not found:
+                raise InputError(f"{self.path or self.source}: no track {name!r}; tracks: "
+                                 f"{', '.join(map(str, tracks))}", arguments=("track",))
+            chosen = found[0]
+        return (chosen, *tracks[chosen])
+
 
 def _layout_for(path: Path, joints: int, layout: str | None) -> str:
     if layout is not None:
-        if layout not in LAYOUTS:
-            raise InputError(f"unknown layout {layout!r}; one of {', '.join(LAYOUTS)}")
-        if LAYOUTS[layout].num_joints != joints:
+        if layout_skeleton(layout).num_joints != joints:
             raise InputError(f"{path}: layout {layout} has {LAYOUTS[layout].num_joints} joints but the file has {joints}")
         return layout
     by_count = {17: "h36m17", 33: "blazepose33", 25: "body25"}
     if joints not in by_count:
-        raise InputError(f"{path}: {joints} joints per detection matches no layout; pass --layout "
-                         f"({', '.join(f'{n}: {s.num_joints}' for n, s in LAYOUTS.items())})")
+        raise InputError(f"{path}: {joints} joints per detection matches no layout; name the layout "
+                         f"({', '.join(f'{n}: {s.num_joints}' for n, s in LAYOUTS.items())})", arguments=("layout",))
     return by_count[joints]
 
 
@@ -73,7 +90,7 @@ def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source
             raise InputError(f"{path}: confidences must be {pixels.shape[:2]}, got {confidences.shape}")
     if len(frames) != len(pixels) or len(tracks) != len(pixels):
         raise InputError(f"{path}: frames and tracks need one entry per detection ({len(pixels)})")
-    return Keypoints(pixels, confidences, frames, tracks, layout, fps, source)
+    return Keypoints(pixels, confidences, frames, tracks, layout, fps, source, path)
 
 
 def _split_scores(path: Path, rows: np.ndarray, joints: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -105,7 +122,7 @@ def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
 def read_coco_results(path: Path, document: list, layout, fps) -> Keypoints:
     if not all(isinstance(d, dict) and "keypoints" in d for d in document):
         raise InputError(f"{path}: a COCO results list needs 'keypoints' in every entry")
-    joints = LAYOUTS[layout or "coco17"].num_joints
+    joints = layout_skeleton(layout or "coco17").num_joints
     rows = _numeric(path, "keypoints", [d["keypoints"] for d in document])
     pixels, scores = _split_scores(path, rows, joints)
     try:
@@ -184,11 +201,9 @@ def read_csv(path: Path, layout, fps) -> Keypoints:
 
 
 def read_npz(path: Path, layout, fps, subject=None, action=None, camera_index=None) -> Keypoints:
-    from ray3d.io.safe_npz import read_npz_entries
-
     entries = read_npz_entries(path)
     if "positions_2d" in entries:
-        nested = entries["positions_2d"]
+        nested, _ = load_positions_2d(path, "h36m", entries)
         subject = subject or _only(path, "subject", list(nested))
         if subject not in nested:
             raise InputError(f"{path}: no subject {subject!r}; has {', '.join(map(str, nested))}")
@@ -198,8 +213,9 @@ def read_npz(path: Path, layout, fps, subject=None, action=None, camera_index=No
         per_camera = nested[subject][action]
         index = 0 if camera_index is None and len(per_camera) == 1 else camera_index
         if index is None or not 0 <= index < len(per_camera):
-            raise InputError(f"{path}: choose a camera index 0..{len(per_camera) - 1} (--camera-index)")
-        return _finish(path, per_camera[index], None, None, None, layout, fps or 50.0, "videopose3d positions_2d")
+            raise InputError(f"{path}: choose a camera index 0..{len(per_camera) - 1}", arguments=("camera_index",))
+        return _finish(path, per_camera[index], None, None, None, layout, fps or DATASET_FPS["h36m"],
+                       "videopose3d positions_2d")
     if "keypoints" not in entries:
         raise InputError(f"{path}: an npz of keypoints needs key 'keypoints' (or VideoPose3D's 'positions_2d')")
     stored_layout = entries.get("layout")
@@ -211,7 +227,8 @@ def read_npz(path: Path, layout, fps, subject=None, action=None, camera_index=No
 
 def _only(path: Path, what: str, choices: list) -> str:
     if len(choices) != 1:
-        raise InputError(f"{path}: several {what}s ({', '.join(map(str, choices[:8]))}); choose one with --{what}")
+        raise InputError(f"{path}: several {what}s ({', '.join(map(str, choices[:8]))}); choose one",
+                         arguments=(what,))
     return choices[0]
 
 
@@ -238,3 +255,16 @@ def read_keypoints(path: str | Path, layout: str | None = None, fps: float | Non
         if isinstance(document, dict):
             return read_ours_json(path, document, layout, fps)
     raise InputError(f"{path}: unknown keypoint format (expected .npz, .json, .csv or an OpenPose folder)")
+
+
+def write_keypoints_json(path: str | Path, pixels: np.ndarray, confidences: np.ndarray, layout: str, fps: float,
+                         overwrite: bool = False) -> Path:
+    """One person's detections (T, J, 2) pixels and (T, J) confidences in our JSON format (read by
+    ``read_keypoints``): one detection per frame where any joint was found, missing joints as confidence 0."""
+    rows = np.concatenate([np.nan_to_num(pixels), confidences[..., None]], axis=-1)
+    document = {"layout": layout, "fps": fps, "detections": [
+        {"frame": i, "track": 0, "keypoints": np.round(r, 3).tolist()} for i, r in enumerate(rows)
+        if (confidences[i] > 0).any()]}
+    with atomic_path(path, overwrite) as temporary:
+        temporary.write_text(json.dumps(document))
+    return Path(path)

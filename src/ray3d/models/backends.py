@@ -12,6 +12,7 @@ import numpy as np
 import torch
 
 from ray3d.errors import InputError
+from ray3d.geometry import CameraBatch
 from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world, predict_with_flip
 
 INPUT_NAMES = ("pixels", "rays", "camera_params", "intrinsics", "roll")
@@ -30,10 +31,8 @@ class _TensorInputs(torch.nn.Module):
 
 
 def _example_inputs(model: LiftingNetwork, image_width: float) -> tuple[torch.Tensor, ...]:
-    frames, joints = model.receptive_field, model.skeleton.num_joints
-    return (torch.rand(2, frames, joints, 2) * image_width, torch.randn(2, frames, joints, 3) * 0.2 + torch.tensor(
-        [0.0, 0.3, 1.0]), torch.tensor([[1.5, 0.2], [2.0, 0.3]]), torch.tensor([[1000.0, 1000, 500, 500]] * 2),
-            torch.zeros(2))
+    example = TensorBatch.example(model.receptive_field, model.skeleton.num_joints, 2, image_width=image_width)
+    return tuple(getattr(example, name) for name in INPUT_NAMES)
 
 
 class _Backend:
@@ -51,7 +50,7 @@ class _Backend:
     def predict(self, batch: TensorBatch, flip_test: bool = False):
         return predict_with_flip(self, self.skeleton, batch, flip_test)
 
-    def to_world(self, points: torch.Tensor, cameras, camera_params: torch.Tensor) -> torch.Tensor:
+    def to_world(self, points: torch.Tensor, cameras: CameraBatch, camera_params: torch.Tensor) -> torch.Tensor:
         return frame_to_world(points, self.config.output_frame, cameras, camera_params, self.config.remove_roll)
 
 

@@ -23,11 +23,12 @@ import numpy as np
 import torch
 from torch import nn
 
-from ray3d.data.samples import Batch, target_frame
+from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
 from ray3d.models.blocks import CameraEmbedding, TemporalEncoder, mlp, receptive_field
 from ray3d.models.rie import RIEBackbone
-from ray3d.skeleton import LAYOUTS, Skeleton
+from ray3d.skeleton import LAYOUTS, Skeleton, flip, layout_skeleton, mirror_pixels
+from ray3d.temporal import Window
 
 INPUTS = ("ncs_rays", "camera_rays", "pixels", "pixels_centred")
 BACKBONES = ("rie", "tcn", "mlp")
@@ -77,8 +78,13 @@ class ModelConfig:
         return receptive_field(self.kernels)
 
     @property
+    def window(self) -> Window:
+        """The temporal window: the receptive field, and which of its frames is predicted."""
+        return Window(self.frames, self.causal)
+
+    @property
     def target_frame(self) -> int:
-        return target_frame(self.frames, self.causal)
+        return self.window.target
 
     @property
     def input_channels(self) -> int:
@@ -98,34 +104,30 @@ class TensorBatch:
     image_width: float
 
     @classmethod
-    def from_arrays(cls, pixels: np.ndarray, rays: np.ndarray, cameras, device: str | torch.device = "cpu") -> TensorBatch:
-        """From (B, F, J, 2) pixels, (B, F, J, 3) NCS rays and the batch's ``CameraBatch``."""
+    def from_arrays(cls, pixels: np.ndarray, rays: np.ndarray, cameras: CameraBatch,
+                    device: str | torch.device = "cpu") -> TensorBatch:
+        """From (B, F, J, 2) pixels, (B, F, J, 3) NCS rays and the B cameras that saw them."""
         def tensor(array: np.ndarray) -> torch.Tensor:
             return torch.from_numpy(np.ascontiguousarray(array, dtype=np.float32)).to(device)
 
-        return cls(tensor(pixels), tensor(rays), tensor(np.stack([cameras.height, cameras.pitch], -1)),
-                   tensor(cameras.intrinsics), tensor(cameras.roll), float(cameras.image_size[0]))
+        return cls(tensor(pixels), tensor(rays), tensor(cameras.height_pitch), tensor(cameras.intrinsics),
+                   tensor(cameras.roll), float(cameras.image_size[0]))
 
     @classmethod
-    def from_batch(cls, batch: Batch, device: str | torch.device = "cpu") -> TensorBatch:
-        return cls.from_arrays(batch.pixels, batch.rays, batch.cameras, device)
-
-    @classmethod
-    def example(cls, model_frames: int, joints: int, size: int, seed: int = 0) -> TensorBatch:
-        """A plausible random batch (rays in front of a 1.5 m high camera), for sizing and timing networks."""
+    def example(cls, model_frames: int, joints: int, size: int, seed: int = 0,
+                image_width: float = 1000.0) -> TensorBatch:
+        """A plausible random batch (rays in front of a 1.5 m high camera), for sizing, timing and tracing
+        networks."""
         generator = torch.Generator().manual_seed(seed)
         rays = torch.randn(size, model_frames, joints, 3, generator=generator) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
-        return cls(torch.rand(size, model_frames, joints, 2, generator=generator) * 1000, rays,
+        return cls(torch.rand(size, model_frames, joints, 2, generator=generator) * image_width, rays,
                    torch.tensor([[1.5, 0.2]]).repeat(size, 1), torch.tensor([[1000.0, 1000, 500, 500]]).repeat(size, 1),
-                   torch.zeros(size), 1000.0)
+                   torch.zeros(size), image_width)
 
     def flipped(self, skeleton: Skeleton) -> TensorBatch:
-        """The mirrored input (see ``ray3d.data.samples.flip_batch``)."""
-        perm = list(skeleton.flip_permutation)
-        rays = self.rays[:, :, perm] * self.rays.new_tensor([-1.0, 1.0, 1.0])
-        pixels = self.pixels[:, :, perm].clone()
-        pixels[..., 0] = 2 * self.intrinsics[:, None, None, 2] - pixels[..., 0]
-        return dataclasses.replace(self, pixels=pixels, rays=rays)
+        """The input of the mirrored scene: rays mirrored in the NCS, pixels about the principal point."""
+        return dataclasses.replace(self, pixels=mirror_pixels(self.pixels, self.intrinsics[:, None, None, 2], skeleton),
+                                   rays=flip(self.rays, skeleton))
 
 
 class _Branch(nn.Module):
@@ -181,7 +183,7 @@ class LiftingNetwork(nn.Module):
     def __init__(self, config: ModelConfig):
         super().__init__()
         self.config = config
-        self.skeleton = LAYOUTS[config.layout]
+        self.skeleton = layout_skeleton(config.layout)
         self.receptive_field = config.frames
         root_outputs = 3 if config.root == "xyz" else 1
         self.pose_net = _Branch(config, self.skeleton, "pose", root_outputs)
@@ -229,8 +231,8 @@ class LiftingNetwork(nn.Module):
         origin = torch.stack([torch.zeros_like(depth), -batch.camera_params[:, 0], torch.zeros_like(depth)], -1)
         return depth[:, None] * ray + origin
 
-    def to_world(self, points: torch.Tensor, cameras, camera_params: torch.Tensor) -> torch.Tensor:
-        """(B, ..., 3) points in this model's output frame -> world, with the batch's ``CameraBatch``."""
+    def to_world(self, points: torch.Tensor, cameras: CameraBatch, camera_params: torch.Tensor) -> torch.Tensor:
+        """(B, ..., 3) points in this model's output frame -> world, with the batch's cameras."""
         return frame_to_world(points, self.config.output_frame, cameras, camera_params, self.config.remove_roll)
 
     def targets(self, batch: TensorBatch, pose_ncs: torch.Tensor, root_ncs: torch.Tensor):
@@ -249,17 +251,23 @@ def predict_with_flip(forward, skeleton: Skeleton, batch: TensorBatch, flip_test
     """(pose, root) from ``forward(batch)``, averaged with the mirrored input's mirrored output when asked."""
     pose, root = forward(batch)
     if flip_test:
-        perm = list(skeleton.flip_permutation)
-        mirror = pose.new_tensor([-1.0, 1.0, 1.0])
         flipped_pose, flipped_root = forward(batch.flipped(skeleton))
-        pose = (pose + flipped_pose[:, perm] * mirror) / 2
-        root = (root + flipped_root * mirror) / 2
+        pose = (pose + flip(flipped_pose, skeleton)) / 2
+        root = (root + flipped_root * root.new_tensor([-1.0, 1.0, 1.0])) / 2
     return pose, root
 
 
-def frame_to_world(points: torch.Tensor, frame: str, cameras, camera_params: torch.Tensor,
+def predict_world(model, batch: TensorBatch, cameras: CameraBatch, flip_test: bool = False) -> torch.Tensor:
+    """(B, J, 3) world joints (float64) of the windows' target frames: ``model.predict`` (a ``LiftingNetwork``
+    or an inference backend), then the model's output frame back to the world. The one way from network output
+    to the world, for lifting, evaluation and validation alike."""
+    pose, root = model.predict(batch, flip_test)
+    return model.to_world(pose.double() + root.double()[:, None], cameras, batch.camera_params.double())
+
+
+def frame_to_world(points: torch.Tensor, frame: str, cameras: CameraBatch, camera_params: torch.Tensor,
                    remove_roll: bool = False) -> torch.Tensor:
-    """(B, ..., 3) points in a model's output frame -> world, with the batch's cameras (a ``CameraBatch``)."""
+    """(B, ..., 3) points in a model's output frame -> world, with the batch's cameras."""
     def per_sample(array) -> torch.Tensor:
         tensor = torch.as_tensor(array, dtype=points.dtype, device=points.device)
         return tensor[(slice(None), *(None,) * (points.ndim - 2))]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from ray3d.errors import InputError
 from ray3d.models.network import ModelConfig
 
 _LITE = dict(channels=128, hidden=256, kernels=(3, 3), dropout=0.1)
@@ -38,7 +39,8 @@ PRESETS: dict[str, ModelConfig] = {
 }
 
 
-def preset(name: str, **overrides) -> ModelConfig:
-    if name not in PRESETS:
-        raise KeyError(f"unknown model preset {name!r}; known: {', '.join(PRESETS)}")
-    return dataclasses.replace(PRESETS[name], **overrides)
+def preset(preset_name: str, /, **overrides) -> ModelConfig:
+    """The named configuration with ``overrides`` (``name`` among them renames the model)."""
+    if preset_name not in PRESETS:
+        raise InputError(f"unknown model preset {preset_name!r}; known: {', '.join(PRESETS)}")
+    return dataclasses.replace(PRESETS[preset_name], **overrides)

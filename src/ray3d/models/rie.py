@@ -8,9 +8,9 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from ray3d.data.samples import target_frame
 from ray3d.models.blocks import TemporalEncoder, mlp
 from ray3d.skeleton import GROUP_NAMES, Skeleton
+from ray3d.temporal import target_frame
 
 
 class RIEBackbone(nn.Module):

@@ -5,7 +5,6 @@ projected back through the camera, drawn on every frame)."""
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -16,8 +15,9 @@ from tqdm import tqdm
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
-from ray3d.io.exports import write_world
-from ray3d.lift import LiftResult, Lifter
+from ray3d.io.keypoints import write_keypoints_json
+from ray3d.io.world import LiftResult, World, write_world
+from ray3d.lift import Lifter
 from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.detectors import PoseDetector
 from ray3d.viz.html_viewer import write_viewer
@@ -105,38 +105,26 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
                          f"{info.image_size[0]}x{info.image_size[1]}")
     fps = fps or info.fps
     if not fps or fps <= 0:
-        raise InputError(f"{info.path}: the video reports no frame rate; pass fps")
+        raise InputError(f"{info.path}: the video reports no frame rate; give it", arguments=("fps",))
     out_dir = Path(out_dir)
     targets = {"world": out_dir / f"world{world_format}", "keypoints": out_dir / "keypoints.json",
                "viewer": out_dir / "viewer.html", **({"overlay": out_dir / "overlay.mp4"} if overlay else {})}
     existing = [str(p) for p in targets.values() if p.exists()]
     if existing and not overwrite:
-        raise InputError(f"{', '.join(existing)}: already exist(s); refusing to overwrite (use --force to replace)")
+        raise InputError(f"{', '.join(existing)}: already exist(s); refusing to overwrite", arguments=("overwrite",))
     keypoints, confidences = detect_video(info.path, detector, progress)
     if not (confidences > 0).any():
         raise InputError(f"{info.path}: the detector found nobody in any of its {len(keypoints)} frames")
     lifter = lifter or Lifter.load()
     lifted = lifter.lift(keypoints, camera, confidences, fps, detector.layout, **lift_options)
-    model = lifter.model.config.name
-    write_world(targets["world"], {0: lifted}, camera, model, overwrite=overwrite)
-    _write_detections(targets["keypoints"], keypoints, confidences, detector.layout, fps, overwrite)
+    write_world(targets["world"], World({"0": lifted}, camera, lifter.name), overwrite=overwrite)
+    write_keypoints_json(targets["keypoints"], keypoints, confidences, detector.layout, fps, overwrite)
     write_viewer(targets["viewer"], {"ray3d": lifted.joints}, fps, camera, title=f"ray3d: {info.path.name}",
                  overwrite=overwrite)
     if overlay:
         pixels, _ = convert_keypoints(keypoints, detector.layout, confidences)
         write_overlay(info.path, targets["overlay"], pixels, camera.project(lifted.joints), fps, overwrite, progress)
     return VideoResult(keypoints, confidences, detector.layout, lifted, targets)
-
-
-def _write_detections(path: Path, keypoints: np.ndarray, confidences: np.ndarray, layout: str, fps: float,
-                      overwrite: bool) -> None:
-    """The detections in the ``ray3d lift`` JSON format (missing joints as confidence 0)."""
-    rows = np.concatenate([np.nan_to_num(keypoints), confidences[..., None]], axis=-1)
-    document = {"layout": layout, "fps": fps, "detections": [
-        {"frame": i, "track": 0, "keypoints": np.round(r, 3).tolist()} for i, r in enumerate(rows)
-        if (confidences[i] > 0).any()]}
-    with atomic_path(path, overwrite) as temporary:
-        temporary.write_text(json.dumps(document))
 
 
 def write_overlay(video: Path, target: Path, detected: np.ndarray, lifted: np.ndarray, fps: float,

@@ -1,5 +1,7 @@
 """Dataset files users bring: VideoPose3D-style Human3.6M npz files and the same nested layout for
 MPI-INF-3DHP and HumanEva (brief section 9). Their data may not be shipped; tests use generated fixtures.
+``ray3d.data.motion.to_motion_set`` turns 3D positions into clips to evaluate on; ``ray3d.io.keypoints`` reads
+the 2D files for lifting.
 
 3D files: key ``positions_3d`` -> {subject: {action: float (N, J, 3)}}, world metres. 2D files: key
 ``positions_2d`` -> {subject: {action: [one (N, J, 2) pixel array per camera]}} plus ``metadata``.
@@ -11,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.data.motion import MotionSet
 from ray3d.errors import InputError
+from ray3d.geometry import y_up_to_z_up
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import convert
 
@@ -26,8 +28,7 @@ _LAYOUTS = {
 }
 
 
-def _nested(path: Path, key: str) -> dict:
-    entries = read_npz_entries(path)
+def _nested(path: Path, key: str, entries: dict) -> dict:
     if key not in entries:
         raise InputError(f"{path}: missing key {key!r} (found: {', '.join(entries) or 'nothing'})")
     nested = entries[key]
@@ -37,6 +38,7 @@ def _nested(path: Path, key: str) -> dict:
 
 
 def _to_layout(array, dataset: str, path: Path, where: str, up: str) -> np.ndarray:
+    """One (frames, joints, 2 or 3) array in the layout we use; 2D detections may miss joints (NaN)."""
     array = np.asarray(array, dtype=np.float64)
     if array.ndim != 3 or array.shape[-1] not in (2, 3):
         raise InputError(f"{path}: {where}: expected (frames, joints, 2 or 3), got {array.shape}")
@@ -44,10 +46,10 @@ def _to_layout(array, dataset: str, path: Path, where: str, up: str) -> np.ndarr
     if layouts is None:
         known = sorted(j for d, j in _LAYOUTS if d == dataset)
         raise InputError(f"{path}: {where}: {array.shape[1]} joints is not a {dataset} layout (expected {known})")
-    if not np.isfinite(array).all():
+    if np.isinf(array).any() or (array.shape[-1] == 3 and np.isnan(array).any()):
         raise InputError(f"{path}: {where}: contains NaN or infinite values")
     if up == "y" and array.shape[-1] == 3:
-        array = np.stack([array[..., 0], -array[..., 2], array[..., 1]], -1)
+        array = y_up_to_z_up(array)
     source, target = layouts
     return array[:, list(H36M32_TO_17)] if source is None else convert(array, source, target)
 
@@ -62,13 +64,16 @@ def load_positions_3d(path: str | Path, dataset: str = "h36m", up: str = "z") ->
         raise InputError(f"up must be 'z' or 'y', got {up!r}")
     return {str(subject): {str(action): _to_layout(array, dataset, path, f"{subject}/{action}", up)
                            for action, array in actions.items()}
-            for subject, actions in _nested(path, "positions_3d").items()}
+            for subject, actions in _nested(path, "positions_3d", read_npz_entries(path)).items()}
 
 
-def load_positions_2d(path: str | Path, dataset: str = "h36m") -> tuple[dict[str, dict[str, list[np.ndarray]]], dict]:
-    """({subject: {action: [(N, J, 2) per camera]}}, metadata); Human3.6M cameras in H36M_2D_CAMERA_ORDER."""
+def load_positions_2d(path: str | Path, dataset: str = "h36m",
+                      entries: dict | None = None) -> tuple[dict[str, dict[str, list[np.ndarray]]], dict]:
+    """({subject: {action: [(N, J, 2) per camera]}}, metadata); Human3.6M cameras in H36M_2D_CAMERA_ORDER.
+    ``entries``: the file's entries when they have been read already."""
     path = Path(path)
-    nested = _nested(path, "positions_2d")
+    entries = read_npz_entries(path) if entries is None else entries
+    nested = _nested(path, "positions_2d", entries)
     out = {}
     for subject, actions in nested.items():
         out[str(subject)] = {}
@@ -77,22 +82,5 @@ def load_positions_2d(path: str | Path, dataset: str = "h36m") -> tuple[dict[str
                 raise InputError(f"{path}: {subject}/{action}: expected a list with one array per camera")
             out[str(subject)][str(action)] = [
                 _to_layout(a, dataset, path, f"{subject}/{action}/camera {i}", "z") for i, a in enumerate(per_camera)]
-    metadata = read_npz_entries(path).get("metadata", {})
+    metadata = entries.get("metadata", {})
     return out, metadata if isinstance(metadata, dict) else {}
-
-
-def to_motion_set(positions: dict[str, dict[str, np.ndarray]], dataset: str) -> MotionSet:
-    """A motion set (one clip per subject and action) from 17-joint positions, e.g. to evaluate on them."""
-    clips, ids, subjects = [], [], []
-    for subject, actions in positions.items():
-        for action, array in actions.items():
-            if array.shape[1] != 17:
-                raise InputError(f"{dataset} {subject}/{action}: motion sets hold H36M-17 joints, got "
-                                 f"{array.shape[1]} (HumanEva converts to the 14-joint layout only)")
-            clips.append(array)
-            ids.append(f"{subject}_{action}".replace(" ", "_"))
-            subjects.append(subject)
-    if not clips:
-        raise InputError(f"{dataset}: no clips")
-    return MotionSet.from_clips(clips, clip_id=ids, subject=subjects, source=dataset, fps=DATASET_FPS[dataset],
-                                description=[i.split("_", 1)[1] for i in ids])

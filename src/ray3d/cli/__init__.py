@@ -1,0 +1,28 @@
+"""The ``ray3d`` command line: argparse over the library (``parser``), one handler per subcommand
+(``commands``), and here the exit codes and the one-line errors, with library arguments named by their flags."""
+
+from __future__ import annotations
+
+import sys
+
+from ray3d.errors import InputError
+
+# The flag that sets each library argument an error can name.
+FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout": "--layout",
+         "camera_index": "--camera-index", "subject": "--subject", "action": "--action", "data_dir": "--data-dir",
+         "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov"}
+
+
+def main(argv: list[str] | None = None) -> int:
+    from ray3d.cli.parser import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        return args.handler(args)
+    except InputError as err:
+        print(f"ray3d {args.command}: error: {err.message_for(FLAGS)}", file=sys.stderr)
+        return 2

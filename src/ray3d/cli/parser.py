@@ -1,0 +1,232 @@
+"""The ``ray3d`` argument parser: every subcommand, its flags and their help, each bound to its handler."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import ray3d
+from ray3d.cli import commands as handlers
+
+
+def _import_common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, type=Path, help="output motion npz (the shipped format)")
+    parser.add_argument("--fps", type=float, default=60.0, help="output frame rate (default 60)")
+    parser.add_argument("--drop-frames", type=int, default=0, metavar="N",
+                        help="leading native frames to discard, e.g. a synthetic T-pose")
+    parser.add_argument("--no-floor", action="store_true", help="keep z as in the file (no floor at z = 0)")
+    parser.add_argument("--subject", default="user", help="performer name stored with the clips")
+    parser.add_argument("--force", action="store_true", help="replace OUT if it exists")
+
+
+def _add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_note: str = "") -> None:
+    parser.add_argument("--hfov", type=float, help=f"{role}: horizontal field of view in degrees")
+    parser.add_argument("--focal", type=float, help=f"{role}: focal length in pixels (instead of --hfov)")
+    parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels{image_size_note}")
+
+
+def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "") -> None:
+    parser.add_argument("--camera", help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
+    parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
+    parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
+    parser.add_argument("--roll", type=float, default=0.0, help="with --pitch: camera roll in degrees (default 0)")
+    _add_lens_arguments(parser, "with --pitch", image_size_note)
+
+
+def _add_lifting_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--checkpoint", default="ray3d", help="shipped model name or checkpoint path (default ray3d)")
+    parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
+    parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
+    parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ray3d.data.virtual_cameras import SET_NAMES
+
+    parser = argparse.ArgumentParser(
+        prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
+    parser.add_argument("--version", action="version", version=f"ray3d {ray3d.__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    demo = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
+                                            "the baselines, write an HTML viewer and a GIF")
+    demo.add_argument("--out", type=Path, default=Path("ray3d-demo"), help="output folder (default ray3d-demo)")
+    demo.add_argument("--checkpoint", default="ray3d", help="model to demonstrate (default: the shipped Ray3D)")
+    demo.add_argument("--frames", type=int, help="use only the first N frames")
+    demo.set_defaults(handler=handlers.demo)
+
+    data = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
+    data_commands = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
+    data_dir_help = "folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR or ../shared/data/mocap)"
+
+    info = data_commands.add_parser("info", help="what motion data is available: clips, frames, minutes, splits")
+    info.add_argument("--data-dir", help=data_dir_help)
+    info.set_defaults(handler=handlers.data_info)
+
+    bvh = data_commands.add_parser("import-bvh", help="BVH takes -> a motion npz (H36M-17, metres, z up)")
+    bvh.add_argument("files", nargs="+", type=Path, metavar="FILE")
+    bvh.add_argument("--units", choices=["m", "cm", "mm", "inch", "cmu"],
+                     help="file length units (default: CMU units for cgspeed namings, cm for Daz)")
+    _import_common(bvh)
+    bvh.set_defaults(handler=handlers.import_bvh)
+
+    amc = data_commands.add_parser("import-amc", help="an ASF skeleton and AMC takes -> a motion npz")
+    amc.add_argument("asf", type=Path, metavar="ASF")
+    amc.add_argument("amc", nargs="+", type=Path, metavar="AMC")
+    amc.add_argument("--native-fps", type=float, default=120.0, help="the AMC files' frame rate (default 120)")
+    _import_common(amc)
+    amc.set_defaults(handler=handlers.import_amc)
+
+    cams = data_commands.add_parser("cameras", help="write a named virtual camera set as JSON")
+    cams.add_argument("--set", required=True, choices=SET_NAMES)
+    cams.add_argument("--out", required=True, type=Path)
+    cams.add_argument("--split", default="test", choices=["train", "validation", "test", "all"],
+                      help="clips the cameras must see entirely (default: test)")
+    cams.add_argument("--no-filter", action="store_true", help="write the whole grid, without the in-image filter")
+    cams.add_argument("--data-dir", help=data_dir_help)
+    cams.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    cams.set_defaults(handler=handlers.cameras)
+
+    train = commands.add_parser("train", help="train a model on the training performers with random cameras")
+    train.add_argument("--config", type=Path, help="training config JSON (see configs/); default: Ray3D lite")
+    train.add_argument("--preset", help="model preset replacing the config's model (ray3d, videopose3d, rie, ...)")
+    train.add_argument("--out", required=True, type=Path, help="run folder: best.*, last.*, config.json")
+    train.add_argument("--resume", action="store_true", help="continue the run in --out from its last epoch")
+    train.add_argument("--epochs", type=int)
+    train.add_argument("--batches-per-epoch", type=int)
+    train.add_argument("--batch-size", type=int)
+    train.add_argument("--seed", type=int)
+    train.add_argument("--threads", type=int, help="torch CPU threads per process")
+    train.add_argument("--data-dir", help=data_dir_help)
+    train.add_argument("--quiet", action="store_true", help="no progress bar or per-epoch lines")
+    train.set_defaults(handler=handlers.train)
+
+    evaluation = commands.add_parser("evaluate", help="MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
+    evaluation.add_argument("--checkpoint", default="ray3d",
+                            help="a checkpoint path or a shipped model name (ray3d, videopose3d, rie, ...) or rfrh")
+    evaluation.add_argument("--mocap", type=Path, help="a motion npz (default: the shipped mocap's test performers)")
+    evaluation.add_argument("--split", choices=["train", "validation", "test", "all"],
+                            help="clips to use (default: test for the shipped files, all for any other npz)")
+    evaluation.add_argument("--cameras", required=True, help=f"a camera set ({', '.join(SET_NAMES)}) or a cameras JSON")
+    evaluation.add_argument("--datasets", help="with the shipped mocap: cmu, hdm05 or cmu,hdm05 (default both)")
+    evaluation.add_argument("--joints", choices=["h36m17", "h36m14"], default="h36m17",
+                            help="joints scored (h36m14: without spine, thorax and neck/nose)")
+    evaluation.add_argument("--noise-px", type=float, default=0.0,
+                            help="Gaussian noise on the 2D input, standard deviation in pixels (a detector's jitter)")
+    evaluation.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
+    evaluation.add_argument("--json", type=Path, help="write the results here")
+    evaluation.add_argument("--force", action="store_true", help="replace --json if it exists")
+    evaluation.add_argument("--data-dir", help=data_dir_help)
+    evaluation.set_defaults(handler=handlers.evaluate)
+
+    lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
+    lift.add_argument("--keypoints", required=True, type=Path,
+                      help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
+    _add_camera_arguments(lift)
+    lift.add_argument("--out", required=True, type=Path, help="output .json, .csv or .npz")
+    lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
+    lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
+    _add_lifting_arguments(lift)
+    lift.add_argument("--subject", help="VideoPose3D npz: the subject")
+    lift.add_argument("--action", help="VideoPose3D npz: the action")
+    lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
+    lift.add_argument("--force", action="store_true", help="replace --out if it exists")
+    lift.set_defaults(handler=handlers.lift)
+
+    video = commands.add_parser("video", help="a video -> 2D detections -> world 3D, viewer and overlay video "
+                                              "(pip install 'ray3d[video]')")
+    video.add_argument("input", type=Path, help="the video file (anything OpenCV reads: .mp4, .avi, ...)")
+    _add_camera_arguments(video, image_size_note=" (default: the video's)")
+    video.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
+                                                                "overlay.mp4")
+    video.add_argument("--detector", default="mediapipe", help="2D detector (default mediapipe)")
+    video.add_argument("--format", choices=[".json", ".csv", ".npz"], default=".json", help="world file format")
+    video.add_argument("--fps", type=float, help="override the frame rate the video reports")
+    video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
+    _add_lifting_arguments(video)
+    video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
+    video.set_defaults(handler=handlers.video)
+
+    viz = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift)")
+    viz.add_argument("world", nargs="+", type=Path, help="world outputs of ray3d lift (.json/.csv/.npz): one per method")
+    viz.add_argument("--camera", help="the camera (drawn as a frustum; needed for --animation)")
+    viz.add_argument("--html", type=Path, help="write the interactive viewer here")
+    viz.add_argument("--animation", type=Path, help="write a .gif (or .mp4 with ffmpeg) here")
+    viz.add_argument("--track", help="which track to show (default: the first)")
+    viz.add_argument("--fps", type=float, help="playback frame rate (default 60)")
+    viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
+    viz.add_argument("--force", action="store_true", help="replace existing outputs")
+    viz.set_defaults(handler=handlers.viz)
+
+    bench = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
+    bench_commands = bench.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
+    robustness = bench_commands.add_parser("robustness", help="the paper's robustness sweeps (CSV, markdown, PNG)")
+    robustness.add_argument("--out", required=True, type=Path, help="folder for the sweep files")
+    robustness.add_argument("--models", nargs="+", default=["ray3d", "videopose3d", "rie", "rfrh"],
+                            help="shipped names, checkpoint paths or rfrh, optionally LABEL=MODEL (default: the "
+                                 "shipped ones and rfrh)")
+    robustness.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
+    robustness.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
+    robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
+    robustness.add_argument("--data-dir", help=data_dir_help)
+    robustness.set_defaults(handler=handlers.bench_robustness)
+    calibration = bench_commands.add_parser("calibration", help="camera estimation from a walking person: errors "
+                                                                "and their cost to Ray3D (CSV, JSON, markdown)")
+    calibration.add_argument("--out", required=True, type=Path, help="folder for calibration.{csv,json,md}")
+    calibration.add_argument("--pairs", type=int, default=12, help="random (camera, walking clip) pairs")
+    calibration.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
+    calibration.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    calibration.add_argument("--seed", type=int, default=0)
+    calibration.add_argument("--split", choices=["train", "validation", "test"], default="test",
+                             help="whose walking clips (default: the test performers)")
+    calibration.add_argument("--data-dir", help=data_dir_help)
+    calibration.set_defaults(handler=handlers.bench_calibration)
+    speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
+    speed_bench.add_argument("--json", type=Path, help="write the results here")
+    speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")
+    speed_bench.add_argument("--repeats", type=int, default=5)
+    speed_bench.add_argument("--batch", type=int, default=1024, help="windows per inference batch")
+    speed_bench.add_argument("--sequence-frames", type=int, default=10_000)
+    speed_bench.add_argument("--train-batch", type=int, default=1024)
+    speed_bench.add_argument("--force", action="store_true", help="replace --json if it exists")
+    speed_bench.set_defaults(handler=handlers.bench_speed)
+
+    calibrate = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
+                                                      "person walking on the floor")
+    calibrate.add_argument("--floor-points", type=Path,
+                           help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
+    calibrate.add_argument("--from-person", type=Path, metavar="KEYPOINTS",
+                           help="instead of --floor-points: 2D keypoints of one person standing or walking on the "
+                                "floor (any format ray3d lift reads); estimates height, pitch, roll (and focal)")
+    calibrate.add_argument("--person-height", type=float, default=1.70,
+                           help="with --from-person: the person's stature in metres (default 1.70)")
+    calibrate.add_argument("--track", help="with --from-person: which track (default: the longest)")
+    calibrate.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
+    calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
+    _add_lens_arguments(calibrate, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
+    calibrate.add_argument("--out", required=True, type=Path, help="camera JSON to write")
+    calibrate.add_argument("--force", action="store_true", help="replace --out if it exists")
+    calibrate.set_defaults(handler=handlers.calibrate)
+
+    models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
+    models.set_defaults(handler=handlers.models)
+
+    exporting = commands.add_parser("export", help="a trained checkpoint -> inference weights (.safetensors + .json)")
+    exporting.add_argument("--checkpoint", default="ray3d", help="a shipped model name or e.g. runs/NAME/best.safetensors")
+    exporting.add_argument("--out", required=True, type=Path, help="target .safetensors (its .json is written beside)")
+    exporting.add_argument("--onnx", action="store_true", help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
+    exporting.add_argument("--image-width", type=float, default=1000.0,
+                           help="with --onnx: the image width pixel-input models normalise by (default 1000)")
+    exporting.add_argument("--command-line", help="the training command, recorded with the weights")
+    exporting.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
+    exporting.add_argument("--machine", help="where it was trained, recorded with the weights")
+    exporting.add_argument("--force", action="store_true", help="replace --out if it exists")
+    exporting.set_defaults(handler=handlers.export)
+
+    speed = data_commands.add_parser("samples-speed", help="measure the training-sample generator's throughput")
+    speed.add_argument("--batch", type=int, default=1024)
+    speed.add_argument("--frames", type=int, default=9)
+    speed.add_argument("--repeats", type=int, default=20)
+    speed.add_argument("--data-dir", help=data_dir_help)
+    speed.set_defaults(handler=handlers.samples_speed)
+    return parser

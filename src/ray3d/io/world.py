@@ -1,0 +1,181 @@
+"""The lifted result and the world files that hold it: JSON, CSV and npz, each stating its units, axes, joint
+names, frame rate, model and camera. ``write_world`` writes a ``World`` atomically (an existing file is replaced
+only when asked); ``read_world`` gives the same ``World`` back."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.geometry import Camera
+from ray3d.io.atomic import atomic_path
+from ray3d.io.json_files import read_json
+from ray3d.io.safe_npz import read_npz_entries
+from ray3d.skeleton import H36M17
+
+FORMATS = (".json", ".csv", ".npz")
+UNITS = "metres"
+AXES = "world frame, right-handed: x and y horizontal, z up, floor at z = 0"
+CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated")
+
+
+@dataclasses.dataclass
+class LiftResult:
+    """One person's world joints (T, 17, 3) in metres (z up, floor z = 0, H36M-17 order) at ``fps``, the frame
+    index of each row (T,), and which input joints were missing and filled in from neighbouring frames (T, 17)."""
+
+    joints: np.ndarray
+    interpolated: np.ndarray
+    fps: float
+    frames: np.ndarray
+    joint_names: tuple[str, ...] = H36M17.joint_names
+
+    @property
+    def root(self) -> np.ndarray:
+        """(T, 3) the pelvis: where the person stands on the floor plan, and how high."""
+        return self.joints[:, 0]
+
+    @property
+    def missing_fraction(self) -> float:
+        return float(self.interpolated.mean())
+
+
+@dataclasses.dataclass
+class World:
+    """Everything a world file holds: the people lifted from one camera into its world frame, by track id,
+    the camera and the model that lifted them."""
+
+    tracks: dict[str, LiftResult]
+    camera: Camera
+    model: str
+    units: str = UNITS
+    axes: str = AXES
+    path: Path | None = None  # the file it was read from
+
+    def __post_init__(self) -> None:
+        if not self.tracks:
+            raise InputError("world: no tracks")
+        self.tracks = {str(track): result for track, result in self.tracks.items()}
+
+    @property
+    def fps(self) -> float:
+        return next(iter(self.tracks.values())).fps
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return next(iter(self.tracks.values())).joint_names
+
+    def track(self, name: str | None = None) -> LiftResult:
+        """The track called ``name`` (default: the first)."""
+        if name is None:
+            return next(iter(self.tracks.values()))
+        if str(name) not in self.tracks:
+            raise InputError(f"{self.path or 'world'}: no track {name!r}; tracks: {', '.join(self.tracks)}",
+                             arguments=("track",))
+        return self.tracks[str(name)]
+
+    def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every track's frames one after another: joints (N, 17, 3), frames (N,), tracks (N,), interpolated
+        (N, 17)."""
+        results = self.tracks.values()
+        return (np.concatenate([r.joints for r in results]), np.concatenate([r.frames for r in results]),
+                np.concatenate([[t] * len(r.joints) for t, r in self.tracks.items()]),
+                np.concatenate([r.interpolated for r in results]))
+
+    def metadata(self) -> dict:
+        return {"units": self.units, "axes": self.axes, "joint_names": list(self.joint_names), "fps": self.fps,
+                "camera": self.camera.to_dict(), "model": self.model}
+
+
+def _check_format(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise InputError(f"{path}: unknown world file format {suffix or '(none)'}; one of {', '.join(FORMATS)}")
+    return suffix
+
+
+def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path:
+    """Write ``world`` to ``path`` (.json, .csv or .npz by its suffix)."""
+    path = Path(path)
+    suffix = _check_format(path)
+    meta = world.metadata()
+    joints, frames, tracks, interpolated = world.rows()
+    with atomic_path(path, overwrite) as temporary:
+        if suffix == ".json":
+            document = {**meta, "tracks": {t: {"frames": r.frames.tolist(), "joints": np.round(r.joints, 5).tolist(),
+                                               "interpolated_input_joints": r.interpolated.astype(int).tolist()}
+                                           for t, r in world.tracks.items()}}
+            temporary.write_text(json.dumps(document))
+        elif suffix == ".csv":
+            with temporary.open("w", newline="") as handle:
+                handle.write(f"# units: {world.units}; axes: {world.axes}; fps: {world.fps:g}; model: {world.model}; "
+                             f"camera: {json.dumps(meta['camera'])}\n")
+                writer = csv.writer(handle)
+                writer.writerow(CSV_COLUMNS)
+                for i in range(len(joints)):
+                    for j, name in enumerate(world.joint_names):
+                        writer.writerow([frames[i], tracks[i], name, *(f"{v:.5f}" for v in joints[i, j]),
+                                         int(interpolated[i, j])])
+        else:
+            with temporary.open("wb") as handle:
+                np.savez_compressed(handle, joints=joints.astype(np.float32), frames=frames, tracks=tracks,
+                                    interpolated=interpolated, joint_names=np.array(world.joint_names),
+                                    units=np.array(world.units), axes=np.array(world.axes), fps=np.array(world.fps),
+                                    model=np.array(world.model), camera_json=np.array(json.dumps(meta["camera"])))
+    return path
+
+
+def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names) -> dict[str, LiftResult]:
+    tracks = np.asarray(tracks).astype(str)
+    return {track: LiftResult(np.asarray(joints, dtype=np.float64)[tracks == track],
+                              np.asarray(interpolated, dtype=bool)[tracks == track], float(fps),
+                              np.asarray(frames, dtype=np.int64)[tracks == track], tuple(joint_names))
+            for track in dict.fromkeys(tracks.tolist())}
+
+
+def _read_csv(path: Path) -> World:
+    with path.open(newline="") as handle:
+        header = handle.readline().removeprefix("#").strip()
+        rows = list(csv.DictReader(handle))
+    fields = dict(part.split(": ", 1) for part in header.split("; camera: ", 1)[0].split("; "))
+    camera = Camera.from_dict(json.loads(header.split("; camera: ", 1)[1]))
+    names = list(dict.fromkeys(r["joint"] for r in rows))
+    count = len(rows) // len(names)
+    joints = np.array([[float(r[a]) for a in "xyz"] for r in rows]).reshape(count, len(names), 3)
+    interpolated = np.array([int(r["interpolated"]) for r in rows]).reshape(count, len(names))
+    tracks = _from_rows(joints, [int(r["frame"]) for r in rows[::len(names)]],
+                        [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names)
+    return World(tracks, camera, fields["model"], fields["units"], fields["axes"], path)
+
+
+def read_world(path: str | Path) -> World:
+    """Read back what :func:`write_world` wrote."""
+    path = Path(path)
+    suffix = _check_format(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such world file")
+    try:
+        if suffix == ".npz":
+            data = read_npz_entries(path)
+            tracks = _from_rows(data["joints"], data["frames"], data["tracks"], data["interpolated"],
+                                float(data["fps"]), [str(n) for n in data["joint_names"]])
+            return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))), str(data["model"]),
+                         str(data["units"]), str(data["axes"]), path)
+        if suffix == ".json":
+            document = read_json(path)
+            tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
+                                         np.array(e["interpolated_input_joints"], dtype=bool), float(document["fps"]),
+                                         np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]))
+                      for t, e in document["tracks"].items()}
+            return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
+                         str(document["units"]), str(document["axes"]), path)
+        return _read_csv(path)
+    except InputError:
+        raise
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError) as err:
+        raise InputError(f"{path}: not a world file written by ray3d ({type(err).__name__}: {err})") from None

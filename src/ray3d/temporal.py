@@ -1,0 +1,152 @@
+"""The time axis: which frame of a window a network predicts, the windows themselves (training samples and
+whole sequences, edges replicated), resampling to the model's frame rate and back, gap filling, smoothing.
+
+Models, lifting, streaming, evaluation and the training data all read time through this module, so a window
+means the same thing everywhere. Sequences are along axis 0 unless a docstring says otherwise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from ray3d.errors import InputError
+
+SMOOTHING_METHODS = ("savgol", "one-euro")
+
+
+@dataclasses.dataclass(frozen=True)
+class Window:
+    """A network's temporal window: ``frames`` (odd) frames predicting the centre one, or, when ``causal``,
+    the last one from it and the frames before (live use)."""
+
+    frames: int
+    causal: bool = False
+
+    def __post_init__(self) -> None:
+        if self.frames < 1 or self.frames % 2 == 0:
+            raise InputError(f"a window's frames must be odd and positive, got {self.frames}")
+
+    @property
+    def target(self) -> int:
+        """Index of the predicted frame within the window."""
+        return target_frame(self.frames, self.causal)
+
+    @property
+    def delay(self) -> int:
+        """How many frames after the predicted one the window still needs (0 when causal)."""
+        return self.frames - 1 - self.target
+
+
+def target_frame(frames: int, causal: bool = False) -> int:
+    """Which frame of a window the network predicts: the centre (``frames // 2``), or the last for a causal
+    model, which sees only the present and past frames."""
+    return frames - 1 if causal else frames // 2
+
+
+def window_indices(targets: np.ndarray, clip_first: np.ndarray, clip_last: np.ndarray, window: Window) -> np.ndarray:
+    """(B, frames) frame indices of the windows predicting frames (B,) ``targets``, clamped into each sample's
+    clip [first, last] so the edges replicate the clip's first or last frame."""
+    offsets = np.arange(window.frames) - window.target
+    return np.clip(targets[:, None] + offsets, clip_first[:, None], clip_last[:, None])
+
+
+def sequence_window_indices(count: int, window: Window) -> np.ndarray:
+    """(count, frames): every frame's window in one sequence of ``count`` frames, edges replicated."""
+    targets = np.arange(count)
+    return window_indices(targets, np.zeros_like(targets), np.full_like(targets, count - 1), window)
+
+
+def sequence_windows(sequence: np.ndarray, window: Window) -> np.ndarray:
+    """(T, frames, ...) every frame of a (T, ...) sequence with its edge-replicated window."""
+    return sequence[sequence_window_indices(len(sequence), window)]
+
+
+# ------------------------------------------------------------------------------------------- frame rates
+def interpolate_at(sequence: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """(T, ...) frames sampled at fractional frame indices (N,) ``times`` by linear interpolation, held
+    constant beyond the ends."""
+    last = len(sequence) - 1
+    lower = np.clip(np.floor(times).astype(int), 0, last)
+    upper = np.minimum(lower + 1, last)
+    weight = np.clip(times - lower, 0, 1).reshape(-1, *([1] * (sequence.ndim - 1)))
+    return (1 - weight) * sequence[lower] + weight * sequence[upper]
+
+
+def resample(sequence: np.ndarray, native_fps: float, fps: float) -> np.ndarray:
+    """(F, ...) frames at ``native_fps`` -> ``fps``: every k-th frame when the ratio is a whole number k
+    (no interpolation, as the shipped data), else linear interpolation in time."""
+    ratio = native_fps / fps
+    if abs(ratio - round(ratio)) < 1e-3 and round(ratio) >= 1:  # BVH frame times carry few decimals
+        return sequence[:: int(round(ratio))]
+    times = np.arange(0.0, (len(sequence) - 1) / native_fps + 1e-9, 1.0 / fps) * native_fps
+    return interpolate_at(sequence, times)
+
+
+def needs_resampling(fps: float, model_fps: float) -> bool:
+    return abs(fps / model_fps - 1) > 1e-3
+
+
+def resample_back(sequence: np.ndarray, model_fps: float, fps: float, count: int) -> np.ndarray:
+    """The inverse of ``resample(x, fps, model_fps)``: a (T', ...) sequence at ``model_fps`` read at the
+    ``count`` frames of the original sequence at ``fps``."""
+    return interpolate_at(sequence, np.arange(count) / fps * model_fps)
+
+
+def fill_missing(sequence: np.ndarray, missing: np.ndarray) -> np.ndarray:
+    """Linear interpolation in time of (T, J, D) values where (T, J) ``missing``; held constant at the ends.
+    Every joint must be present in at least one frame."""
+    filled = sequence.copy()
+    times = np.arange(len(sequence))
+    for joint in range(sequence.shape[1]):
+        valid = ~missing[:, joint]
+        if valid.all():
+            continue
+        for axis in range(sequence.shape[2]):
+            filled[:, joint, axis] = np.interp(times, times[valid], sequence[valid, joint, axis])
+    return filled
+
+
+# --------------------------------------------------------------------------------------------- smoothing
+def savgol(sequence: np.ndarray, window: int = 9, order: int = 2) -> np.ndarray:
+    """Savitzky-Golay filter along time (axis 0); sequences shorter than the window are returned as they are."""
+    window = min(window, len(sequence) - (1 - len(sequence) % 2))
+    if window <= order:
+        return sequence.copy()
+    return savgol_filter(sequence, window, order, axis=0, mode="interp")
+
+
+def one_euro(sequence: np.ndarray, fps: float, min_cutoff: float = 1.0, beta: float = 0.05,
+             derivative_cutoff: float = 1.0) -> np.ndarray:
+    """The One-Euro filter (Casiez et al. 2012), causal, vectorised over all coordinates of each frame.
+
+    Low speed -> strong smoothing (cutoff ``min_cutoff`` Hz); high speed -> less lag (cutoff grows by ``beta``
+    per unit of speed).
+    """
+    def alpha(cutoff):
+        tau = 1.0 / (2 * np.pi * cutoff)
+        return 1.0 / (1.0 + tau * fps)
+
+    out = np.empty_like(sequence, dtype=np.float64)
+    out[0] = sequence[0]
+    derivative = np.zeros_like(out[0])
+    for i in range(1, len(sequence)):
+        raw_derivative = (sequence[i] - out[i - 1]) * fps
+        a = alpha(derivative_cutoff)
+        derivative = a * raw_derivative + (1 - a) * derivative
+        a = alpha(min_cutoff + beta * np.abs(derivative))
+        out[i] = a * sequence[i] + (1 - a) * out[i - 1]
+    return out
+
+
+def smooth(sequence: np.ndarray, method: str | None, fps: float) -> np.ndarray:
+    """``sequence`` smoothed along time by ``method`` (None: unchanged, "savgol" or "one-euro")."""
+    if method is None:
+        return sequence
+    if method == "savgol":
+        return savgol(sequence)
+    if method == "one-euro":
+        return one_euro(sequence, fps)
+    raise InputError(f"unknown smoothing {method!r}; one of {', '.join(SMOOTHING_METHODS)}")

@@ -1,0 +1,47 @@
+"""The lifted result and its world files: every format reads back what it wrote, several tracks included."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ray3d import InputError, cameras
+from ray3d.io.world import FORMATS, LiftResult, World, read_world, write_world
+
+
+def _world(rng) -> World:
+    def track(frames, first):
+        joints = rng.normal(0, 0.3, (frames, 17, 3)) + [2.0, 1.0, 1.0]
+        interpolated = rng.random((frames, 17)) < 0.1
+        return LiftResult(joints, interpolated, 30.0, np.arange(first, first + frames))
+
+    return World({"7": track(5, 10), "person b": track(3, 0)}, cameras.h36m("S9", "54138969"), "ray3d")
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_every_format_reads_back_what_it_wrote(tmp_path, rng, suffix):
+    world = _world(rng)
+    path = write_world(tmp_path / f"world{suffix}", world)
+    back = read_world(path)
+    assert list(back.tracks) == ["7", "person b"] and back.model == "ray3d" and back.fps == 30.0
+    assert back.camera.name == world.camera.name and back.path == path
+    np.testing.assert_allclose(back.camera.R, world.camera.R, atol=1e-12)
+    for name, result in world.tracks.items():
+        np.testing.assert_allclose(back.tracks[name].joints, result.joints, atol=1e-5)
+        np.testing.assert_array_equal(back.tracks[name].interpolated, result.interpolated)
+        np.testing.assert_array_equal(back.tracks[name].frames, result.frames)
+        np.testing.assert_array_equal(back.tracks[name].root, back.tracks[name].joints[:, 0])
+    assert back.track().frames[0] == 10 and len(back.track("person b").joints) == 3
+
+
+def test_a_missing_track_and_a_foreign_file_are_refused(tmp_path, rng):
+    path = write_world(tmp_path / "w.json", _world(rng))
+    with pytest.raises(InputError, match=r"w.json: no track 'x'; tracks: 7, person b"):
+        read_world(path).track("x")
+    (tmp_path / "other.json").write_text('{"tracks": 3}')
+    with pytest.raises(InputError, match="not a world file"):
+        read_world(tmp_path / "other.json")
+    with pytest.raises(InputError, match="unknown world file format"):
+        write_world(tmp_path / "w.txt", _world(rng))
+    with pytest.raises(InputError, match="already exists"):
+        write_world(path, _world(rng))
