@@ -130,3 +130,30 @@ def test_causal_samples_target_the_window_end(rng):
     depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]
     expected = depth * batch.rays[:, -1] + np.stack([np.zeros(32), -cams.height, np.zeros(32)], -1)[:, None]
     np.testing.assert_allclose(batch.pose + batch.root[:, None], expected, atol=1e-4)
+
+
+def test_joint_offsets_are_mirrored_and_move_with_the_body(rng):
+    from ray3d.data.samples import body_frames, offset_joints
+
+    windows = rng.normal(0, 0.2, (4, 9, 17, 3)) + [0, 0, 1.0]
+    offsets = rng.normal(0, 0.03, (4, 17, 3))
+    moved = offset_joints(windows, offsets)
+    local = np.einsum("bfji,bfkj->bfki", body_frames(windows), moved - windows)  # back in the body frame
+    np.testing.assert_allclose(local, np.broadcast_to(local[:, :1], local.shape), atol=1e-12)  # same every frame
+    l_hip, r_hip, spine = (H36M17.index(n) for n in ("l_hip", "r_hip", "spine"))
+    np.testing.assert_allclose(local[:, 0, l_hip], local[:, 0, r_hip] * [-1, 1, 1], atol=1e-12)
+    np.testing.assert_allclose(local[:, 0, spine, 0], 0.0, atol=1e-12)  # central joints stay central
+
+
+def test_detector_noise_grows_with_the_person_and_legs_swap(rng):
+    from ray3d.data.samples import LEG_SWAP
+
+    config = SampleConfig(flip_probability=0.0, noise_height_fraction=(0.02, 0.02), swap_probability=1.0)
+    batch = SampleGenerator(_motion(rng), config, NINE, seed=9).batch(256)
+    cams = batch.cameras
+    clean = tf.camera_to_pixels(tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None]),
+                                cams.intrinsics[:, None])[:, LEG_SWAP]
+    span = np.ptp(clean, axis=1).max(-1)
+    residual = (batch.pixels[:, 4] - clean) / span[:, None, None]
+    assert np.std(residual) == pytest.approx(0.02, rel=0.1)
+    assert np.isfinite(batch.rays).all()

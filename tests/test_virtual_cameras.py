@@ -64,3 +64,30 @@ def test_random_cameras_respect_their_ranges(rng):
     pixels = np.stack([c.project(t[None])[0] for c, t in zip(cams, targets[::50])])
     assert np.all(np.abs(pixels - 500) < 400)  # the person is near the middle of the image
     assert np.all(batch.dist[:, 0] <= -0.1)
+
+
+def test_mounted_cameras_hang_at_their_height_and_see_the_person(rng):
+    ranges = vc.CameraRanges(height_m=(0.5, 12.0), distance_m=(2.0, 40.0), pitch_deg=(-5.0, 70.0), roll_deg=8.0,
+                             hfov_deg=(15.0, 110.0), image_size=(1280, 720))
+    targets = rng.uniform([-3, -3, 0.8], [3, 3, 1.2], (400, 3))
+    batch = vc.sample_cameras(targets, rng, ranges)
+    assert np.all((batch.height >= 0.5) & (batch.height <= 12.0))
+    assert np.all((np.degrees(batch.pitch) >= -5 - 1e-9) & (np.degrees(batch.pitch) <= 70 + 1e-9))
+    distance = np.linalg.norm(targets[:, :2] - np.stack([batch.camera(i).center[:2] for i in range(400)]), axis=1)
+    assert distance.min() >= 2.0 - 1e-9 and distance.max() <= 40.0 + 1e-9 and np.median(distance) < 15
+    hfov = np.degrees(2 * np.arctan(640 / batch.intrinsics[:, 0]))
+    assert hfov.min() >= 15 - 1e-6 and hfov.max() <= 110 + 1e-6
+    pixels = np.stack([batch.camera(i).project(targets[i]) for i in range(400)])
+    assert np.all((pixels >= 0) & (pixels <= [1280, 720]))  # the person is in view, anywhere in the image
+    assert np.std(pixels[:, 0]) > 150
+
+
+def test_far_and_low_sets_are_where_their_names_say(mocap_dir):
+    far, low = vc.grid("far-test"), vc.grid("low-test")
+    assert len(far) == 60 and len(low) == 108 and len({c.name for c in far + low}) == 168
+    for camera in far:
+        distance = np.linalg.norm(camera.center[:2])
+        assert 15 - 1e-9 <= distance <= 40 + 1e-9 and 3 - 1e-9 <= camera.camera_height <= 12 + 1e-9
+        assert camera.sees(np.array([0.0, 0.0, 1.0]))
+    for camera in low:
+        assert 0.8 - 1e-9 <= camera.camera_height <= 2 + 1e-9 and -3 - 1e-9 <= np.degrees(camera.pitch) <= 8 + 1e-9

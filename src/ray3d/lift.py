@@ -21,6 +21,7 @@ from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import LiftResult, World
 from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
+from ray3d.refine import RefineConfig, refine_track
 from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
 
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
@@ -64,7 +65,7 @@ class Lifter:
 
     def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
              smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
-             chunk: int = 8192) -> LiftResult | list[LiftResult]:
+             chunk: int = 8192, refine: bool | RefineConfig = True) -> LiftResult | list[LiftResult]:
         """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
 
         Args:
@@ -72,11 +73,13 @@ class Lifter:
             confidences: optional (T, J) scores; a joint with confidence 0 counts as missing.
             fps: the input's frame rate (default: the model's, 60).
             smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
+            refine: move the person along their rays so the feet rest on the floor and the body keeps one size
+                (``ray3d.refine``; a ``RefineConfig`` sets its uncertainties); False keeps the network's output.
         """
         keypoints = np.asarray(keypoints, dtype=np.float64)
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences
-            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk)
+            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine)
                     for k, c in zip(keypoints, scores)]
         skeleton = layout_skeleton(layout)
         if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
@@ -100,8 +103,14 @@ class Lifter:
         joints = self._lift_pixels(model_pixels, camera, flip_test, chunk)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
+        refinement = None
+        if refine:
+            rays = camera.pixels_to_rays(pixels, frame="camera") @ camera.R  # world directions
+            joints, found = refine_track(joints, camera, input_fps, rays, missing.mean(axis=1) <= 0.5,
+                                         refine if isinstance(refine, RefineConfig) else RefineConfig())
+            refinement = found.summary()
         joints = temporal.smooth(joints, smooth_3d, input_fps)
-        return LiftResult(joints, missing, input_fps, np.arange(len(joints)))
+        return LiftResult(joints, missing, input_fps, np.arange(len(joints)), refinement=refinement)
 
     def lift_tracks(self, tracks: dict, camera: Camera, layout: str = "h36m17", fps: float | None = None,
                     **options) -> dict:
@@ -167,7 +176,8 @@ class LiftStream:
     pushed. A centred model needs ``delay`` (half its window) future frames, so it answers for the frame pushed
     ``delay`` calls earlier (None until then) and ``flush()`` gives the last frames when the stream ends. The
     window starts by repeating the first frame and ends by repeating the last, as offline lifting does, so the
-    outputs equal ``Lifter.lift`` on the whole sequence (frames at the model's 60 fps, no smoothing).
+    outputs equal ``Lifter.lift`` on the whole sequence (frames at the model's 60 fps, no smoothing, and no
+    refinement, which needs the whole track).
 
     A joint missing from a frame (NaN or confidence 0) keeps its last seen position; one not seen yet takes
     its parent's, as a detector's miss is simulated in training.

@@ -43,6 +43,9 @@ class TrainConfig:
     lr_decay: float = 0.95            # per epoch
     seed: int = 0
     validation_samples: int = 4096
+    # Validate and ship an exponential moving average of the weights (and batch-norm statistics) with this
+    # decay per step, which smooths the epoch-to-epoch swings of the last weights; 0 = the last weights.
+    ema_decay: float = 0.0
     data_dir: str | None = None
     datasets: tuple[str, ...] = ("cmu", "hdm05")   # which shipped mocap to train and validate on
     threads: int | None = None
@@ -174,11 +177,20 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     torch.manual_seed(config.seed)
     model = LiftingNetwork(config.model).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
+    ema = None if not config.ema_decay else torch.optim.swa_utils.AveragedModel(
+        model, multi_avg_fn=torch.optim.swa_utils.get_ema_multi_avg_fn(config.ema_decay), use_buffers=True)
+    shipped = model if ema is None else ema.module  # the weights validated and written as "model."
     generator = sample_generator(config, "train", config.samples, config.seed + 1000 * rank)
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")
-        model.load_state_dict({k.removeprefix("model."): v for k, v in tensors.items() if k.startswith("model.")})
+        trained_prefix = "raw." if ema is not None else "model."
+        model.load_state_dict({k.removeprefix(trained_prefix): v for k, v in tensors.items()
+                               if k.startswith(trained_prefix)})
+        if ema is not None:
+            ema.module.load_state_dict({k.removeprefix("model."): v for k, v in tensors.items()
+                                        if k.startswith("model.")})
+            ema.n_averaged.fill_(int(tensors["ema_steps"]))
         _load_optimizer(optimizer, tensors, document["optimizer_param_groups"])
         state = {k: document.get(k, 0.0) for k in ("epoch", "best", "history", "train_seconds")}
         saved = document["generator_state"].get(str(rank))
@@ -209,6 +221,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             optimizer.step()
+            if ema is not None:
+                ema.update_parameters(model)
             totals += [loss.item(), pose_error.item(), root_error.item()]
             rate = (step + 1) * config.batch_size / (time.perf_counter() - started)
             bar.set_postfix(loss=f"{totals[0] / (step + 1):.4f}", samples_s=f"{rate:,.0f}")
@@ -218,21 +232,23 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
                       "train_pose_m": totals[1] / config.batches_per_epoch,
                       "train_root_rel": totals[2] / config.batches_per_epoch,
                       "samples_per_s": config.batches_per_epoch * config.batch_size / (time.perf_counter() - started),
-                      "lr": optimizer.param_groups[0]["lr"], **world_errors_mm(model, validation, device)}
+                      "lr": optimizer.param_groups[0]["lr"], **world_errors_mm(shipped, validation, device)}
             state["history"].append(record)
             state["epoch"] = epoch + 1
             if progress:
                 print(f"epoch {epoch + 1}: loss {record['loss']:.4f}  validation Abs-MPJPE {record['abs_mpjpe_mm']:.1f} "
                       f"MPJPE {record['mpjpe_mm']:.1f} MRPE {record['mrpe_mm']:.1f} mm  "
                       f"({record['samples_per_s']:,.0f} samples/s)", flush=True)
-            weights = {f"model.{k}": v for k, v in model.state_dict().items()}
+            weights = {f"model.{k}": v for k, v in shipped.state_dict().items()}
+            training_state = {} if ema is None else {**{f"raw.{k}": v for k, v in model.state_dict().items()},
+                                                      "ema_steps": ema.n_averaged.detach().clone()}
             provenance = {"model": config.model, "train_config": config.to_dict(), "trained_on": DATA_PROVENANCE}
             if state["best"] is None or record["abs_mpjpe_mm"] < state["best"]["abs_mpjpe_mm"]:
                 state["best"] = record
                 save_checkpoint(out / "best.safetensors", weights, {**provenance, "epoch": epoch + 1,
                                                                      "validation": record})
             optimizer_tensors, groups = _optimizer_tensors(optimizer)
-            save_checkpoint(out / "last.safetensors", {**weights, **optimizer_tensors,
+            save_checkpoint(out / "last.safetensors", {**weights, **training_state, **optimizer_tensors,
                                                        "torch_rng_state": torch.get_rng_state()},
                             {**provenance, **state, "optimizer_param_groups": groups,
                              "generator_state": {str(rank): generator.rng.bit_generator.state}})

@@ -19,6 +19,10 @@ from ray3d.geometry import transforms as tf
 from ray3d.skeleton import H36M17, Skeleton, flip, mirror_pixels
 from ray3d.temporal import Window, window_indices
 
+# The joint order with the two legs swapped (a detector's commonest left/right error).
+LEG_SWAP = [H36M17.flip_permutation[j] if any(p in name for p in ("hip", "knee", "ankle")) else j
+            for j, name in enumerate(H36M17.joint_names)]
+
 
 @dataclasses.dataclass(frozen=True)
 class SampleConfig:
@@ -29,7 +33,14 @@ class SampleConfig:
     bone_scale: tuple[float, float] = (0.9, 1.1)   # whole-body factor per sample
     bone_jitter: float = 0.04                      # extra per-bone factor sd (left/right kept equal)
     noise_px: float = 0.0                          # Gaussian 2D noise, like a detector's
+    # Detector noise grows with the person's size in the image: a standard deviation of this fraction (drawn
+    # per sample) of the person's height in pixels, on top of noise_px.
+    noise_height_fraction: tuple[float, float] = (0.0, 0.0)
     drop_probability: float = 0.0                  # a dropped joint collapses onto its parent (a detector miss)
+    swap_probability: float = 0.0                  # per frame: the detector swaps the left and right leg
+    # Where a detector puts a joint differs from the mocap's joint (hips higher and wider, ankle or heel):
+    # each joint moves by this standard deviation in metres, in the body's frame, the same over a window.
+    joint_offset_m: float = 0.0
     cameras: CameraRanges = CameraRanges()
 
 
@@ -65,6 +76,26 @@ def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton =
     lift = positions[..., ankles, 2].min(-1) - scaled[..., ankles, 2].min(-1)
     scaled[..., 2] += lift[..., None]
     return scaled
+
+
+def body_frames(positions: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) rotations whose columns are each pose's body axes in the world: x from the right hip to the
+    left hip (made horizontal), y forward, z up."""
+    across = positions[..., H36M17.index("l_hip"), :] - positions[..., H36M17.index("r_hip"), :]
+    across = across * np.array([1.0, 1.0, 0.0])
+    across /= np.maximum(np.linalg.norm(across, axis=-1, keepdims=True), 1e-9)
+    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), across.shape)
+    return np.stack([across, np.cross(up, across), up], -1)
+
+
+def offset_joints(windows: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(B, F, J, 3) world windows with each joint moved by (B, J, 3) ``offsets`` given in the body frame
+    (``body_frames``), mirrored between left and right joints (x negated), the same in every frame."""
+    offsets = offsets.copy()
+    left = list(H36M17.left)
+    offsets[:, left] = offsets[:, [H36M17.flip_permutation[i] for i in left]] * np.array([-1.0, 1.0, 1.0])
+    offsets[:, [i for i in range(H36M17.num_joints) if i not in H36M17.left + H36M17.right], 0] = 0.0
+    return windows + np.einsum("bfij,bkj->bfki", body_frames(windows), offsets)
 
 
 def flip_batch(batch: Batch, mask: np.ndarray, skeleton: Skeleton = H36M17) -> Batch:
@@ -109,11 +140,23 @@ def observe(windows: np.ndarray, cameras: CameraBatch, window: Window, remove_ro
         parents = [max(p, 0) for p in H36M17.parents]
         pixels = np.where(visible[..., None], pixels, pixels[..., parents, :])
         rays_camera = np.where(visible[..., None], rays_camera, rays_camera[..., parents, :])
-    if rng is not None and config.noise_px > 0:
+    if rng is not None and config.swap_probability > 0:
+        swapped = rng.random((count, frames)) < config.swap_probability
+        pixels = np.where(swapped[..., None, None], pixels[..., LEG_SWAP, :], pixels)
+        rays_camera = np.where(swapped[..., None, None], rays_camera[..., LEG_SWAP, :], rays_camera)
+    if rng is not None and config.noise_height_fraction[1] > 0:
+        seen = pixels[:, window.target]
+        span = np.nanmax(np.nanmax(seen, axis=1) - np.nanmin(seen, axis=1), axis=-1)  # (B,) the person's size
+        sigma = config.noise_px + rng.uniform(*config.noise_height_fraction, count) * np.nan_to_num(span)
+        pixels = pixels + rng.normal(0.0, 1.0, pixels.shape) * sigma[:, None, None, None]
+    elif rng is not None and config.noise_px > 0:
         pixels = pixels + rng.normal(0.0, config.noise_px, pixels.shape)
-        # The clean ray is a close start for undistorting the noisy pixel.
-        rays_camera = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
-                                               initial_rays=rays_camera)
+    if rng is not None and (config.noise_px > 0 or config.noise_height_fraction[1] > 0):
+        # The clean ray is a close start for undistorting the noisy pixel; where a wide lens cannot be
+        # inverted there, the clean ray stays.
+        noisy = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
+                                         initial_rays=rays_camera)
+        rays_camera = np.where(np.isfinite(noisy), noisy, rays_camera)
     roll = cameras.roll if remove_roll else None
     rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None],
                                         None if roll is None else roll[:, None, None])
@@ -150,6 +193,8 @@ class SampleGenerator:
                                                                                 (size, H36M17.num_joints)))
         factors[:, H36M17.left] = factors[:, list(H36M17.flip_permutation[i] for i in H36M17.left)]
         windows = scale_bones(windows, factors[:, None])
+        if config.joint_offset_m > 0:
+            windows = offset_joints(windows, rng.normal(0.0, config.joint_offset_m, (size, H36M17.num_joints, 3)))
         cameras = sample_cameras(windows[:, self.window.target, 0], rng, config.cameras)
         batch = observe(windows, cameras, self.window, self.remove_roll, rng, config)
         return flip_batch(batch, rng.random(size) < config.flip_probability)

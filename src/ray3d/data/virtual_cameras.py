@@ -34,7 +34,13 @@ PITCH_SWEEP_DEG = tuple(float(p) for p in range(1, 60, 2))
 DISTANCE_SWEEP_M = tuple(np.round(np.arange(9.4, 13.21, 0.76), 2))
 INTRINSIC_OFFSETS_PX = tuple(float(o) for o in range(-50, 41, 10))
 SCALE_TEST_FACTORS = (0.6, 0.7, 0.8, 0.9, 1.1)
-SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m")
+# Cameras as users mount them, beyond the paper's grids: far away and high (surveillance), and low, near eye
+# height, looking almost level. They stand on a floor circle about the origin, facing it.
+MOUNTED_YAWS_DEG = (30.0, 150.0, 270.0)
+FAR_HEIGHTS_M, FAR_DISTANCES_M = (3.0, 6.0, 9.0, 12.0), (15.0, 20.0, 25.0, 30.0, 40.0)
+LOW_HEIGHTS_M, LOW_PITCHES_DEG, LOW_DISTANCES_M = (0.8, 1.4, 2.0), (-3.0, 2.0, 8.0), (5.0, 10.0, 20.0, 30.0)
+MOUNTED_AIM_HEIGHT_M = 1.0  # far cameras are aimed at this point above the origin
+SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m", "far-test", "low-test")
 
 
 def base_intrinsics() -> tuple[float, float, float, float]:
@@ -49,6 +55,16 @@ def orbit_camera(yaw_deg: float, pitch_deg: float, distance_m: float, name: str,
     yaw, pitch = np.radians(yaw_deg), np.radians(pitch_deg)
     return Camera.from_pose(centre_looking_at(ORBIT_TARGET, yaw, pitch, distance_m), yaw, pitch, 0.0, fx, fy, cx, cy,
                             IMAGE_SIZE, name=name)
+
+
+def mounted_camera(yaw_deg: float, height_m: float, distance_m: float, pitch_deg: float | None, name: str) -> Camera:
+    """A pinhole camera (the base intrinsics) ``height_m`` above the floor and ``distance_m`` from the origin
+    along the floor, facing it at a heading ``yaw_deg``; pitched ``pitch_deg``, or, when None, aimed at the
+    point ``MOUNTED_AIM_HEIGHT_M`` above the origin."""
+    yaw = np.radians(yaw_deg)
+    pitch = np.arctan2(height_m - MOUNTED_AIM_HEIGHT_M, distance_m) if pitch_deg is None else np.radians(pitch_deg)
+    centre = centre_looking_at([0.0, 0.0, height_m], yaw, 0.0, distance_m)
+    return Camera.from_pose(centre, yaw, pitch, 0.0, *base_intrinsics(), IMAGE_SIZE, name=name)
 
 
 def _orbit_name(prefix: str, yaw: float, pitch: float, distance: float) -> str:
@@ -89,6 +105,12 @@ def grid(set_name: str) -> list[Camera]:
         return [c for c in grid("extrinsic-test") if c.name.startswith("rotation:")]
     if set_name == "h36m":
         return camera_tables.h36m_all()
+    if set_name == "far-test":
+        return [mounted_camera(y, h, d, None, f"far:height{h:04.1f}:dist{d:02.0f}:yaw{y:03.0f}")
+                for y in MOUNTED_YAWS_DEG for h in FAR_HEIGHTS_M for d in FAR_DISTANCES_M]
+    if set_name == "low-test":
+        return [mounted_camera(y, h, d, p, f"low:height{h:03.1f}:pitch{p:+03.0f}:dist{d:02.0f}:yaw{y:03.0f}")
+                for y in MOUNTED_YAWS_DEG for h in LOW_HEIGHTS_M for p in LOW_PITCHES_DEG for d in LOW_DISTANCES_M]
     raise InputError(f"unknown camera set {set_name!r}; one of {', '.join(SET_NAMES)}")
 
 
@@ -121,8 +143,14 @@ def cameras_seeing(set_name: str, motion) -> list[Camera]:
 class CameraRanges:
     """Ranges of the random training cameras (degrees and metres at the edges, as users think of them).
 
-    The camera looks at a point near the person (``aim_jitter_m``), from ``distance_m`` away at a pitch in
-    ``pitch_deg`` and any yaw; focal length and principal point vary so the model cannot learn one lens.
+    Two placements. Without ``height_m`` (the paper's orbit): the camera looks at a point near the person
+    (``aim_jitter_m``) from ``distance_m`` away at a pitch in ``pitch_deg`` and any yaw. With ``height_m``
+    (cameras as users mount them): the camera hangs ``height_m`` above the floor, ``distance_m`` from the person
+    along the floor (drawn log-uniformly: as many near as far cameras per doubling of distance), and is aimed at
+    the person give or take ``aim_fov_fraction`` of its half field of view, so the person may stand anywhere in
+    the image; its pitch stays in ``pitch_deg`` (cameras that could not see the person then are drawn again).
+    The lens comes from ``hfov_deg`` when given, else from ``focal_px``; focal length and principal point vary so
+    the model cannot learn one lens.
     """
 
     distance_m: tuple[float, float] = (3.5, 14.0)
@@ -135,26 +163,71 @@ class CameraRanges:
     image_size: tuple[int, int] = IMAGE_SIZE
     distortion_k1: tuple[float, float] = (0.0, 0.0)
     aim_jitter_m: float = 0.3
+    height_m: tuple[float, float] | None = None
+    hfov_deg: tuple[float, float] | None = None
+    aim_fov_fraction: float = 0.7
 
 
-def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: CameraRanges = CameraRanges()) -> CameraBatch:
-    """One random camera per (B, 3) world target point (e.g. each sample's centre-frame pelvis)."""
-    count = len(targets)
-    yaw = rng.uniform(-np.pi, np.pi, count)
-    pitch = np.radians(rng.uniform(*ranges.pitch_deg, count))
-    roll = np.radians(rng.uniform(-ranges.roll_deg, ranges.roll_deg, count))
-    distance = rng.uniform(*ranges.distance_m, count)
-    aim = targets + rng.normal(0.0, ranges.aim_jitter_m, (count, 3))
-    centre = centre_looking_at(aim, yaw, pitch, distance)
-    centre[:, 2] = np.maximum(centre[:, 2], ranges.min_height_m)
-    R = rotation_from_angles(yaw, pitch, roll)
-    focal = rng.uniform(*ranges.focal_px, count)
-    aspect = 1 + rng.uniform(-ranges.aspect_jitter, ranges.aspect_jitter, count)
+def _lenses(count: int, rng: np.random.Generator, ranges: CameraRanges) -> tuple[np.ndarray, np.ndarray]:
+    """(B, 4) intrinsics fx, fy, cx, cy and (B, 5) distortion of random lenses."""
     width, height = ranges.image_size
+    if ranges.hfov_deg is None:
+        focal = rng.uniform(*ranges.focal_px, count)
+    else:
+        focal = width / 2 / np.tan(np.radians(rng.uniform(*ranges.hfov_deg, count)) / 2)
+    aspect = 1 + rng.uniform(-ranges.aspect_jitter, ranges.aspect_jitter, count)
     principal = np.array([width / 2, height / 2]) + rng.uniform(-ranges.principal_offset_px,
                                                                  ranges.principal_offset_px, (count, 2))
     dist = np.zeros((count, 5))
     dist[:, 0] = rng.uniform(*ranges.distortion_k1, count)
+    return np.column_stack([focal, focal * aspect, principal]), dist
+
+
+def _mounted_poses(targets: np.ndarray, intrinsics: np.ndarray, rng: np.random.Generator,
+                   ranges: CameraRanges) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centres (B, 3), yaw (B,), pitch (B,)) of cameras mounted at a height and aimed near the target."""
+    count = len(targets)
+    centre, yaw, pitch = np.empty((count, 3)), np.empty(count), np.empty(count)
+    width, height = ranges.image_size
+    todo = np.arange(count)
+    low, high = np.radians(ranges.pitch_deg)
+    for _ in range(100):
+        n = len(todo)
+        camera_height = rng.uniform(*ranges.height_m, n)
+        distance = np.exp(rng.uniform(*np.log(ranges.distance_m), n))
+        bearing = rng.uniform(-np.pi, np.pi, n)  # from the camera towards the person
+        half_width = np.arctan(width / 2 / intrinsics[todo, 0])
+        half_height = np.arctan(height / 2 / intrinsics[todo, 1])
+        fraction = ranges.aim_fov_fraction
+        elevation = np.arctan2(camera_height - targets[todo, 2], distance)  # positive: the person is below
+        wanted = elevation + rng.uniform(-fraction, fraction, n) * half_height
+        chosen = np.clip(wanted, low, high)
+        centre[todo] = centre_looking_at(np.column_stack([targets[todo, :2], camera_height]), bearing, 0.0, distance)
+        yaw[todo] = bearing + rng.uniform(-fraction, fraction, n) * half_width
+        pitch[todo] = chosen
+        todo = todo[np.abs(chosen - elevation) > fraction * half_height]  # the person would be out of view
+        if not len(todo):
+            return centre, yaw, pitch
+    raise InputError(f"CameraRanges: cameras {ranges.height_m} m high and {ranges.distance_m} m away cannot see the "
+                     f"person at pitches {ranges.pitch_deg} deg")
+
+
+def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: CameraRanges = CameraRanges()) -> CameraBatch:
+    """One random camera per (B, 3) world target point (e.g. each sample's target-frame pelvis)."""
+    count = len(targets)
+    if ranges.height_m is not None:
+        intrinsics, dist = _lenses(count, rng, ranges)
+        centre, yaw, pitch = _mounted_poses(targets, intrinsics, rng, ranges)
+        roll = np.radians(rng.uniform(-ranges.roll_deg, ranges.roll_deg, count))
+    else:
+        yaw = rng.uniform(-np.pi, np.pi, count)
+        pitch = np.radians(rng.uniform(*ranges.pitch_deg, count))
+        roll = np.radians(rng.uniform(-ranges.roll_deg, ranges.roll_deg, count))
+        distance = rng.uniform(*ranges.distance_m, count)
+        aim = targets + rng.normal(0.0, ranges.aim_jitter_m, (count, 3))
+        centre = centre_looking_at(aim, yaw, pitch, distance)
+        centre[:, 2] = np.maximum(centre[:, 2], ranges.min_height_m)
+        intrinsics, dist = _lenses(count, rng, ranges)
+    R = rotation_from_angles(yaw, pitch, roll)
     t = -(R @ centre[:, :, None])[..., 0]
-    return CameraBatch(R, t, np.column_stack([focal, focal * aspect, principal]), dist, centre[:, 2], pitch, roll,
-                       ranges.image_size)
+    return CameraBatch(R, t, intrinsics, dist, centre[:, 2], pitch, roll, ranges.image_size)

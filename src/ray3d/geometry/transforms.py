@@ -162,7 +162,7 @@ def rotation_from_angles(yaw: Array, pitch: Array, roll: Array = 0.0) -> np.ndar
 def forward_direction(yaw: Array, pitch: Array) -> np.ndarray:
     """(..., 3) unit world direction of the optical axis of cameras with heading ``yaw`` and ``pitch`` (radians,
     as :func:`rotation_from_angles`)."""
-    yaw, pitch = np.asarray(yaw, dtype=np.float64), np.asarray(pitch, dtype=np.float64)
+    yaw, pitch = np.broadcast_arrays(np.asarray(yaw, dtype=np.float64), np.asarray(pitch, dtype=np.float64))
     return np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], -1)
 
 

@@ -34,6 +34,7 @@ class LiftResult:
     fps: float
     frames: np.ndarray
     joint_names: tuple[str, ...] = H36M17.joint_names
+    refinement: dict | None = None  # what ray3d.refine found (stature, scale, contact, uncertainty), if it ran
 
     @property
     def root(self) -> np.ndarray:
@@ -87,6 +88,9 @@ class World:
                 np.concatenate([[t] * len(r.joints) for t, r in self.tracks.items()]),
                 np.concatenate([r.interpolated for r in results]))
 
+    def refinements(self) -> dict[str, dict | None]:
+        return {track: result.refinement for track, result in self.tracks.items()}
+
     def metadata(self) -> dict:
         return {"units": self.units, "axes": self.axes, "joint_names": list(self.joint_names), "fps": self.fps,
                 "camera": self.camera.to_dict(), "model": self.model}
@@ -108,13 +112,14 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
     with atomic_path(path, overwrite) as temporary:
         if suffix == ".json":
             document = {**meta, "tracks": {t: {"frames": r.frames.tolist(), "joints": np.round(r.joints, 5).tolist(),
-                                               "interpolated_input_joints": r.interpolated.astype(int).tolist()}
+                                               "interpolated_input_joints": r.interpolated.astype(int).tolist(),
+                                               "refinement": r.refinement}
                                            for t, r in world.tracks.items()}}
             temporary.write_text(json.dumps(document))
         elif suffix == ".csv":
             with temporary.open("w", newline="") as handle:
                 handle.write(f"# units: {world.units}; axes: {world.axes}; fps: {world.fps:g}; model: {world.model}; "
-                             f"camera: {json.dumps(meta['camera'])}\n")
+                             f"camera: {json.dumps(meta['camera'])}\n# refinement: {json.dumps(world.refinements())}\n")
                 writer = csv.writer(handle)
                 writer.writerow(CSV_COLUMNS)
                 for i in range(len(joints)):
@@ -126,21 +131,25 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                 np.savez_compressed(handle, joints=joints.astype(np.float32), frames=frames, tracks=tracks,
                                     interpolated=interpolated, joint_names=np.array(world.joint_names),
                                     units=np.array(world.units), axes=np.array(world.axes), fps=np.array(world.fps),
-                                    model=np.array(world.model), camera_json=np.array(json.dumps(meta["camera"])))
+                                    model=np.array(world.model), camera_json=np.array(json.dumps(meta["camera"])),
+                                    refinement_json=np.array(json.dumps(world.refinements())))
     return path
 
 
-def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names) -> dict[str, LiftResult]:
+def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
+               refinements: dict) -> dict[str, LiftResult]:
     tracks = np.asarray(tracks).astype(str)
     return {track: LiftResult(np.asarray(joints, dtype=np.float64)[tracks == track],
                               np.asarray(interpolated, dtype=bool)[tracks == track], float(fps),
-                              np.asarray(frames, dtype=np.int64)[tracks == track], tuple(joint_names))
+                              np.asarray(frames, dtype=np.int64)[tracks == track], tuple(joint_names),
+                              refinements.get(track))
             for track in dict.fromkeys(tracks.tolist())}
 
 
 def _read_csv(path: Path) -> World:
     with path.open(newline="") as handle:
         header = handle.readline().removeprefix("#").strip()
+        refinements = json.loads(handle.readline().removeprefix("# refinement:"))
         rows = list(csv.DictReader(handle))
     fields = dict(part.split(": ", 1) for part in header.split("; camera: ", 1)[0].split("; "))
     camera = Camera.from_dict(json.loads(header.split("; camera: ", 1)[1]))
@@ -149,7 +158,8 @@ def _read_csv(path: Path) -> World:
     joints = np.array([[float(r[a]) for a in "xyz"] for r in rows]).reshape(count, len(names), 3)
     interpolated = np.array([int(r["interpolated"]) for r in rows]).reshape(count, len(names))
     tracks = _from_rows(joints, [int(r["frame"]) for r in rows[::len(names)]],
-                        [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names)
+                        [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names,
+                        refinements)
     return World(tracks, camera, fields["model"], fields["units"], fields["axes"], path)
 
 
@@ -163,14 +173,16 @@ def read_world(path: str | Path) -> World:
         if suffix == ".npz":
             data = read_npz_entries(path)
             tracks = _from_rows(data["joints"], data["frames"], data["tracks"], data["interpolated"],
-                                float(data["fps"]), [str(n) for n in data["joint_names"]])
+                                float(data["fps"]), [str(n) for n in data["joint_names"]],
+                                json.loads(str(data["refinement_json"])))
             return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))), str(data["model"]),
                          str(data["units"]), str(data["axes"]), path)
         if suffix == ".json":
             document = read_json(path)
             tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
                                          np.array(e["interpolated_input_joints"], dtype=bool), float(document["fps"]),
-                                         np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]))
+                                         np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]),
+                                         e["refinement"])
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
                          str(document["units"]), str(document["axes"]), path)

@@ -1,0 +1,195 @@
+"""Track-level absolute refinement: where along its rays a lifted person stands, from three cues weighed by
+their uncertainties.
+
+The network's depth is good near the camera and poor far from it; a person's feet rest on the floor while
+they stand or walk; and a person keeps one body size. Each frame's joints are moved along their own rays by one
+factor ``s_t`` about the camera centre (``X' = C + s_t (X - C)``), so every joint stays on its ray; the
+factors, and one body size per track, are the least-squares solution of
+
+- the network: ``log s_t = 0`` with a standard deviation that grows with the distance (``depth_sd``);
+- the floor: in every frame the detector saw, the lowest ankle lies ``contact_ankle_height_m`` above the floor,
+  under a robust loss, so the frames where no foot touches it (jumps, stairs, a foot on a step) cost little;
+- the body: ``s_t`` times the frame's body size equals the track's size, which has an adult prior;
+- smoothness: ``log s_t`` is a random walk in time.
+
+The floor cue is strong when the camera is high above the feet and vanishes when it is at their height; the
+size cue is weak but never vanishes; the solution weighs them so. The frames in contact are those the solution
+puts within two standard deviations of the floor. (A contact call from the ankles' speed was tried first: with
+detector jitter on people 100 px tall it found one planted foot in ten frames; docs/RESULTS.md.) Heights and
+sizes come from the training performers of the shipped mocap.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy import sparse
+from scipy.optimize import least_squares
+from scipy.sparse.linalg import splu
+
+from ray3d.errors import InputError
+from ray3d.geometry import Camera
+from ray3d.skeleton import H36M17
+
+_I = H36M17.index
+ANKLES = (_I("l_ankle"), _I("r_ankle"))
+# The chain whose length measures a body's size: head to pelvis along the spine, plus the mean leg.
+TRUNK_CHAIN = ("head", "neck_nose", "thorax", "spine", "pelvis")
+LEGS = (("l_hip", "l_knee", "l_ankle"), ("r_hip", "r_knee", "r_ankle"))
+# The head joint's height over the lowest ankle as a fraction of stature (0.940 - 0.067, ray3d.calibrate).
+HEAD_OVER_ANKLE_OF_STATURE = 0.873
+EVIDENCE_FPS = 30.0  # per-frame evidence is weighed as if the footage ran at this rate
+
+
+@dataclasses.dataclass(frozen=True)
+class RefineConfig:
+    """The uncertainties the cues are weighed by (metres, or fractions of a distance or size).
+
+    Measured on the training performers of the shipped mocap: the lowest ankle of a planted foot stands 0.069 m
+    above the floor (interquartile 0.049-0.109 m); the body-size chain is 1.48 m (5-95 %: 1.44-1.68 m).
+    """
+
+    contact_ankle_height_m: float = 0.07
+    ankle_height_sd_m: float = 0.05          # contact-height spread plus the network's ankle error
+    body_size_m: float = 1.50                # prior on the size chain of an adult
+    body_size_sd: float = 0.12               # relative
+    frame_size_sd: float = 0.06              # relative error of one frame's predicted body size
+    depth_sd: tuple[float, float] = (0.03, 0.006)  # the network's relative depth error: a + b * distance (m)
+    scale_walk_sd: float = 0.05              # how fast log s may drift, per square root of a second
+    robust_scale: float = 2.0                # residuals (in standard deviations) beyond which the loss is linear
+
+
+@dataclasses.dataclass(frozen=True)
+class Refinement:
+    """What the refinement found for one track."""
+
+    scale: np.ndarray          # (T,) the factor each frame was moved by along its rays
+    contact: np.ndarray        # (T,) whether a foot was found planted
+    body_size_m: float         # the track's size chain
+    stature_m: float           # the person's estimated stature (head over the lowest ankle / 0.873)
+    position_sd_m: float       # median over frames of the root position's standard deviation along its ray
+
+    def summary(self) -> dict:
+        return {"stature_m": round(self.stature_m, 4), "body_size_m": round(self.body_size_m, 4),
+                "median_scale": round(float(np.median(self.scale)), 4),
+                "contact_fraction": round(float(self.contact.mean()), 4),
+                "position_sd_m": round(self.position_sd_m, 4)}
+
+
+def body_sizes(joints: np.ndarray) -> np.ndarray:
+    """(..., 17, 3) H36M-17 joints -> (...) the length of the size chain (trunk plus the mean leg), metres."""
+    def chain(names) -> np.ndarray:
+        points = joints[..., [_I(n) for n in names], :]
+        return np.linalg.norm(np.diff(points, axis=-2), axis=-1).sum(-1)
+
+    return chain(TRUNK_CHAIN) + (chain(LEGS[0]) + chain(LEGS[1])) / 2
+
+
+def scale_about(joints: np.ndarray, centre: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """(T, J, 3) joints moved along their rays from ``centre`` by (T,) factors."""
+    return centre + scale[:, None, None] * (joints - centre)
+
+
+class _Problem:
+    """The least-squares problem over x = (log s_1..T, log S)."""
+
+    def __init__(self, joints: np.ndarray, camera: Camera, fps: float, config: RefineConfig, observed: np.ndarray):
+        self.config, self.count = config, len(joints)
+        self.centre = camera.center
+        distance = np.linalg.norm(joints[:, 0] - self.centre, axis=-1)
+        self.depth_sd = config.depth_sd[0] + config.depth_sd[1] * distance
+        self.log_size = np.log(np.maximum(body_sizes(joints), 1e-3))
+        self.lowest = joints[:, ANKLES, 2].min(1)
+        self.floored = observed & (self.centre[2] - self.lowest > 0.05)  # frames the floor term applies to
+        self.walk_sd = config.scale_walk_sd / np.sqrt(fps)
+        rows = [sparse.eye(self.count, self.count + 1)]                                      # network
+        if self.count > 1:
+            rows.append(sparse.eye(self.count - 1, self.count + 1, 1) - sparse.eye(self.count - 1, self.count + 1))
+        size = sparse.hstack([sparse.eye(self.count), -np.ones((self.count, 1))])
+        rows += [size, sparse.csr_matrix(([1.0], ([0], [self.count])), shape=(1, self.count + 1))]
+        rows.append(sparse.eye(self.count, self.count + 1).tocsr()[np.flatnonzero(self.floored)])
+        self.sparsity = sparse.vstack(rows).tocsr()
+        # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
+        # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
+        self.per_frame = np.sqrt(EVIDENCE_FPS / fps)
+        self.weights = np.concatenate([self.per_frame / self.depth_sd, np.full(self.count - 1, 1 / self.walk_sd),
+                                       observed * self.per_frame / config.frame_size_sd, [1 / config.body_size_sd]])
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        log_scale, log_body = x[:-1], x[-1]
+        config = self.config
+        floor = self.centre[2] + np.exp(log_scale[self.floored]) * (self.lowest[self.floored] - self.centre[2])
+        linear = np.concatenate([log_scale, np.diff(log_scale), log_scale + self.log_size - log_body,
+                                 [log_body - np.log(config.body_size_m)]])
+        return np.concatenate([linear * self.weights,
+                               (floor - config.contact_ankle_height_m) * self.per_frame / config.ankle_height_sd_m])
+
+    def jacobian(self, x: np.ndarray) -> sparse.csr_matrix:
+        log_scale = x[:-1]
+        floor = np.exp(log_scale[self.floored]) * (self.lowest[self.floored] - self.centre[2])
+        values = np.concatenate([self.weights, floor * self.per_frame / self.config.ankle_height_sd_m])
+        return sparse.diags(values) @ self.sparsity
+
+    def solve(self, start: np.ndarray) -> np.ndarray:
+        fit = least_squares(self.residuals, start, jac=self.jacobian, method="trf", loss="soft_l1",
+                            f_scale=self.config.robust_scale, tr_solver="lsmr", x_scale=1.0)
+        return fit.x
+
+    def log_scale_sd(self, x: np.ndarray, samples: int = 25) -> np.ndarray:
+        """Standard deviations of log s at up to ``samples`` frames spread over the track (Gauss-Newton)."""
+        jacobian = self.jacobian(x)
+        information = (jacobian.T @ jacobian).tocsc() + sparse.eye(self.count + 1) * 1e-12
+        lu = splu(information)
+        frames = np.unique(np.linspace(0, self.count - 1, min(samples, self.count)).astype(int))
+        unit = np.zeros((self.count + 1, len(frames)))
+        unit[frames, np.arange(len(frames))] = 1.0
+        return np.sqrt(np.maximum(lu.solve(unit)[frames, np.arange(len(frames))], 0.0))
+
+
+def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarray | None = None,
+                 observed: np.ndarray | None = None,
+                 config: RefineConfig = RefineConfig()) -> tuple[np.ndarray, Refinement]:
+    """(T, 17, 3) lifted world joints of one person (H36M-17) seen by ``camera`` at ``fps`` -> the refined
+    joints and what was found.
+
+    ``rays``: (T, 17, 3) world directions of the joints' observed rays (from their pixels). Given them, each
+    joint is first put on its own ray at the network's distance along it, and the person is then moved along
+    the rays keeping the network's depth offsets between joints; without them the joints move along the rays
+    through where the network put them. Either way every joint ends on its ray. ``observed``: (T,) False for
+    frames filled in across a detector's gap, which then follow their neighbours.
+    """
+    joints = np.asarray(joints, dtype=np.float64)
+    if joints.ndim != 3 or joints.shape[1:] != (H36M17.num_joints, 3) or not np.isfinite(joints).all():
+        raise InputError(f"refine: expected finite (frames, 17, 3) world joints, got shape {joints.shape}")
+    if not fps > 0:
+        raise InputError(f"refine: fps must be positive, got {fps}")
+    centre, count = camera.center, len(joints)
+    observed = np.ones(count, dtype=bool) if observed is None else np.asarray(observed, dtype=bool)
+    if observed.shape != (count,):
+        raise InputError(f"refine: observed must be ({count},), got {observed.shape}")
+    if rays is not None:
+        if np.shape(rays) != joints.shape or not np.isfinite(rays).all():
+            raise InputError(f"refine: rays must be finite and shaped like the joints {joints.shape}, got "
+                             f"{np.shape(rays)}")
+        rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
+        along = np.einsum("tjk,tjk->tj", joints - centre, rays)
+        joints = centre + along[..., None] * rays
+    start = np.append(np.zeros(count), np.log(np.median(body_sizes(joints))))
+    problem = _Problem(joints, camera, fps, config, observed)
+    x = problem.solve(start)
+    scale = np.exp(x[:-1])
+    if rays is None:
+        refined = scale_about(joints, centre, scale)
+    else:
+        root = along[:, :1]
+        refined = centre + (scale[:, None] * root + (along - root))[..., None] * rays
+    distance = np.linalg.norm(refined[:, 0] - centre, axis=-1)
+    lowest = refined[:, ANKLES, 2].min(1)
+    contact = problem.floored & (np.abs(lowest - config.contact_ankle_height_m) < 2 * config.ankle_height_sd_m)
+    head_over_ankle = refined[:, _I("head"), 2] - lowest
+    upright = contact if contact.any() else observed
+    return refined, Refinement(
+        scale=scale, contact=contact, body_size_m=float(np.exp(x[-1])),
+        stature_m=float(np.median(head_over_ankle[upright]) / HEAD_OVER_ANKLE_OF_STATURE),
+        position_sd_m=float(np.median(problem.log_scale_sd(x) * np.median(distance))))
