@@ -122,3 +122,17 @@ def test_a_config_names_a_preset_and_its_overrides(tmp_path):
         training_config(_write(tmp_path / "bad.json", {"preset": "nope"}))
     with pytest.raises(InputError, match="not a training config"):
         training_config(_write(tmp_path / "typo.json", {"preset": "ray3d", "epoch": 3}))
+
+
+def test_averaged_weights_are_validated_shipped_and_resumed(tiny_data_dir, tmp_path):
+    config = _config(tiny_data_dir, epochs=2, batches_per_epoch=6, ema_decay=0.99)
+    run = tmp_path / "ema"
+    first = train(config, run, progress=False)
+    tensors, _ = read_checkpoint(run / "last.safetensors")
+    assert int(tensors["ema_steps"]) == 12 and any(k.startswith("raw.") for k in tensors)
+    shipped, _ = load_model(run / "last.safetensors")  # the averaged weights, as "model."
+    differs = any(not torch.equal(tensors[f"raw.{k}"], v) for k, v in shipped.state_dict().items())
+    assert differs
+    resumed = train(TrainConfig(**{**config.to_dict(), "epochs": 3}), run, resume=True, progress=False)
+    assert resumed["history"][:2] == first["history"] and int(read_checkpoint(run / "last.safetensors")[0]
+                                                              ["ema_steps"]) == 18

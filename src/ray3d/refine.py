@@ -2,15 +2,17 @@
 their uncertainties.
 
 The network's depth is good near the camera and poor far from it; a person's feet rest on the floor while
-they stand or walk; and a person keeps one body size. Each frame's joints are moved along their own rays by one
-factor ``s_t`` about the camera centre (``X' = C + s_t (X - C)``), so every joint stays on its ray; the
-factors, and one body size per track, are the least-squares solution of
+they stand or walk; and a person keeps one body size. Each frame is moved along the rays by one factor ``s_t``
+about the camera centre (``X' = C + s_t (X - C)``), so its joints stay on their rays; the
+factors, and one body size per track, are the least-squares solution of the terms below. Given the joints'
+observed rays, the root ends on its ray and the limbs keep the network's shape at the track's size.
 
 - the network: ``log s_t = 0`` with a standard deviation that grows with the distance (``depth_sd``);
 - the floor: in every frame the detector saw, the lowest ankle lies ``contact_ankle_height_m`` above the floor,
   under a robust loss, so the frames where no foot touches it (jumps, stairs, a foot on a step) cost little;
 - the body: ``s_t`` times the frame's body size equals the track's size, which has an adult prior;
-- smoothness: ``log s_t`` is a random walk in time.
+- smoothness: the person's distance changes smoothly (the second difference of its log is small), so the
+  network's frame-to-frame depth jitter is smoothed away while a steady approach or retreat costs nothing.
 
 The floor cue is strong when the camera is high above the feet and vanishes when it is at their height; the
 size cue is weak but never vanishes; the solution weighs them so. The frames in contact are those the solution
@@ -25,7 +27,6 @@ import dataclasses
 
 import numpy as np
 from scipy import sparse
-from scipy.optimize import least_squares
 from scipy.sparse.linalg import splu
 
 from ray3d.errors import InputError
@@ -34,8 +35,9 @@ from ray3d.skeleton import H36M17
 
 _I = H36M17.index
 ANKLES = (_I("l_ankle"), _I("r_ankle"))
-# The chain whose length measures a body's size: head to pelvis along the spine, plus the mean leg.
-TRUNK_CHAIN = ("head", "neck_nose", "thorax", "spine", "pelvis")
+# The chain whose length measures a body's size: thorax to pelvis along the spine, plus the mean leg (the head
+# and neck are left out: detectors place them least like the mocap does).
+TRUNK_CHAIN = ("thorax", "spine", "pelvis")
 LEGS = (("l_hip", "l_knee", "l_ankle"), ("r_hip", "r_knee", "r_ankle"))
 # The head joint's height over the lowest ankle as a fraction of stature (0.940 - 0.067, ray3d.calibrate).
 HEAD_OVER_ANKLE_OF_STATURE = 0.873
@@ -47,16 +49,16 @@ class RefineConfig:
     """The uncertainties the cues are weighed by (metres, or fractions of a distance or size).
 
     Measured on the training performers of the shipped mocap: the lowest ankle of a planted foot stands 0.069 m
-    above the floor (interquartile 0.049-0.109 m); the body-size chain is 1.48 m (5-95 %: 1.44-1.68 m).
+    above the floor (interquartile 0.049-0.109 m); the body-size chain is 1.34 m (5-95 %: 1.26-1.52 m).
     """
 
     contact_ankle_height_m: float = 0.07
     ankle_height_sd_m: float = 0.05          # contact-height spread plus the network's ankle error
-    body_size_m: float = 1.50                # prior on the size chain of an adult
+    body_size_m: float = 1.36                # prior on the size chain of an adult
     body_size_sd: float = 0.12               # relative
     frame_size_sd: float = 0.06              # relative error of one frame's predicted body size
     depth_sd: tuple[float, float] = (0.03, 0.006)  # the network's relative depth error: a + b * distance (m)
-    scale_walk_sd: float = 0.05              # how fast log s may drift, per square root of a second
+    distance_acceleration_sd: float = 0.3    # of the log of the person's distance, per second^1.5
     robust_scale: float = 2.0                # residuals (in standard deviations) beyond which the loss is linear
 
 
@@ -98,43 +100,69 @@ class _Problem:
         self.config, self.count = config, len(joints)
         self.centre = camera.center
         distance = np.linalg.norm(joints[:, 0] - self.centre, axis=-1)
-        self.depth_sd = config.depth_sd[0] + config.depth_sd[1] * distance
-        self.log_size = np.log(np.maximum(body_sizes(joints), 1e-3))
         self.lowest = joints[:, ANKLES, 2].min(1)
         self.floored = observed & (self.centre[2] - self.lowest > 0.05)  # frames the floor term applies to
-        self.walk_sd = config.scale_walk_sd / np.sqrt(fps)
-        rows = [sparse.eye(self.count, self.count + 1)]                                      # network
-        if self.count > 1:
-            rows.append(sparse.eye(self.count - 1, self.count + 1, 1) - sparse.eye(self.count - 1, self.count + 1))
-        size = sparse.hstack([sparse.eye(self.count), -np.ones((self.count, 1))])
-        rows += [size, sparse.csr_matrix(([1.0], ([0], [self.count])), shape=(1, self.count + 1))]
-        rows.append(sparse.eye(self.count, self.count + 1).tocsr()[np.flatnonzero(self.floored)])
-        self.sparsity = sparse.vstack(rows).tocsr()
         # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
         # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
         self.per_frame = np.sqrt(EVIDENCE_FPS / fps)
-        self.weights = np.concatenate([self.per_frame / self.depth_sd, np.full(self.count - 1, 1 / self.walk_sd),
-                                       observed * self.per_frame / config.frame_size_sd, [1 / config.body_size_sd]])
+        count, columns = self.count, self.count + 1
+        blocks, targets, weights = [], [], []
+
+        def add(matrix, target, weight) -> None:
+            blocks.append(sparse.csr_matrix(matrix))
+            targets.append(np.broadcast_to(target, matrix.shape[:1]))
+            weights.append(np.broadcast_to(weight, matrix.shape[:1]))
+
+        add(sparse.eye(count, columns), 0.0, self.per_frame / (config.depth_sd[0] + config.depth_sd[1] * distance))
+        if count > 2:  # the distance log(s_t d_t) changes smoothly: its second difference is small
+            second = sparse.csr_matrix(sparse.eye(count - 2, columns) - 2 * sparse.eye(count - 2, columns, 1)
+                      + sparse.eye(count - 2, columns, 2))
+            add(second, -(second[:, :count] @ np.log(distance)), 1 / (config.distance_acceleration_sd * fps ** -1.5))
+        add(sparse.hstack([sparse.eye(count), -np.ones((count, 1))]), -np.log(np.maximum(body_sizes(joints), 1e-3)),
+            observed * self.per_frame / config.frame_size_sd)
+        add(sparse.csr_matrix(([1.0], ([0], [count])), shape=(1, columns)), np.log(config.body_size_m),
+            1 / config.body_size_sd)
+        self.linear, self.target = sparse.vstack(blocks).tocsr(), np.concatenate(targets)
+        self.weight = np.concatenate(weights)
+        self.floor_rows = sparse.eye(count, columns).tocsr()[np.flatnonzero(self.floored)]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
-        log_scale, log_body = x[:-1], x[-1]
         config = self.config
-        floor = self.centre[2] + np.exp(log_scale[self.floored]) * (self.lowest[self.floored] - self.centre[2])
-        linear = np.concatenate([log_scale, np.diff(log_scale), log_scale + self.log_size - log_body,
-                                 [log_body - np.log(config.body_size_m)]])
-        return np.concatenate([linear * self.weights,
+        scale = np.exp(x[:-1][self.floored])
+        floor = self.centre[2] + scale * (self.lowest[self.floored] - self.centre[2])
+        return np.concatenate([self.weight * (self.linear @ x - self.target),
                                (floor - config.contact_ankle_height_m) * self.per_frame / config.ankle_height_sd_m])
 
     def jacobian(self, x: np.ndarray) -> sparse.csr_matrix:
-        log_scale = x[:-1]
-        floor = np.exp(log_scale[self.floored]) * (self.lowest[self.floored] - self.centre[2])
-        values = np.concatenate([self.weights, floor * self.per_frame / self.config.ankle_height_sd_m])
-        return sparse.diags(values) @ self.sparsity
+        slope = np.exp(x[:-1][self.floored]) * (self.lowest[self.floored] - self.centre[2])
+        return sparse.vstack([sparse.diags(self.weight) @ self.linear,
+                              sparse.diags(slope * self.per_frame / self.config.ankle_height_sd_m) @ self.floor_rows])
 
-    def solve(self, start: np.ndarray) -> np.ndarray:
-        fit = least_squares(self.residuals, start, jac=self.jacobian, method="trf", loss="soft_l1",
-                            f_scale=self.config.robust_scale, tr_solver="lsmr", x_scale=1.0)
-        return fit.x
+    def cost(self, x: np.ndarray) -> float:
+        """The robust (soft L1) cost: quadratic within ``robust_scale`` standard deviations, linear beyond."""
+        scaled = (self.residuals(x) / self.config.robust_scale) ** 2
+        return float(np.sum(2 * (np.sqrt(1 + scaled) - 1)))
+
+    def solve(self, start: np.ndarray, iterations: int = 50, tolerance: float = 1e-10) -> np.ndarray:
+        """Gauss-Newton with iteratively reweighted least squares for the robust loss; each step is one sparse
+        solve of the (banded) normal equations, so long tracks cost little."""
+        x, cost = start.copy(), self.cost(start)
+        for _ in range(iterations):
+            residuals, jacobian = self.residuals(x), self.jacobian(x)
+            weight = 1 / np.sqrt(1 + (residuals / self.config.robust_scale) ** 2)
+            normal = (jacobian.T @ sparse.diags(weight) @ jacobian).tocsc()
+            step = splu(normal + sparse.eye(len(x), format="csc") * 1e-12).solve(-(jacobian.T @ (weight * residuals)))
+            for _ in range(20):  # halve a step that does not lower the cost
+                trial = self.cost(x + step)
+                if trial <= cost:
+                    break
+                step = step / 2
+            else:
+                return x
+            x, cost = x + step, trial
+            if np.abs(step).max() < tolerance:
+                break
+        return x
 
     def log_scale_sd(self, x: np.ndarray, samples: int = 25) -> np.ndarray:
         """Standard deviations of log s at up to ``samples`` frames spread over the track (Gauss-Newton)."""
@@ -153,10 +181,11 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     """(T, 17, 3) lifted world joints of one person (H36M-17) seen by ``camera`` at ``fps`` -> the refined
     joints and what was found.
 
-    ``rays``: (T, 17, 3) world directions of the joints' observed rays (from their pixels). Given them, each
-    joint is first put on its own ray at the network's distance along it, and the person is then moved along
-    the rays keeping the network's depth offsets between joints; without them the joints move along the rays
-    through where the network put them. Either way every joint ends on its ray. ``observed``: (T,) False for
+    ``rays``: (T, 17, 3) world directions of the joints' observed rays (from their pixels). Given them, the
+    cues are read from the joints put on their rays at the network's distances (the body's size in the image
+    at a distance is its size), and the result is the root on its observed ray at the distance found with the
+    network's pose, scaled to the track's one body size, hung from it. Without them every joint moves along
+    the line from the camera through where the network put it. ``observed``: (T,) False for
     frames filled in across a detector's gap, which then follow their neighbours.
     """
     joints = np.asarray(joints, dtype=np.float64)
@@ -165,6 +194,7 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     if not fps > 0:
         raise InputError(f"refine: fps must be positive, got {fps}")
     centre, count = camera.center, len(joints)
+    network = joints
     observed = np.ones(count, dtype=bool) if observed is None else np.asarray(observed, dtype=bool)
     if observed.shape != (count,):
         raise InputError(f"refine: observed must be ({count},), got {observed.shape}")
@@ -182,8 +212,10 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     if rays is None:
         refined = scale_about(joints, centre, scale)
     else:
-        root = along[:, :1]
-        refined = centre + (scale[:, None] * root + (along - root))[..., None] * rays
+        # The root on its observed ray at the distance found; the limbs keep the network's shape (the rays of
+        # a detector's joints jitter), at the track's one body size.
+        root = centre + (scale * along[:, 0])[:, None] * rays[:, 0]
+        refined = root[:, None] + np.exp(x[-1]) / np.median(body_sizes(network)) * (network - network[:, :1])
     distance = np.linalg.norm(refined[:, 0] - centre, axis=-1)
     lowest = refined[:, ANKLES, 2].min(1)
     contact = problem.floored & (np.abs(lowest - config.contact_ankle_height_m) < 2 * config.ankle_height_sd_m)

@@ -142,6 +142,16 @@ def _slice(batch: Batch, index: slice) -> Batch:
                  batch.root[index], batch.visible[index], batch.cameras.take(index), batch.world[index])
 
 
+def _warming_ema(decay: float):
+    """An exponential moving average whose decay grows from 0.1 to ``decay`` over the first steps, so the
+    average forgets the random initial weights as fast as the weights leave them."""
+    def average(averaged: torch.Tensor, current: torch.Tensor, steps: torch.Tensor) -> torch.Tensor:
+        rate = min(decay, (1 + int(steps)) / (10 + int(steps)))
+        return rate * averaged + (1 - rate) * current
+
+    return average
+
+
 def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, torch.Tensor], list[dict]]:
     state = optimizer.state_dict()
     tensors = {f"optimizer.{index}.{name}": (value if torch.is_tensor(value) else torch.tensor(value))
@@ -178,7 +188,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     model = LiftingNetwork(config.model).to(device)
     optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
     ema = None if not config.ema_decay else torch.optim.swa_utils.AveragedModel(
-        model, multi_avg_fn=torch.optim.swa_utils.get_ema_multi_avg_fn(config.ema_decay), use_buffers=True)
+        model, avg_fn=_warming_ema(config.ema_decay), use_buffers=True)
     shipped = model if ema is None else ema.module  # the weights validated and written as "model."
     generator = sample_generator(config, "train", config.samples, config.seed + 1000 * rank)
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
