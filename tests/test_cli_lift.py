@@ -186,3 +186,41 @@ def test_camera_from_height_and_pitch_flags(tmp_path, tiny_checkpoint, capsys):
     assert main(["lift", "--keypoints", str(keypoints), "--pitch", "12", "--out", str(tmp_path / "x.json"),
                  "--checkpoint", str(tiny_checkpoint)]) == 2
     assert "--camera-height" in capsys.readouterr().err
+
+
+def test_a_17_joint_file_is_read_as_the_layout_its_geometry_shows(tmp_path, tiny_checkpoint, capsys):
+    coco = tmp_path / "coco_order.npz"
+    np.savez(coco, keypoints=_coco_pixels())  # no layout stated: COCO-17 order
+    h36m = tmp_path / "h36m_order.npz"
+    np.savez(h36m, keypoints=CAMERA.project(_world()))
+    worlds = {}
+    for name, path, extra in (("guessed", coco, []), ("stated", coco, ["--layout", "coco17"]), ("h36m", h36m, [])):
+        out = tmp_path / f"{name}.json"
+        assert main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(out),
+                     "--checkpoint", str(tiny_checkpoint), *extra]) == 0
+        worlds[name] = read_world(out).track().joints
+    assert "coco17" in capsys.readouterr().out.splitlines()[0]
+    np.testing.assert_array_equal(worlds["guessed"], worlds["stated"])
+
+
+@pytest.mark.parametrize("name, pixels, message", [
+    ("line.npz", lambda: np.tile(400 + np.r_[:17][:, None] * [0.0, 10.0], (FRAMES, 1, 1)),  # joints on a line
+     "fits neither COCO-17 nor H36M-17; name the layout (--layout)"),
+    ("normalised.npz", lambda: CAMERA.project(_world()) / 1000.0, "look normalised"),
+    ("elsewhere.npz", lambda: CAMERA.project(_world()) + 5000.0, "elsewhere.npz: keypoints: 100% lie outside camera h36m:S9:55011271's 1000x1000"),
+])
+def test_keypoints_that_do_not_fit_are_refused(tmp_path, tiny_checkpoint, capsys, name, pixels, message):
+    path, out = tmp_path / name, tmp_path / "never.json"
+    np.savez(path, keypoints=pixels(), **({} if name == "line.npz" else {"layout": "h36m17"}))
+    code = main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(out),
+                 "--checkpoint", str(tiny_checkpoint), "--fps", "30"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and message in err and not out.exists()
+
+
+def test_a_file_without_a_frame_rate_says_which_it_assumed(tmp_path, tiny_checkpoint, capsys):
+    path = tmp_path / "no_fps.npz"
+    np.savez(path, keypoints=CAMERA.project(_world()), layout="h36m17")
+    assert main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(tmp_path / "w.json"),
+                 "--checkpoint", str(tiny_checkpoint)]) == 0
+    assert "states no frame rate: assumed the models' 60 fps" in capsys.readouterr().err

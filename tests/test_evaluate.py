@@ -102,3 +102,30 @@ def test_a_wrong_camera_and_a_smaller_body_change_the_errors():
     assert told_wrong["mrpe_mm"] > 50  # told the camera is 20 cm lower than it is
     smaller = evaluation.evaluate("rfrh", motion, [camera], bone_scale=0.8)
     assert smaller["mrpe_mm"] > 10  # a smaller body's pelvis is lower than the assumed height
+
+
+def test_refined_evaluation_lifts_each_clip_as_a_track(monkeypatch):
+    """A model that puts everyone 30 % too close: the refinement, given the true rays, brings them back."""
+    from ray3d.refine import scale_about
+
+    camera = grid("far-test")[0]
+
+    def too_close(model, windows, cam, flip_test=False, return_pixels=False, **options):
+        truth = windows[:, 4]
+        wrong = scale_about(truth, cam.center, np.full(len(truth), 0.7))
+        return (wrong, cam.project(truth)) if return_pixels else wrong
+
+    monkeypatch.setattr(evaluation, "predict_windows", too_close)
+
+    class Model:
+        receptive_field = 9
+        config = preset("ray3d")
+
+    from ray3d.demo import demo_clip
+
+    motion = MotionSet.from_clips([demo_clip()[:90].astype(np.float32)], clip_id=["a"])  # a person, not a blob
+    plain = evaluation.evaluate(Model(), motion, [camera])
+    refined = evaluation.evaluate(Model(), motion, [camera], refine=True)
+    assert refined["refine"] and plain["mrpe_mm"] > 3000 and refined["mrpe_mm"] < 0.2 * plain["mrpe_mm"]
+    with pytest.raises(ValueError, match="RFRH predicts only the root"):
+        evaluation.evaluate("rfrh", motion, [camera], refine=True)

@@ -95,3 +95,18 @@ def test_bad_layout_input():
         skeleton.convert(np.zeros((5, 18, 2)), "coco17")
     with pytest.raises(InputError, match="h36m17 has 17 joints"):
         skeleton.flip(np.zeros((5, 16, 3)))
+
+
+def test_17_joint_layouts_are_told_apart_by_their_geometry():
+    from ray3d import cameras
+    from ray3d.demo import demo_clip
+    from ray3d.skeleton import identify_17_joint_layout
+
+    camera = cameras.h36m("S9", "55011271")
+    h36m = camera.project(demo_clip()[::10])
+    assert identify_17_joint_layout(h36m) == "h36m17"
+    coco = h36m[:, [H36M17.index(n) if n in H36M17.joint_names else H36M17.index("neck_nose")
+                    for n in COCO17.joint_names]]
+    coco[:, 1:5] += np.array([[4.0, -3], [-4, -3], [9, 0], [-9, 0]])  # eyes and ears around the nose
+    assert identify_17_joint_layout(coco) == "coco17"
+    assert identify_17_joint_layout(np.full((3, 17, 2), np.nan)) is None

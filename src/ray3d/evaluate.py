@@ -25,6 +25,7 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.camera_files import load_cameras
 from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
+from ray3d.refine import refine_track
 from ray3d.skeleton import H36M17, layout_skeleton
 from ray3d.temporal import Window, sequence_windows
 
@@ -39,7 +40,7 @@ def _window(model: LiftingNetwork | str) -> Window:
 @torch.no_grad()
 def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
                   chunk: int = 8192, given: Camera | None = None, noise_px: float = 0.0,
-                  rng: np.random.Generator | None = None) -> np.ndarray:
+                  rng: np.random.Generator | None = None, return_pixels: bool = False):
     """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the target
     frames (centre, or last for a causal model); for RFRH only the root (joint 0) is predicted and the other joints are NaN.
 
@@ -52,7 +53,7 @@ def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Ca
     if noise_px > 0 and rng is None:
         rng = np.random.default_rng(0)
     window, remove_roll = _window(model), model != RFRH and model.config.remove_roll
-    out = []
+    out, target_pixels = [], []
     for start in range(0, len(windows), chunk):
         part = windows[start:start + chunk]
         batch = observe(part, CameraBatch.repeated(camera, len(part)), window, remove_roll,
@@ -67,7 +68,8 @@ def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Ca
         else:
             predicted = predict_world(model, TensorBatch.from_arrays(batch.pixels, rays, told), told, flip_test).numpy()
         out.append(predicted)
-    return np.concatenate(out)
+        target_pixels.append(batch.pixels[:, window.target].astype(np.float64))
+    return (np.concatenate(out), np.concatenate(target_pixels)) if return_pixels else np.concatenate(out)
 
 
 def _per_frame(predicted: np.ndarray, target: np.ndarray) -> dict[str, np.ndarray]:
@@ -90,14 +92,18 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
              frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
-             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0) -> dict:
+             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool = False) -> dict:
     """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
 
     ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
     error); ``bone_scale`` multiplies every bone of every clip, re-grounded (smaller or larger people);
     ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose);
-    ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_windows``; ``seed`` fixes it).
+    ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_windows``; ``seed`` fixes it);
+    ``refine`` lifts each (camera, clip) as one track with the track-level refinement (``ray3d.refine``), at the
+    clip's rate over ``frame_stride``.
     """
+    if refine and model == RFRH:
+        raise ValueError("refine needs a model that predicts every joint; RFRH predicts only the root")
     rng = np.random.default_rng(seed)
     if joints not in SCORED_LAYOUTS:
         raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
@@ -121,9 +127,17 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         if not seen:
             continue
         stacked = np.concatenate([windows[i] for i in seen])
-        predicted = predict_windows(model, stacked, camera, flip_test, given=given, noise_px=noise_px, rng=rng)
-        errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored])
+        predicted = predict_windows(model, stacked, camera, flip_test, given=given, noise_px=noise_px, rng=rng,
+                                    return_pixels=refine)
         bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
+        if refine:
+            predicted, pixels = predicted
+            for k, i in enumerate(seen):
+                track = slice(bounds[k], bounds[k + 1])
+                rays = given.pixels_to_rays(pixels[track], frame="camera") @ given.R
+                predicted[track] = refine_track(predicted[track], given, float(motion.clips["fps"][i]) / frame_stride,
+                                                rays)[0]
+        errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored])
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}
             per_camera[camera.name].append(part)
@@ -134,7 +148,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     geometry = {c.name: {"height_m": c.camera_height, "pitch_deg": float(np.degrees(c.pitch)),
                          "horizontal_distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}
     return {**_summarise(everything), "pairs": len(everything), "skipped_pairs": skipped, "flip_test": flip_test,
-            "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px,
+            "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px, "refine": refine,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},
             "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}
 

@@ -27,6 +27,22 @@ from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
 
 
+def _check_in_image(keypoints: np.ndarray, camera: Camera) -> None:
+    """Refuse keypoints normalised to 0-1 and keypoints that do not fit the camera's image."""
+    seen = keypoints[np.isfinite(keypoints).all(-1)]
+    width, height = camera.image_size
+    if not len(seen):
+        return
+    if np.abs(seen).max() <= 1.5 and max(width, height) > 16:
+        raise InputError("keypoints: every coordinate lies within 0-1.5: they look normalised to the image size; "
+                         "give them in pixels")
+    margin = 0.25 * np.array([width, height])
+    inside = np.mean(((seen >= -margin) & (seen <= [width, height] + margin)).all(-1))
+    if inside < 0.5:
+        raise InputError(f"keypoints: {100 * (1 - inside):.0f}% lie outside camera {camera.name or ''}'s "
+                         f"{width}x{height} image (by more than a quarter of it): the wrong camera or image size?")
+
+
 class Lifter:
     """A trained network ready to lift. ``Lifter.load()`` gives the shipped Ray3D weights."""
 
@@ -91,6 +107,7 @@ class Lifter:
             confidences = np.asarray(confidences, dtype=np.float64)
             if confidences.shape != keypoints.shape[:2]:
                 raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {confidences.shape}")
+        _check_in_image(keypoints, camera)
         pixels, found = convert_keypoints(keypoints, skeleton, confidences)
         missing = ~found
         never_seen = [H36M17.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
@@ -136,8 +153,11 @@ class Lifter:
     def lift_keypoints(self, keypoints: Keypoints, camera: Camera, **options) -> World:
         """Every track of a keypoint file (``ray3d.io.keypoints.read_keypoints``) lifted into one world frame;
         ``options`` as for ``lift``."""
-        return World(self.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps, **options),
-                     camera, self.name)
+        try:
+            tracks = self.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps, **options)
+        except InputError as err:  # name the file the keypoints came from
+            raise InputError(f"{keypoints.path or keypoints.source}: {err.message}", err.arguments) from None
+        return World(tracks, camera, self.name)
 
     @torch.no_grad()
     def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int) -> np.ndarray:

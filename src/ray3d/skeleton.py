@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import warnings
 
 import numpy as np
 
@@ -236,3 +237,26 @@ def mirror_pixels(pixels: Array, cx: Array, layout: str | Skeleton = "h36m17") -
     right joints: the image of the mirrored scene, as :func:`flip` mirrors the scene itself."""
     mirrored = flip(pixels, layout)
     return stack_last([mirrored[..., 0] + 2 * cx, mirrored[..., 1]])
+
+
+# COCO-17 starts with five face points close together; H36M-17 (and 3DHP-17, the same order) with the pelvis
+# and a leg, spread over half the body. As a fraction of the person's extent in the image:
+FACE_SPREAD_MAX = 0.2
+LEG_SPREAD_MIN = 0.3
+
+
+def identify_17_joint_layout(pixels: np.ndarray) -> str | None:
+    """``"coco17"`` or ``"h36m17"`` from the geometry of (N, 17, 2) keypoints (NaN where missing), or None when
+    they fit neither: the spread of the first five joints over the person's size, median over detections."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN detections
+        extent = np.nanmax(np.nanmax(pixels, axis=1) - np.nanmin(pixels, axis=1), axis=-1)
+        first = pixels[:, :5]
+        pairwise = np.linalg.norm(first[:, :, None] - first[:, None], axis=-1)
+        spread = np.nanmedian(np.nanmax(pairwise, axis=(1, 2)) / np.where(extent > 0, extent, np.nan))
+    if not np.isfinite(spread):
+        return None
+    if spread < FACE_SPREAD_MAX:
+        return "coco17"
+    return "h36m17" if spread > LEG_SPREAD_MIN else None

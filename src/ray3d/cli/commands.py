@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from ray3d.errors import InputError
@@ -117,7 +118,7 @@ def evaluate(args: argparse.Namespace) -> int:
     datasets = tuple(args.datasets.split(",")) if args.datasets else None
     clips, source = evaluation_motion(args.mocap, args.split, datasets, args.data_dir)
     result = run(args.checkpoint, clips, evaluation_cameras(args.cameras), args.flip_test, args.frame_stride,
-                 joints=args.joints, noise_px=args.noise_px)
+                 joints=args.joints, noise_px=args.noise_px, refine=args.refine)
     result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, **result}
     print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
           f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
@@ -246,8 +247,12 @@ def lift(args: argparse.Namespace) -> int:
     keypoints = read_keypoints(args.keypoints, args.layout, args.fps, subject=args.subject, action=args.action,
                                camera_index=args.camera_index)
     camera = _camera(args)
+    if keypoints.fps is None:
+        print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
+              "another; speeds and smoothing depend on it)", file=sys.stderr)
     world = Lifter.load(args.checkpoint).lift_keypoints(keypoints, camera, smooth_2d=args.smooth_2d,
-                                                        smooth_3d=args.smooth_3d, flip_test=args.flip_test)
+                                                        smooth_3d=args.smooth_3d, flip_test=args.flip_test,
+                                                        refine=not args.no_refine)
     write_world(args.out, world, overwrite=args.force)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
@@ -255,7 +260,17 @@ def lift(args: argparse.Namespace) -> int:
           f"{args.checkpoint} through camera {camera.name or args.camera} -> {args.out} (metres, z up)")
     if filled:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
+    _print_refinements(world.tracks)
     return 0
+
+
+def _print_refinements(tracks: dict) -> None:
+    for track, result in tracks.items():
+        if result.refinement:
+            r = result.refinement
+            print(f"  track {track}: stature {r['stature_m']:.2f} m, moved x{r['median_scale']:.2f} along the rays, "
+                  f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- "
+                  f"{r['position_sd_m']:.2f} m")
 
 
 def video(args: argparse.Namespace) -> int:
@@ -267,10 +282,12 @@ def video(args: argparse.Namespace) -> int:
         args.image_size = f"{info.image_size[0]}x{info.image_size[1]}"
     result = lift_video(args.input, _camera(args), args.out, make_detector(args.detector), Lifter.load(args.checkpoint),
                         fps=args.fps, world_format=args.format, overlay=not args.no_overlay, overwrite=args.force,
-                        smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d, flip_test=args.flip_test)
+                        smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d, flip_test=args.flip_test,
+                        refine=not args.no_refine)
     found = int((result.confidences > 0).any(axis=1).sum())
     print(f"{args.input}: {len(result.keypoints)} frames, a person found in {found}; "
           f"{100 * result.lifted.missing_fraction:.1f}% of joints filled in from neighbouring frames")
+    _print_refinements({"0": result.lifted})
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
     return 0
@@ -326,6 +343,31 @@ def bench_calibration(args: argparse.Namespace) -> int:
     files = write(rows, args.out)
     print((args.out / "calibration.md").read_text())
     print(f"{len(rows)} estimates -> {', '.join(map(str, files))}")
+    return 0
+
+
+def bench_real_video(args: argparse.Namespace) -> int:
+    from ray3d.bench.real_video import run_emulated, run_video, write
+    from ray3d.data import motion as motion_data
+    from ray3d.io.camera_files import read_camera
+    from ray3d.io.keypoints import read_keypoints
+    from ray3d.lift import Lifter
+
+    lifter, video_rows, name = Lifter.load(args.checkpoint), None, ""
+    if args.video or args.keypoints:
+        if not args.camera:
+            raise InputError("bench real-video: --video and --keypoints need --camera")
+        if args.keypoints:
+            keypoints, name = read_keypoints(args.keypoints, fps=args.fps), args.keypoints.name
+        else:
+            from ray3d.video import make_detector, video_keypoints
+
+            keypoints, name = video_keypoints(args.video, make_detector(args.detector), args.fps), args.video.name
+        video_rows = run_video(lifter, keypoints, read_camera(args.camera))
+    emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed)
+    files = write(args.out, emulated, video_rows, name)
+    print(files[1].read_text())
+    print(f"-> {', '.join(map(str, files))}")
     return 0
 
 

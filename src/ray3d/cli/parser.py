@@ -38,6 +38,8 @@ def _add_lifting_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
     parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
     parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    parser.add_argument("--no-refine", action="store_true",
+                        help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -113,6 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--noise-px", type=float, default=0.0,
                             help="Gaussian noise on the 2D input, standard deviation in pixels (a detector's jitter)")
     evaluation.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    evaluation.add_argument("--refine", action="store_true",
+                            help="lift each (camera, clip) as a track with the track-level refinement, as ray3d lift does")
     evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
     evaluation.add_argument("--json", type=Path, help="write the results here")
     evaluation.add_argument("--force", action="store_true", help="replace --json if it exists")
@@ -181,6 +185,19 @@ def build_parser() -> argparse.ArgumentParser:
                              help="whose walking clips (default: the test performers)")
     calibration.add_argument("--data-dir", help=data_dir_help)
     calibration.set_defaults(handler=handlers.bench_calibration)
+    real = bench_commands.add_parser("real-video", help="physical checks (feet on the floor, stature, walking speed, "
+                                                        "bones, skating, jitter) on a video and on emulated detections")
+    real.add_argument("--out", required=True, type=Path, help="folder for real-video.{json,md}")
+    real.add_argument("--video", type=Path, help="a video of people walking on a floor (needs --camera)")
+    real.add_argument("--keypoints", type=Path, help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
+    real.add_argument("--camera", help="the video's camera file")
+    real.add_argument("--detector", default="mediapipe", help="2D detector for --video (default mediapipe)")
+    real.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
+    real.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    real.add_argument("--pairs", type=int, default=12, help="emulated (test clip, camera) pairs (default 12)")
+    real.add_argument("--seed", type=int, default=0)
+    real.add_argument("--data-dir", help=data_dir_help)
+    real.set_defaults(handler=handlers.bench_real_video)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
     speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")

@@ -16,7 +16,7 @@ from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
-from ray3d.skeleton import LAYOUTS, layout_skeleton
+from ray3d.skeleton import LAYOUTS, identify_17_joint_layout, layout_skeleton
 
 
 @dataclasses.dataclass
@@ -56,12 +56,19 @@ class Keypoints:
         return (chosen, *tracks[chosen])
 
 
-def _layout_for(path: Path, joints: int, layout: str | None) -> str:
+def _layout_for(path: Path, pixels: np.ndarray, layout: str | None) -> str:
+    joints = pixels.shape[1]
     if layout is not None:
         if layout_skeleton(layout).num_joints != joints:
             raise InputError(f"{path}: layout {layout} has {LAYOUTS[layout].num_joints} joints but the file has {joints}")
         return layout
-    by_count = {17: "h36m17", 33: "blazepose33", 25: "body25"}
+    if joints == 17:  # COCO-17 and H36M-17 both have 17 joints: tell them apart by where the joints are
+        found = identify_17_joint_layout(pixels)
+        if found is None:
+            raise InputError(f"{path}: 17 joints per detection, but their geometry fits neither COCO-17 nor H36M-17; "
+                             "name the layout", arguments=("layout",))
+        return found
+    by_count = {33: "blazepose33", 25: "body25"}
     if joints not in by_count:
         raise InputError(f"{path}: {joints} joints per detection matches no layout; name the layout "
                          f"({', '.join(f'{n}: {s.num_joints}' for n, s in LAYOUTS.items())})", arguments=("layout",))
@@ -81,7 +88,7 @@ def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source
     if pixels.ndim != 3 or pixels.shape[-1] != 2 or len(pixels) == 0:
         raise InputError(f"{path}: keypoints must be (detections, joints, 2) with at least one detection, got "
                          f"{pixels.shape}")
-    layout = _layout_for(path, pixels.shape[1], layout)
+    layout = _layout_for(path, pixels, layout)
     frames = np.arange(len(pixels)) if frames is None else _numeric(path, "frames", frames).astype(np.int64)
     tracks = np.zeros(len(pixels), dtype=np.int64) if tracks is None else np.asarray(tracks)
     if confidences is not None:

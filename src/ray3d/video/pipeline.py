@@ -15,7 +15,7 @@ from tqdm import tqdm
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
-from ray3d.io.keypoints import write_keypoints_json
+from ray3d.io.keypoints import Keypoints, write_keypoints_json
 from ray3d.io.world import LiftResult, World, write_world
 from ray3d.lift import Lifter
 from ray3d.skeleton import H36M17, convert_keypoints
@@ -89,6 +89,16 @@ def detect_video(path: str | Path, detector: PoseDetector, progress: bool = True
     if not pixels:
         raise InputError(f"{path}: no frames could be read")
     return np.asarray(pixels, dtype=np.float64), np.asarray(confidences, dtype=np.float64)
+
+
+def video_keypoints(path: str | Path, detector: PoseDetector, fps: float | None = None,
+                    progress: bool = True) -> Keypoints:
+    """The detections of every frame of a video as ``Keypoints`` (one track), at the video's frame rate
+    unless ``fps`` is given."""
+    info = read_video_info(path)
+    pixels, confidences = detect_video(info.path, detector, progress)
+    return Keypoints(pixels, confidences, np.arange(len(pixels)), np.zeros(len(pixels), dtype=np.int64),
+                     detector.layout, fps or info.fps, f"{detector.layout} detections", info.path)
 
 
 def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: PoseDetector,
