@@ -133,6 +133,10 @@ def test_averaged_weights_are_validated_shipped_and_resumed(tiny_data_dir, tmp_p
     shipped, _ = load_model(run / "last.safetensors")  # the averaged weights, as "model."
     differs = any(not torch.equal(tensors[f"raw.{k}"], v) for k, v in shipped.state_dict().items())
     assert differs
+    from ray3d.checkpoints import export
+
+    raw = load_model(export(run / "last.safetensors", tmp_path / "raw", averaged=False))[0]
+    assert all(torch.equal(tensors[f"raw.{k}"], v) for k, v in raw.state_dict().items())
     resumed = train(TrainConfig(**{**config.to_dict(), "epochs": 3}), run, resume=True, progress=False)
     assert resumed["history"][:2] == first["history"] and int(read_checkpoint(run / "last.safetensors")[0]
                                                               ["ema_steps"]) == 18

@@ -89,11 +89,16 @@ def load_model(name_or_path: str | Path = "ray3d") -> tuple[LiftingNetwork, dict
     return model_from_checkpoint(tensors, document), document
 
 
-def export(source: str | Path, target: str | Path, overwrite: bool = False, **provenance: Any) -> Path:
+def export(source: str | Path, target: str | Path, overwrite: bool = False, averaged: bool = True,
+           **provenance: Any) -> Path:
     """Copy a checkpoint's weights and configuration to ``target`` (.safetensors + .json), dropping training
-    state (optimizer, RNG), adding ``provenance`` (e.g. the training command and time) to the JSON."""
+    state (optimizer, RNG), adding ``provenance`` (e.g. the training command and time) to the JSON.
+    ``averaged=False`` exports the last trained weights of a run that kept a moving average (its ``last``)."""
     tensors, document = read_checkpoint(resolve(source))
-    weights = {k: v for k, v in tensors.items() if k.startswith("model.")}
+    prefix = "model." if averaged else "raw."
+    if not any(k.startswith(prefix) for k in tensors):
+        raise InputError(f"{source}: holds no {'averaged' if averaged else 'last trained'} weights")
+    weights = {f"model.{k.removeprefix(prefix)}": v for k, v in tensors.items() if k.startswith(prefix)}
     model_from_checkpoint(weights, document)  # refuse to export something that does not load
     target = Path(target).with_suffix(".safetensors")
     if target.exists() and not overwrite:

@@ -45,7 +45,9 @@ def run_demo(out_dir: str | Path = "ray3d-demo", checkpoint: str = "ray3d", base
                 "mrpe_mm": 1e3 * float(metrics.mrpe(predicted, truth)),
                 "mpjpe_mm": 1e3 * float(metrics.mpjpe(predicted, truth)) if has_pose else None}
 
-    predictions = {checkpoint: Lifter.load(checkpoint).lift(pixels, camera).joints}
+    lifter = Lifter.load(checkpoint)
+    predictions = {checkpoint: lifter.lift(pixels, camera).joints,
+                   f"{checkpoint}, network only": lifter.lift(pixels, camera, refine=False).joints}
     if baseline and baseline in shipped_models():
         predictions[baseline] = Lifter.load(baseline).lift(pixels, camera).joints
     rfrh = np.full_like(truth, np.nan)
@@ -65,10 +67,10 @@ def run_demo(out_dir: str | Path = "ray3d-demo", checkpoint: str = "ray3d", base
 def format_report(result: dict) -> str:
     lines = [f"ray3d demo: bundled clip CMU 02_04 (a test performer, {result['frames']} frames at 60 fps) seen by "
              f"{result['camera']} (real calibration, lens distortion; never used in training), ground-truth 2D",
-             f"{'method':<16}{'Abs-MPJPE':>11}{'MRPE':>9}{'MPJPE':>9}   (mm, world frame)"]
+             f"{'method':<24}{'Abs-MPJPE':>11}{'MRPE':>9}{'MPJPE':>9}   (mm, world frame)"]
     for name, values in result["table"].items():
         cells = "".join(f"{values[k]:>{w}.1f}" if values[k] is not None else f"{'-':>{w}}"
                         for k, w in (("abs_mpjpe_mm", 11), ("mrpe_mm", 9), ("mpjpe_mm", 9)))
-        lines.append(f"{name:<16}{cells}")
+        lines.append(f"{name:<24}{cells}")
     lines.append(f"viewer: {result['viewer']}   animation: {result['animation']}   ({result['seconds']:.1f} s)")
     return "\n".join(lines)

@@ -67,7 +67,7 @@ class Refinement:
     """What the refinement found for one track."""
 
     scale: np.ndarray          # (T,) the factor each frame was moved by along its rays
-    contact: np.ndarray        # (T,) whether a foot was found planted
+    contact: np.ndarray        # (T,) whether the lowest ankle ended within two standard deviations of the floor
     body_size_m: float         # the track's size chain
     stature_m: float           # the person's estimated stature (head over the lowest ankle / 0.873)
     position_sd_m: float       # median over frames of the root position's standard deviation along its ray

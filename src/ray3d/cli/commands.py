@@ -150,7 +150,8 @@ def export(args: argparse.Namespace) -> int:
         return 0
     provenance = {"training": {"command": args.command_line, "time_s": args.time_s, "machine": args.machine}} \
         if args.command_line else {}
-    target = copy_weights(args.checkpoint, args.out, overwrite=args.force, **provenance)
+    target = copy_weights(args.checkpoint, args.out, overwrite=args.force, averaged=not args.last_weights,
+                          **provenance)
     print(f"wrote {target} and {target.with_suffix('.json')}")
     return 0
 

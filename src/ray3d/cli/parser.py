@@ -234,6 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     exporting.add_argument("--onnx", action="store_true", help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
     exporting.add_argument("--image-width", type=float, default=1000.0,
                            help="with --onnx: the image width pixel-input models normalise by (default 1000)")
+    exporting.add_argument("--last-weights", action="store_true",
+                           help="from a run with ema_decay: the last trained weights instead of their moving average")
     exporting.add_argument("--command-line", help="the training command, recorded with the weights")
     exporting.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
     exporting.add_argument("--machine", help="where it was trained, recorded with the weights")

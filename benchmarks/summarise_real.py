@@ -1,0 +1,28 @@
+"""The table of ``benchmarks/evaluate_real.sh``: per model (and refinement) and camera set, Abs-MPJPE and MRPE
+(mm), the median over cameras of MRPE / camera-to-person distance, and the spread of MRPE over cameras.
+
+    .venv/bin/python benchmarks/summarise_real.py RESULTS_DIR
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+folder = Path(sys.argv[1])
+rows = {}
+for path in sorted(folder.glob("*@*.json")):
+    model, cameras = path.stem.split("@", 1)
+    rows.setdefault(model, {})[cameras] = json.loads(path.read_text())
+print("| model | cameras | pairs | Abs-MPJPE | MRPE | MRPE / distance (median over cameras) | MRPE spread over cameras |")
+print("|---|---|---|---|---|---|---|")
+for model, sets in rows.items():
+    for cameras, r in sets.items():
+        per = r["per_camera"].values()
+        # Clips are centred on the origin; the pelvis is about 0.9 m above the floor.
+        share = [c["mrpe_mm"] / 1e3 / np.hypot(c["horizontal_distance_m"], c["height_m"] - 0.9) for c in per]
+        mrpe = np.array([c["mrpe_mm"] for c in per])
+        spread = 100 * (mrpe.max() - mrpe.min()) / mrpe.mean()
+        print(f"| {model} | {cameras} | {r['pairs']} | {r['abs_mpjpe_mm']:.1f} | {r['mrpe_mm']:.1f} | "
+              f"{100 * np.median(share):.1f} % | {spread:.1f} % |")
