@@ -33,8 +33,9 @@ def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str 
     _add_lens_arguments(parser, "with --pitch", image_size_note)
 
 
-def _add_lifting_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--checkpoint", default="ray3d", help="shipped model name or checkpoint path (default ray3d)")
+def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "ray3d") -> None:
+    parser.add_argument("--checkpoint", default=checkpoint,
+                        help=f"shipped model name or checkpoint path (default {checkpoint})")
     parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
     parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
     parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
@@ -147,7 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--format", choices=[".json", ".csv", ".npz"], default=".json", help="world file format")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
-    _add_lifting_arguments(video)
+    _add_lifting_arguments(video, "ray3d-real")  # detector keypoints of real footage
     video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 
