@@ -45,3 +45,14 @@ def test_a_missing_track_and_a_foreign_file_are_refused(tmp_path, rng):
         write_world(tmp_path / "w.txt", _world(rng))
     with pytest.raises(InputError, match="already exists"):
         write_world(path, _world(rng))
+
+
+def test_a_csv_written_before_the_refinement_still_reads(tmp_path, rng):
+    world = _world(rng)
+    path = write_world(tmp_path / "new.csv", world)
+    lines = path.read_text().splitlines()
+    old = [lines[0], "frame,track,joint,x,y,z"] + [",".join(line.split(",")[:6]) for line in lines[3:]]
+    (tmp_path / "old.csv").write_text("\n".join(old) + "\n")
+    back = read_world(tmp_path / "old.csv")
+    np.testing.assert_allclose(back.track("7").joints, world.tracks["7"].joints, atol=1e-5)
+    assert not back.track("7").interpolated.any() and back.track("7").refinement is None

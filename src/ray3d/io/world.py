@@ -148,15 +148,18 @@ def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
 
 def _read_csv(path: Path) -> World:
     with path.open(newline="") as handle:
-        header = handle.readline().removeprefix("#").strip()
-        refinements = json.loads(handle.readline().removeprefix("# refinement:"))
-        rows = list(csv.DictReader(handle))
+        lines = handle.read().splitlines()
+    header = lines[0].removeprefix("#").strip()
+    # Files from before 2026-12 have no refinement line and no interpolated column.
+    refined = len(lines) > 1 and lines[1].startswith("# refinement:")
+    refinements = json.loads(lines[1].removeprefix("# refinement:")) if refined else {}
+    rows = list(csv.DictReader(lines[2 if refined else 1:]))
     fields = dict(part.split(": ", 1) for part in header.split("; camera: ", 1)[0].split("; "))
     camera = Camera.from_dict(json.loads(header.split("; camera: ", 1)[1]))
     names = list(dict.fromkeys(r["joint"] for r in rows))
     count = len(rows) // len(names)
     joints = np.array([[float(r[a]) for a in "xyz"] for r in rows]).reshape(count, len(names), 3)
-    interpolated = np.array([int(r["interpolated"]) for r in rows]).reshape(count, len(names))
+    interpolated = np.array([int(r.get("interpolated") or 0) for r in rows]).reshape(count, len(names))
     tracks = _from_rows(joints, [int(r["frame"]) for r in rows[::len(names)]],
                         [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names,
                         refinements)
