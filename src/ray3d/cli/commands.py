@@ -169,6 +169,8 @@ def models(args: argparse.Namespace) -> int:
         print(f"{name:<15}{config.frames:>7}{count_parameters(model):>12,}{flops_per_frame(model) / 1e6:>14.2f}  "
               f"{config.input:<15}{config.backbone:<9}{config.root:<12}{'yes' if config.camera_embedding else 'no':<12}"
               f"{'yes' if name in shipped else 'no'}")
+    print(f"\nshipped weights (Lifter.load(NAME), --checkpoint NAME): {', '.join(sorted(shipped))}; what each was "
+          "trained on: src/ray3d/assets/models/MODELS.md")
     return 0
 
 
