@@ -192,7 +192,7 @@ class _PersonProblem:
     def pixel_residuals(self, x: np.ndarray) -> np.ndarray:
         """(T, 4, 2) predicted minus observed pixels of the mid-ankle, pelvis, thorax and head."""
         camera = self.camera(x)
-        direction = camera.pixels_to_rays(self.axis, frame="camera") @ camera.R  # (T, 4, 3) world directions
+        direction = camera.pixels_to_world_directions(self.axis)  # (T, 4, 3)
         centre = camera.center
         # Each point's ray meets the horizontal plane at its height; the body's axis stands at their mean.
         along = (self.heights - centre[2]) / direction[..., 2]

@@ -18,6 +18,19 @@ from ray3d.models.network import LiftingNetwork, ModelConfig
 
 SHIPPED_DIR = "assets/models"
 RFRH = "rfrh"
+# Names in a checkpoint: the weights that ship and lift ("model."), and in the last checkpoint of a run that
+# kept a moving average, the weights as trained ("raw.").
+MODEL_PREFIX, TRAINED_PREFIX = "model.", "raw."
+
+
+def prefixed(weights: dict[str, torch.Tensor], prefix: str) -> dict[str, torch.Tensor]:
+    """A module's ``state_dict`` under ``prefix``, as a checkpoint stores it."""
+    return {f"{prefix}{k}": v for k, v in weights.items()}
+
+
+def unprefixed(tensors: dict[str, torch.Tensor], prefix: str = MODEL_PREFIX) -> dict[str, torch.Tensor]:
+    """The tensors stored under ``prefix``, with it removed (a ``state_dict``)."""
+    return {k.removeprefix(prefix): v for k, v in tensors.items() if k.startswith(prefix)}
 
 
 def save_checkpoint(path: str | Path, tensors: dict[str, torch.Tensor], document: dict[str, Any]) -> None:
@@ -59,8 +72,7 @@ def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, 
     if "model" not in document:
         raise InputError("checkpoint JSON has no 'model' configuration")
     model = LiftingNetwork(ModelConfig(**document["model"]))
-    weights = {k.removeprefix("model."): v for k, v in tensors.items() if k.startswith("model.")}
-    missing, unexpected = model.load_state_dict(weights, strict=False)
+    missing, unexpected = model.load_state_dict(unprefixed(tensors), strict=False)
     if missing or unexpected:
         raise InputError(f"checkpoint does not fit its configuration (missing {missing[:3]}, unexpected {unexpected[:3]})")
     return model.eval()
@@ -95,10 +107,9 @@ def export(source: str | Path, target: str | Path, overwrite: bool = False, aver
     state (optimizer, RNG), adding ``provenance`` (e.g. the training command and time) to the JSON.
     ``averaged=False`` exports the last trained weights of a run that kept a moving average (its ``last``)."""
     tensors, document = read_checkpoint(resolve(source))
-    prefix = "model." if averaged else "raw."
-    if not any(k.startswith(prefix) for k in tensors):
+    weights = prefixed(unprefixed(tensors, MODEL_PREFIX if averaged else TRAINED_PREFIX), MODEL_PREFIX)
+    if not weights:
         raise InputError(f"{source}: holds no {'averaged' if averaged else 'last trained'} weights")
-    weights = {f"model.{k.removeprefix(prefix)}": v for k, v in tensors.items() if k.startswith(prefix)}
     model_from_checkpoint(weights, document)  # refuse to export something that does not load
     target = Path(target).with_suffix(".safetensors")
     if target.exists() and not overwrite:

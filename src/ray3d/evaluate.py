@@ -134,9 +134,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
             predicted, pixels = predicted
             for k, i in enumerate(seen):
                 track = slice(bounds[k], bounds[k + 1])
-                rays = given.pixels_to_rays(pixels[track], frame="camera") @ given.R
                 predicted[track] = refine_track(predicted[track], given, float(motion.clips["fps"][i]) / frame_stride,
-                                                rays)[0]
+                                                given.pixels_to_world_directions(pixels[track]))[0]
         errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored])
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}

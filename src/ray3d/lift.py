@@ -122,8 +122,8 @@ class Lifter:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
         refinement = None
         if refine:
-            rays = camera.pixels_to_rays(pixels, frame="camera") @ camera.R  # world directions
-            joints, found = refine_track(joints, camera, input_fps, rays, missing.mean(axis=1) <= 0.5,
+            joints, found = refine_track(joints, camera, input_fps, camera.pixels_to_world_directions(pixels),
+                                         temporal.seen_frames(missing),
                                          refine if isinstance(refine, RefineConfig) else RefineConfig())
             refinement = found.summary()
         joints = temporal.smooth(joints, smooth_3d, input_fps)

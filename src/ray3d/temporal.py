@@ -109,6 +109,11 @@ def fill_missing(sequence: np.ndarray, missing: np.ndarray) -> np.ndarray:
     return filled
 
 
+def seen_frames(missing: np.ndarray, max_missing: float = 0.5) -> np.ndarray:
+    """(T,) frames in which at most ``max_missing`` of the (T, J) joints were missing (and filled in)."""
+    return np.asarray(missing).mean(axis=1) <= max_missing
+
+
 # --------------------------------------------------------------------------------------------- smoothing
 def savgol(sequence: np.ndarray, window: int = 9, order: int = 2) -> np.ndarray:
     """Savitzky-Golay filter along time (axis 0); sequences shorter than the window are returned as they are."""

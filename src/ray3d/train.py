@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from ray3d.checkpoints import read_checkpoint, save_checkpoint
+from ray3d.checkpoints import MODEL_PREFIX, TRAINED_PREFIX, prefixed, read_checkpoint, save_checkpoint, unprefixed
 from ray3d.data.motion import load_shipped
 from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
@@ -76,9 +76,9 @@ class TrainConfig:
     def from_json(cls, path: str | Path) -> TrainConfig:
         try:
             return cls.from_dict(json.loads(Path(path).read_text()))
+        except InputError:
+            raise
         except (OSError, json.JSONDecodeError, TypeError, KeyError, ValueError) as err:
-            if isinstance(err, InputError):
-                raise
             raise InputError(f"{path}: not a training config ({err})") from None
 
     def to_dict(self) -> dict[str, Any]:
@@ -194,12 +194,9 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")
-        trained_prefix = "raw." if ema is not None else "model."
-        model.load_state_dict({k.removeprefix(trained_prefix): v for k, v in tensors.items()
-                               if k.startswith(trained_prefix)})
+        model.load_state_dict(unprefixed(tensors, MODEL_PREFIX if ema is None else TRAINED_PREFIX))
         if ema is not None:
-            ema.module.load_state_dict({k.removeprefix("model."): v for k, v in tensors.items()
-                                        if k.startswith("model.")})
+            ema.module.load_state_dict(unprefixed(tensors, MODEL_PREFIX))
             ema.n_averaged.fill_(int(tensors["ema_steps"]))
         _load_optimizer(optimizer, tensors, document["optimizer_param_groups"])
         state = {k: document.get(k, 0.0) for k in ("epoch", "best", "history", "train_seconds")}
@@ -249,8 +246,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
                 print(f"epoch {epoch + 1}: loss {record['loss']:.4f}  validation Abs-MPJPE {record['abs_mpjpe_mm']:.1f} "
                       f"MPJPE {record['mpjpe_mm']:.1f} MRPE {record['mrpe_mm']:.1f} mm  "
                       f"({record['samples_per_s']:,.0f} samples/s)", flush=True)
-            weights = {f"model.{k}": v for k, v in shipped.state_dict().items()}
-            training_state = {} if ema is None else {**{f"raw.{k}": v for k, v in model.state_dict().items()},
+            weights = prefixed(shipped.state_dict(), MODEL_PREFIX)
+            training_state = {} if ema is None else {**prefixed(model.state_dict(), TRAINED_PREFIX),
                                                       "ema_steps": ema.n_averaged.detach().clone()}
             provenance = {"model": config.model, "train_config": config.to_dict(), "trained_on": DATA_PROVENANCE}
             if state["best"] is None or record["abs_mpjpe_mm"] < state["best"]["abs_mpjpe_mm"]:

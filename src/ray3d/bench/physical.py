@@ -7,25 +7,20 @@ from __future__ import annotations
 import numpy as np
 
 from ray3d.io.world import LiftResult
-from ray3d.refine import HEAD_OVER_ANKLE_OF_STATURE
+from ray3d.refine import ANKLES, HEAD_OVER_ANKLE_OF_STATURE
 from ray3d.skeleton import H36M17
+from ray3d.temporal import seen_frames
 
 _I = H36M17.index
-ANKLES = [_I("l_ankle"), _I("r_ankle")]
 FLOOR_BAND_M = (-0.10, 0.25)     # where the lowest ankle of a person standing on the floor may be
 PLANTED_BAND_M = 0.05            # a foot within this of the track's low ankle height counts as planted
 CHECKS = ("frames", "ankle_on_floor_fraction", "lowest_ankle_median_m", "head_over_ankle_m", "stature_m",
           "walking_speed_1s_m_s", "speed_p90_m_s", "bone_length_cv", "foot_skating_m_s", "jitter_m_s2")
 
 
-def observed_frames(result: LiftResult, max_filled: float = 0.5) -> np.ndarray:
-    """(T,) frames in which the detector saw most joints."""
-    return result.interpolated.mean(axis=1) <= max_filled
-
-
 def track_checks(result: LiftResult) -> dict[str, float]:
     """The checks of one track (see ``CHECKS``); speeds over the observed frames only."""
-    seen = observed_frames(result)
+    seen = seen_frames(result.interpolated)
     joints, fps = result.joints[seen], result.fps
     frames = result.frames[seen]
     lowest = joints[:, ANKLES, 2].min(1)

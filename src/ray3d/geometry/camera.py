@@ -268,6 +268,12 @@ class Camera:
         return rays if frame == "camera" else tf.rays_camera_to_normalized(rays, like(self.pitch, uv),
                                                                            self._roll_like(uv, remove_roll))
 
+    def pixels_to_world_directions(self, pixels: Array) -> Array:
+        """(..., 2) pixels -> (..., 3) world directions of their rays from the camera centre, ``R^T (x, y, 1)``
+        (not unit length)."""
+        rays = self.pixels_to_rays(pixels, frame="camera")
+        return rays @ like(self.R, rays)
+
     def sees(self, points_world: np.ndarray) -> bool:
         """Whether every (..., 3) world point lies in front of the camera and projects inside the image."""
         pixels = self.project(np.asarray(points_world, dtype=np.float64).reshape(-1, 3))
