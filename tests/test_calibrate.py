@@ -117,6 +117,44 @@ def test_a_person_who_fits_the_model_gives_the_exact_camera():
     assert exact.pitch_sd_deg < 0.01 and exact.height_sd_m < 0.01
 
 
+def test_several_people_are_fitted_jointly_and_their_errors_average_out():
+    from ray3d.calibrate import MODEL_ERROR_SD, from_person
+
+    truth = _truth()
+    walkers = [_model_walker(frames=80) + [dx, dy, 0.0] for dx, dy in ((0, 0), (4, -1), (8, 1.5), (2, 2))]
+    people = [truth.project(w) for w in walkers]
+    alone = from_person(people[0], truth.image_size, 1.75, bootstrap=5)
+    together = from_person(people, truth.image_size, 1.75, bootstrap=5)
+    assert together.people == 4 and together.frames_used == 320 and not together.warnings
+    assert together.focal_px == pytest.approx(900.0, rel=5e-3) and together.height_m == pytest.approx(2.7, rel=2e-3)
+    # Four independent people: the model error and the stature's spread count half as much as for one.
+    assert together.pitch_sd_deg == pytest.approx(MODEL_ERROR_SD["pitch_deg"] / 2, rel=0.05)
+    assert together.height_sd_m < 0.6 * alone.height_sd_m
+    confidences = [np.ones(p.shape[:2]) for p in people]
+    confidences[1][:, :] = 0.0  # one person never seen: left out, the others still fit
+    partly = from_person(people, truth.image_size, 1.75, focal_px=900.0, confidences=confidences, bootstrap=3)
+    assert partly.people == 3 and partly.pitch_deg == pytest.approx(28.0, abs=0.05)
+    with pytest.raises(InputError, match="2 arrays for 4 people"):
+        from_person(people, truth.image_size, confidences=confidences[:2])
+
+
+def test_a_poor_fit_warns_instead_of_looking_confident():
+    from ray3d.calibrate import from_person
+
+    truth = _truth()
+    walker = _model_walker(frames=30)
+    walker[:, :, 0] = walker[:1, :, 0]  # stands at one distance: the focal length cannot be told
+    bent = _model_walker(frames=60)
+    sway = 0.5 * (-1.0) ** np.arange(60)[:, None]  # head and thorax thrown from side to side every frame
+    bent[:, [8, 9, 10], 1] += sway
+    still = from_person(truth.project(walker), truth.image_size, 1.75, bootstrap=3)
+    assert any("one distance" in w for w in still.warnings) and any("30 upright frames" in w for w in still.warnings)
+    crooked = from_person(truth.project(bent), truth.image_size, 1.75, focal_px=900.0, bootstrap=3)
+    assert crooked.rms_px > 5
+    assert any("fits poorly" in w for w in crooked.warnings)
+    assert not from_person(truth.project(_model_walker()), truth.image_size, 1.75, bootstrap=3).warnings
+
+
 def test_a_walking_mocap_performer_gives_pitch_within_2_deg_and_height_within_10_percent(test_motion):
     from ray3d.bench.calibration import stature, walking_clips
     from ray3d.calibrate import from_person

@@ -1,6 +1,7 @@
-"""The video pipeline on a generated video: a stub detector exercises every step (reading frames, detecting,
-lifting, the world file, the detections, the viewer, the overlay video); the real MediaPipe detector runs when
-the video extra is installed."""
+"""The video pipeline on generated videos of several stick figures walking: a stub detector (which checks each
+figure is drawn where it says) exercises reading, tracking, lifting every track, the world file, the
+detections, the viewer and the overlay; the tracker and the proposals are tested on their own; the real
+landmark network runs when the video extra is installed."""
 
 from __future__ import annotations
 
@@ -13,131 +14,273 @@ import pytest
 from ray3d import Camera, InputError, Lifter
 from ray3d.cli import main
 from ray3d.demo import demo_clip
+from ray3d.io.keypoints import read_keypoints
 from ray3d.io.world import read_world
 from ray3d.skeleton import H36M17
-from ray3d.video import DETECTORS, lift_video, read_video_info
+from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
+from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
 
-SIZE, FPS, FRAMES = (640, 480), 30.0, 36
-
-
-def _scene():
-    camera = Camera.from_height_pitch(2.0, 15.0, SIZE, hfov_deg=70.0)
-    world = demo_clip()[:FRAMES] + np.array([5.0, 0.0, 0.0])
-    return camera, world, camera.project(world)
+SIZE, FPS, FRAMES = (640, 480), 20.0, 40
+CAMERA = Camera.from_height_pitch(3.0, 15.0, SIZE, hfov_deg=70.0)
 
 
-def _render(path, pixels):
-    """A video of a stick figure: white bones on grey, the pelvis a filled disc."""
+def _walker(start_xy, velocity_xy, frames=FRAMES, fps=FPS):
+    """(T, 17, 3) world joints: the bundled clip's pose relative to its pelvis, carried along a straight line."""
+    clip = demo_clip()[:frames]
+    relative = clip - np.concatenate([clip[:, :1, :2], np.zeros((frames, 1, 1))], axis=-1)
+    path = np.asarray(start_xy) + np.outer(np.arange(frames) / fps, velocity_xy)
+    return relative + np.concatenate([path, np.zeros((frames, 1))], axis=-1)[:, None]
+
+
+def _crossing_people():
+    """Three people: two crossing in the image at different depths, one apart."""
+    return [_walker((6.0, -2.0), (0.0, 1.4)), _walker((9.0, 2.5), (0.0, -1.5)), _walker((5.0, 3.0), (0.8, 0.0))]
+
+
+def _render(path, people_pixels, hidden=()):
+    """A video of stick figures (white bones on grey, the pelvis a filled disc); ``hidden`` = (person, frame)
+    pairs not drawn."""
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), FPS, SIZE)
-    for frame_pixels in pixels:
+    for t in range(FRAMES):
         frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
-        for child, parent in enumerate(H36M17.parents):
-            if parent >= 0:
-                a, b = (tuple(int(v) for v in frame_pixels[i]) for i in (child, parent))
-                cv2.line(frame, a, b, (255, 255, 255), 4)
-        cv2.circle(frame, tuple(int(v) for v in frame_pixels[0]), 8, (255, 255, 255), -1)
+        for person, pixels in enumerate(people_pixels):
+            if (person, t) in hidden:
+                continue
+            for child, parent in enumerate(H36M17.parents):
+                if parent >= 0:
+                    a, b = (tuple(int(v) for v in pixels[t, i]) for i in (child, parent))
+                    cv2.line(frame, a, b, (255, 255, 255), 3)
+            cv2.circle(frame, tuple(int(v) for v in pixels[t, 0]), 5, (255, 255, 255), -1)
         writer.write(frame)
     writer.release()
     return path
 
 
 class StubDetector:
-    """Returns the known pixels of each frame after checking the frame shows the figure there; misses
-    everybody in frames 10-12 and the left wrist in frame 20."""
+    """The known pixels of every person drawn in a frame, after checking each is drawn there."""
 
     layout = "h36m17"
 
-    def __init__(self, pixels):
-        self.pixels, self.calls = pixels, 0
+    def __init__(self, people_pixels, hidden=(), start=0):
+        self.people, self.hidden, self.calls, self.prepared = people_pixels, set(hidden), start, 0
+
+    def prepare(self, frames):
+        self.prepared = len(frames)
 
     def __call__(self, frame):
         assert frame.shape == (SIZE[1], SIZE[0], 3) and frame.dtype == np.uint8
         t = self.calls
         self.calls += 1
-        u, v = (int(round(x)) for x in self.pixels[t, 0])
-        assert frame[v, u].mean() > 200, "the pelvis disc is not where the stub expects it"
-        pixels, confidences = self.pixels[t].copy(), np.ones(17)
-        if 10 <= t <= 12:
-            return np.full((17, 2), np.nan), np.zeros(17)
-        if t == 20:
-            confidences[13] = 0.0
-        return pixels, confidences
+        found = []
+        for person, pixels in enumerate(self.people):
+            if (person, t) in self.hidden:
+                continue
+            u, v = (int(round(x)) for x in pixels[t, 0])
+            assert frame[v, u].mean() > 200, "the pelvis disc is not where the stub expects it"
+            found.append(Detection(pixels[t].copy(), np.ones(17), 0.9))
+        return found
 
 
 @pytest.fixture(scope="module")
-def video(tmp_path_factory):
-    camera, world, pixels = _scene()
-    return _render(tmp_path_factory.mktemp("video") / "walk.mp4", pixels), camera, world, pixels
+def scene(tmp_path_factory):
+    people = _crossing_people()
+    pixels = [CAMERA.project(p) for p in people]
+    hidden = {(0, t) for t in range(18, 21)}  # a short occlusion while crossing: filled in, not split
+    path = _render(tmp_path_factory.mktemp("video") / "walk.mp4", pixels, hidden)
+    return path, people, pixels, hidden
 
 
-def test_the_pipeline_writes_every_output_and_equals_lifting_the_detections(video, tmp_path):
-    path, camera, world, pixels = video
+def _owner(track, people):
+    """Which person a lifted track follows in every frame (their nearest pelvis on the floor)."""
+    distances = np.stack([np.linalg.norm(track.root[:, :2] - p[track.frames, 0, :2], axis=-1) for p in people])
+    return distances.argmin(axis=0), distances.min(axis=0)
+
+
+def test_every_person_is_tracked_and_lifted_into_one_world_frame(scene, tmp_path):
+    path, people, pixels, hidden = scene
     info = read_video_info(path)
     assert info.image_size == SIZE and info.frames == FRAMES and info.fps == pytest.approx(FPS)
-    lifter = Lifter.load()
-    result = lift_video(path, camera, tmp_path / "out", StubDetector(pixels), lifter, progress=False)
+    detector = StubDetector(pixels, hidden)
+    result = lift_video(path, CAMERA, tmp_path / "out", detector, Lifter.load(), progress=False)
+    assert detector.prepared > 0 and result.frames == FRAMES and not result.dropped
     assert set(result.files) == {"world", "keypoints", "viewer", "overlay"}
-    assert result.lifted.interpolated[10:13].all() and result.lifted.interpolated[20, 13]
-    direct = lifter.lift(result.keypoints, camera, result.confidences, FPS, "h36m17").joints
-    np.testing.assert_allclose(result.lifted.joints, direct)
-    saved = read_world(result.files["world"])
-    np.testing.assert_allclose(saved.track().joints, result.lifted.joints, atol=1e-5)
-    assert np.abs(result.lifted.joints - world).mean() < 0.5  # metres: a sanity bound, not an accuracy claim
-    # The detections can be lifted again without detecting: the frames without anybody are left out.
-    detections = json.loads(result.files["keypoints"].read_text())
-    assert detections["layout"] == "h36m17" and len(detections["detections"]) == FRAMES - 3
-    assert main(["lift", "--keypoints", str(result.files["keypoints"]), "--camera-height", "2", "--pitch", "15",
+    world = read_world(result.files["world"])
+    assert len(world.tracks) == 3
+    owners = set()
+    for name, track in world.tracks.items():
+        owner, distance = _owner(track, people)
+        assert len(set(owner)) == 1, f"track {name} switches between people"  # the crossing keeps who is who
+        assert np.median(distance) < 1.0  # metres: a sanity bound, not an accuracy claim
+        owners.add(int(owner[0]))
+        if owner[0] == 0:  # the occluded frames are filled in, marked, and the track is not split
+            assert track.interpolated[18:21].all() and not track.interpolated[:18].any()
+    assert owners == {0, 1, 2}
+    # The detections read back with their tracks, and lifting them again gives the same world.
+    keypoints = read_keypoints(result.files["keypoints"])
+    assert sorted(set(keypoints.tracks.tolist())) == sorted(int(t) for t in world.tracks)
+    assert len(keypoints.frames) == 3 * FRAMES - len(hidden)
+    assert main(["lift", "--keypoints", str(result.files["keypoints"]), "--camera-height", "3", "--pitch", "15",
                  "--hfov", "70", "--image-size", "640x480", "--out", str(tmp_path / "again.json")]) == 0
     again = read_world(tmp_path / "again.json")
-    np.testing.assert_allclose(again.track().joints, result.lifted.joints, atol=1e-4)
-    assert "ray3d: walk.mp4" in result.files["viewer"].read_text()
+    for name in world.tracks:
+        np.testing.assert_allclose(again.track(name).joints, world.track(name).joints, atol=1e-4)
+    viewer = json.loads(result.files["viewer"].read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
+    assert set(viewer["sequences"]) == set(world.tracks) and viewer["first"] == 0 and viewer["last"] == FRAMES - 1
     overlay = read_video_info(result.files["overlay"])
     assert overlay.frames == FRAMES and overlay.image_size == SIZE
 
 
-def test_the_pipeline_refuses_what_it_cannot_use(video, tmp_path):
-    path, camera, world, pixels = video
-    lift_video(path, camera, tmp_path, StubDetector(pixels), overlay=False, progress=False)
-    with pytest.raises(InputError, match="already exist"):
-        lift_video(path, camera, tmp_path, StubDetector(pixels), overlay=False, progress=False)
+def test_a_gap_longer_than_max_gap_splits_the_track_and_nothing_is_drawn_where_nobody_was(tmp_path):
+    person = _walker((6.0, -1.5), (0.0, 1.0))
+    pixels = [CAMERA.project(person)]
+    hidden = {(0, t) for t in list(range(0, 5)) + list(range(16, 30))}  # 0.7 s unseen in the middle
+    path = _render(tmp_path / "gap.mp4", pixels, hidden)
+    result = lift_video(path, CAMERA, tmp_path / "out", StubDetector(pixels, hidden), Lifter.load(),
+                        min_track_s=0.2, progress=False)
+    spans = sorted((int(t.frames[0]), int(t.frames[-1])) for t in result.world.tracks.values())
+    assert spans == [(5, 15), (30, FRAMES - 1)]
+    assert not any(t.interpolated.any() for t in result.world.tracks.values())
+    # Frames before the first detection and inside the gap hold no skeleton: the overlay equals the input there.
+    source = cv2.VideoCapture(str(path))
+    drawn = cv2.VideoCapture(str(result.files["overlay"]))
+    difference = []
+    for _ in range(FRAMES):
+        changed = np.abs(source.read()[1].astype(int) - drawn.read()[1].astype(int)).max(axis=-1) > 60
+        difference.append(int(changed.sum()))  # pixels the overlay painted (video coding changes a few levels)
+    difference = np.array(difference)
+    empty = np.array([t < 5 or 16 <= t < 30 for t in range(FRAMES)])
+    assert difference[empty].max() < 20 < 200 < difference[~empty].min()
+
+
+def test_tracker_keeps_ids_through_an_occluded_crossing_and_ends_tracks_after_the_gap():
+    people = [_walker((7.0, -2.0), (0.0, 1.5), 60), _walker((10.0, 2.0), (0.0, -1.5), 60)]
+    pixels = [CAMERA.project(p) for p in people]
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.5)
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    for t in range(60):
+        # The nearer person hides the farther one for 4 frames while they cross; person 1 leaves at frame 45.
+        seen = [p for p in (0, 1) if not (p == 1 and (24 <= t < 28 or t >= 45))]
+        tracker.update(t, [Detection(pixels[p][t], np.ones(17), 0.9) for p in seen], frame)
+    tracks = tracker.tracks()
+    assert len(tracks) == 2
+    for track in tracks:
+        first = track.detections[0].pixels[0]
+        person = int(np.argmin([np.linalg.norm(p[track.frames[0], 0] - first) for p in pixels]))
+        for f, d in zip(track.frames, track.detections):
+            np.testing.assert_allclose(d.pixels, pixels[person][f])  # never the other person's detection
+    assert sorted(len(t.frames) for t in tracks) == [41, 60]
+
+
+def test_tracker_needs_several_hits_before_a_track_exists():
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3)
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    pose = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
+    tracker.update(0, [Detection(pose, np.ones(17), 0.9)], frame)
+    tracker.update(1, [], frame)  # a one-off detection: never a track
+    for t in range(2, 5):
+        tracker.update(t, [Detection(pose, np.ones(17), 0.9)], frame)
+    assert [t.frames for t in tracker.tracks()] == [[2, 3, 4]]
+
+
+def test_person_height_follows_the_camera_geometry():
+    near, far = person_height_px(CAMERA, [[320.0, 400.0], [320.0, 260.0]])
+    assert near > far > 0
+    floor = CAMERA.pixels_to_height_plane(np.array([320.0, 400.0]))
+    head = CAMERA.project(floor + [0, 0, 1.7])
+    assert near == pytest.approx(np.linalg.norm(head - CAMERA.project(floor)))
+    assert np.isnan(person_height_px(CAMERA, [320.0, 0.0]))  # above the horizon: nobody stands there
+
+
+def test_foreground_proposals_find_moving_people_and_split_a_pair():
+    """Filled person-sized silhouettes moving over a textured background: one region per person, also for two
+    walking side by side in one blob."""
+    rng = np.random.default_rng(0)
+    background = rng.integers(40, 120, (SIZE[1], SIZE[0], 3), dtype=np.uint8)
+    feet = {"alone": np.array([150.0, 400.0]), "left": np.array([420.0, 330.0])}
+    height = {k: float(person_height_px(CAMERA, v)) for k, v in feet.items()}
+
+    def frame(shift):
+        image = background.copy()
+        for name, (u, v) in feet.items():
+            h, w = height[name], 0.3 * height[name]
+            columns = [u + shift] if name == "alone" else [u + shift, u + shift + 0.95 * w]
+            for c in columns:
+                cv2.rectangle(image, (int(c - w / 2), int(v - h)), (int(c + w / 2), int(v)), (230, 200, 30), -1)
+        return image
+
+    proposals = ForegroundProposals(CAMERA, median_background([background] * 5))
+    regions = proposals(frame(0.0))
+    assert len(regions) == 3
+    for name, expected in (("alone", 1), ("left", 2)):
+        u, v = feet[name]
+        near = regions[np.abs(regions[:, 1] - (v - height[name] / 2)) < 0.25 * height[name]]
+        assert len(near) == expected
+        assert np.all(np.abs(near[:, 2] / height[name] - 1.35) < 0.3)  # crops sized for a person there
+
+
+def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):
+    path, people, pixels, hidden = scene
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "mine.txt").write_text("keep me")
+    with pytest.raises(InputError, match="not empty"):
+        lift_video(path, CAMERA, tmp_path / "full", StubDetector(pixels), overlay=False, progress=False)
+    assert (tmp_path / "full" / "mine.txt").read_text() == "keep me"
     other = Camera.from_height_pitch(2.0, 15.0, (1280, 720), hfov_deg=70.0)
     with pytest.raises(InputError, match=r"image size \(1280, 720\) but .*640x480"):
         lift_video(path, other, tmp_path / "b", StubDetector(pixels), progress=False)
-
-    class Blind:
-        layout = "h36m17"
-
-        def __call__(self, frame):
-            return np.full((17, 2), np.nan), np.zeros(17)
-
-    with pytest.raises(InputError, match="found nobody"):
-        lift_video(path, camera, tmp_path / "c", Blind(), progress=False)
+    with pytest.raises(InputError, match="nobody was found"):
+        lift_video(path, CAMERA, tmp_path / "c", StubDetector([]), progress=False)
+    with pytest.raises(InputError, match="nobody was found.* 1 frame"):  # one frame: too short to follow anybody
+        lift_video(path, CAMERA, tmp_path / "one", StubDetector(pixels), frames=1, progress=False)
+    with pytest.raises(InputError, match="start frame 99"):
+        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), start=99, progress=False)
     (tmp_path / "notes.mp4").write_text("not a video")
     with pytest.raises(InputError, match="notes.mp4"):
-        lift_video(tmp_path / "notes.mp4", camera, tmp_path / "d", Blind(), progress=False)
+        lift_video(tmp_path / "notes.mp4", CAMERA, tmp_path / "e", StubDetector(pixels), progress=False)
+    cv2.VideoWriter(str(tmp_path / "empty.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), FPS, SIZE).release()
+    with pytest.raises(InputError, match="empty.mp4"):
+        lift_video(tmp_path / "empty.mp4", CAMERA, tmp_path / "f", StubDetector(pixels), progress=False)
+    assert not any((tmp_path / name).exists() for name in "bcdef") and not (tmp_path / "one").exists()
 
 
-def test_video_cli_with_a_registered_detector(video, tmp_path, monkeypatch, capsys):
-    path, camera, world, pixels = video
-    monkeypatch.setitem(DETECTORS, "stub", lambda: StubDetector(pixels))
-    assert main(["video", str(path), "--camera-height", "2", "--pitch", "15", "--hfov", "70", "--detector", "stub",
-                 "--format", ".csv", "--out", str(tmp_path / "out")]) == 0
+def test_video_cli_tracks_everybody_with_a_registered_detector(scene, tmp_path, monkeypatch, capsys):
+    path, people, pixels, hidden = scene
+    monkeypatch.setitem(DETECTORS, "stub", lambda camera: StubDetector(pixels, hidden, start=4))
+    common = ["--camera-height", "3", "--pitch", "15", "--hfov", "70", "--detector", "stub"]
+    assert main(["video", str(path), *common, "--format", ".csv", "--out", str(tmp_path / "out"),
+                 "--start", "4", "--frames", "30"]) == 0
     out = capsys.readouterr().out
-    assert f"{FRAMES} frames, a person found in {FRAMES - 3}" in out
-    assert (tmp_path / "out" / "world.csv").is_file() and (tmp_path / "out" / "overlay.mp4").is_file()
-    assert main(["video", str(path), "--camera-height", "2", "--pitch", "15", "--hfov", "70", "--detector", "yolo",
-                 "--out", str(tmp_path / "x")]) == 2
+    assert "30 frames, 3 people tracked" in out
+    world = read_world(tmp_path / "out" / "world.csv")
+    assert len(world.tracks) == 3 and min(int(t.frames[0]) for t in world.tracks.values()) == 4
+    assert read_video_info(tmp_path / "out" / "overlay.mp4").frames == 30
+    assert main(["video", str(path), *common[:-1], "yolo", "--out", str(tmp_path / "x")]) == 2
     assert "unknown detector 'yolo'" in capsys.readouterr().err
+    assert main(["video", str(path), *common, "--out", str(tmp_path / "out")]) == 2
+    assert "not empty" in capsys.readouterr().err
 
 
-def test_mediapipe_detector_on_generated_frames():
+def test_landmark_network_on_crops():
+    pytest.importorskip("ai_edge_litert", reason="the video extra is not installed: pip install 'ray3d[video]'")
+    from ray3d.video.landmarks import BlazePoseLandmarks, crop_transforms
+
+    regions = np.array([[100.0, 200.0, 128.0], [400.0, 300.0, 512.0], [10.0, 10.0, 64.0]])
+    maps = crop_transforms(regions)
+    for region, m in zip(regions, maps):  # each region's centre maps to the crop's centre, its side to 256 px
+        np.testing.assert_allclose(m @ [region[0], region[1], 1.0], [128.0, 128.0])
+        np.testing.assert_allclose(m[0, 0] * region[2], 256.0)
+    landmarks = BlazePoseLandmarks(threads=1)
+    frame = np.full((SIZE[1], SIZE[0], 3), 90, np.uint8)
+    pixels, confidences, scores = landmarks(frame, regions)
+    assert pixels.shape == (3, 33, 2) and confidences.shape == (3, 33) and scores.shape == (3,)
+    assert np.all(scores < 0.5)  # nobody in a flat grey frame
+    assert all(len(x) == 0 for x in landmarks(frame, np.zeros((0, 3))))
+
+
+def test_mediapipe_detector_finds_nobody_in_an_empty_frame():
     pytest.importorskip("mediapipe", reason="the video extra is not installed: pip install 'ray3d[video]'")
     from ray3d.video import MediaPipeDetector
 
-    camera, world, pixels = _scene()
     detector = MediaPipeDetector()
-    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
-    landmarks, confidences = detector(frame)  # nobody in an empty frame
-    assert landmarks.shape == (33, 2) and confidences.shape == (33,)
-    assert np.isnan(landmarks).all() and not confidences.any()
+    assert detector(np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)) == []
     detector.close()

@@ -13,6 +13,7 @@ from PIL import Image
 from ray3d import cameras
 from ray3d.cli import main
 from ray3d.demo import demo_clip, run_demo
+from ray3d.io.world import LiftResult, World, write_world
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
 from ray3d.viz.plots import plot_sweep
@@ -23,7 +24,8 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 def test_gif_has_one_frame_per_stride(tmp_path):
     truth = demo_clip()[:20]
     camera = cameras.h36m("S9", "54138969")
-    images = render_frames(camera.project(truth), truth + 0.02, camera, truth, stride=5, size_px=360)
+    images = render_frames({"ray3d": truth + 0.02}, camera, {"ray3d": camera.project(truth)}, truth, stride=5,
+                           size_px=360)
     assert len(images) == 4
     path = save_animation(images, tmp_path / "a.gif", fps=12)
     with Image.open(path) as gif:
@@ -76,7 +78,7 @@ def test_demo_runs_end_to_end_on_a_short_clip(tmp_path, tiny_checkpoint):
     assert result["viewer"].is_file() and result["animation"].is_file()
     assert all(np.isfinite(v["mrpe_mm"]) for v in result["table"].values())
     data = json.loads(result["viewer"].read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
-    assert data["frames"] == 24 and "truth" in data["sequences"]
+    assert data["last"] - data["first"] + 1 == 24 and "truth" in data["sequences"]
 
 
 def test_demo_cli(tmp_path, tiny_checkpoint, capsys):
@@ -98,3 +100,26 @@ def test_viz_cli_from_lift_outputs(tmp_path, tiny_checkpoint):
     with Image.open(tmp_path / "v.gif") as gif:
         assert gif.n_frames == 2
     assert main(["viz", str(world)]) == 2
+
+
+def test_viz_draws_every_track_at_the_world_files_rate_with_its_camera(tmp_path):
+    """Two people in one world file (one starting later, with filled-in frames): the viewer and the animation
+    hold both, at the file's 25 frames/s, through the file's camera, without --camera."""
+    camera = cameras.h36m("S9", "54138969")
+    clip = demo_clip()[:20]
+    filled = np.zeros((12, 17), dtype=bool)
+    filled[4:6] = True
+    world = World({"0": LiftResult(clip, np.zeros((20, 17), dtype=bool), 25.0, np.arange(20)),
+                   "7": LiftResult(clip[:12] + [1.0, 0.5, 0.0], filled, 25.0, np.arange(6, 18))}, camera, "test")
+    path = write_world(tmp_path / "people.json", world)
+    assert main(["viz", str(path), "--html", str(tmp_path / "v.html"), "--animation", str(tmp_path / "v.gif"),
+                 "--stride", "5"]) == 0
+    data = json.loads((tmp_path / "v.html").read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
+    assert set(data["sequences"]) == {"0", "7"} and data["fps"] == 25.0
+    assert data["sequences"]["7"]["start"] == 6 and data["sequences"]["7"]["filled"][4:6] == [True, True]
+    assert (data["first"], data["last"]) == (0, 19) and len(data["camera_lines"]) == 8
+    with Image.open(tmp_path / "v.gif") as gif:
+        assert gif.n_frames == 4  # frames 0, 5, 10, 15 of the union of both tracks
+    assert main(["viz", str(path), "--track", "7", "--html", str(tmp_path / "one.html")]) == 0
+    one = json.loads((tmp_path / "one.html").read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
+    assert set(one["sequences"]) == {"7"} and one["first"] == 6

@@ -71,6 +71,8 @@ class PersonCalibration:
     focal_sd_px: float       # 0 when the focal length was given
     rms_px: float            # reprojection error of the upright-body model over the frames used
     frames_used: int
+    people: int = 1          # tracks fitted jointly
+    warnings: tuple[str, ...] = ()  # why the estimate may be poor (bad fit, few frames, one distance)
 
     @property
     def height_m(self) -> float:
@@ -91,14 +93,16 @@ class PersonCalibration:
     def to_dict(self) -> dict:
         estimate = {"height_m": self.height_m, "pitch_deg": self.pitch_deg, "roll_deg": self.roll_deg,
                     "focal_px": self.focal_px}
-        return {**estimate, **{k: v for k, v in dataclasses.asdict(self).items() if k != "camera"}}
+        fields = {k: v for k, v in dataclasses.asdict(self).items() if k != "camera"}
+        return {**estimate, **fields, "warnings": list(self.warnings)}
 
     def summary(self) -> str:
         focal = (f"focal {self.focal_px:.0f} +- {self.focal_sd_px:.0f} px" if self.focal_sd_px > 0
                  else f"focal {self.focal_px:.0f} px (given)")
         return (f"camera height {self.height_m:.2f} +- {self.height_sd_m:.2f} m, pitch {self.pitch_deg:.1f} +- "
                 f"{self.pitch_sd_deg:.1f} deg, roll {self.roll_deg:.1f} +- {self.roll_sd_deg:.1f} deg, {focal}; "
-                f"model fit RMS {self.rms_px:.1f} px over {self.frames_used} frames")
+                f"model fit RMS {self.rms_px:.1f} px over {self.frames_used} frames of {self.people} "
+                f"{'person' if self.people == 1 else 'people'}")
 
 
 def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17", confidences=None) -> np.ndarray:
@@ -119,54 +123,89 @@ def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1
                 layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
                 seed: int = 0, max_frames: int = 400, model_error: bool = True,
                 confidences=None) -> PersonCalibration:
-    """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints
-    (T, J, 2) of one person standing or walking on the floor, seen by a camera with square pixels and its
-    principal point at the image centre.
+    """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints of
+    people standing or walking on the floor, seen by a camera with square pixels and its principal point at
+    the image centre. ``keypoints`` is one person's (T, J, 2) or a list of several people's (T_i, J, 2) (with
+    ``confidences`` (T, J) or a list alike; 0 = missing), all fitted jointly: people at different distances
+    make the focal length observable, and their gaits' and statures' errors average out.
 
-    The model: in every frame the person's mid-ankle, pelvis, thorax and head lie on one vertical line at
+    The model: in every frame a person's mid-ankle, pelvis, thorax and head lie on one vertical line at
     fixed fractions of ``person_height`` (``AXIS_HEIGHTS``). For a candidate camera each point's ray meets the
     horizontal plane at its height; the vertical line stands at the mean of those four floor positions, and
     the four points on it are projected back; the parameters minimise the robust (soft L1) reprojection error
-    over the frames. Heights scale with the assumed stature, angles do not. Frames where the person bends or sits fit the model badly and are
-    down-weighted by the robust loss; the more the person moves towards and away from the camera, the better
-    the focal length is determined. ``model_error=False`` leaves ``MODEL_ERROR_SD`` out of the standard
-    deviations (e.g. for a synthetic person who fits the model exactly). Joints with ``confidences`` (T, J) of 0
-    count as missing.
+    over the frames. Heights scale with the assumed (mean) stature, angles do not. Frames where somebody bends
+    or sits fit the model badly and are down-weighted by the robust loss. The standard deviations combine a
+    bootstrap (over people when there are three or more, else over blocks of frames), the model error and the
+    stature's spread, the last two shrinking with the number of people. ``warnings`` says when the fit is
+    poor instead of returning a confident wrong camera. ``model_error=False`` leaves ``MODEL_ERROR_SD`` out
+    (e.g. for a synthetic person who fits the model exactly).
     """
     width, height = parse_image_size(image_size)
-    axis = person_axis_pixels(keypoints, layout, confidences)
-    usable = np.isfinite(axis).all(axis=(1, 2))
-    if usable.sum() < MIN_PERSON_FRAMES:
-        raise InputError(f"keypoints: {int(usable.sum())} frame(s) show the ankles, hips, shoulders and head; at "
+    people = list(keypoints) if isinstance(keypoints, (list, tuple)) else [keypoints]
+    scores = (list(confidences) if isinstance(confidences, (list, tuple)) else [confidences]) \
+        if confidences is not None else [None] * len(people)
+    if len(scores) != len(people):
+        raise InputError(f"confidences: {len(scores)} arrays for {len(people)} people's keypoints")
+    axes = []
+    for person, score in zip(people, scores):
+        axis = person_axis_pixels(person, layout, score)
+        axes.append(axis[np.isfinite(axis).all(axis=(1, 2))])
+    usable = sum(len(a) for a in axes)
+    if usable < MIN_PERSON_FRAMES:
+        raise InputError(f"keypoints: {usable} frame(s) show the ankles, hips, shoulders and head; at "
                          f"least {MIN_PERSON_FRAMES} are needed")
     if not 0.5 < person_height < 2.8:
         raise InputError(f"person_height: expected the person's stature in metres (0.5-2.8), got {person_height}")
     if focal_px is not None and not focal_px > 0:
         raise InputError(f"focal_px: expected a positive focal length in pixels, got {focal_px}")
-    frames = np.flatnonzero(usable)
-    frames = frames[np.linspace(0, len(frames) - 1, min(len(frames), max_frames)).astype(int)]
-    axis = axis[frames]
+    # At most max_frames frames in all, taken evenly from each person in proportion to how long they were seen.
+    axes = [a[np.linspace(0, len(a) - 1, max(1, round(len(a) * min(1.0, max_frames / usable)))).astype(int)]
+            for a in axes if len(a)]
+    owner = np.concatenate([np.full(len(a), i) for i, a in enumerate(axes)])
+    axis = np.concatenate(axes)
     problem = _PersonProblem(axis, (width, height), person_height, focal_px)
     best = problem.solve_from_grid()
-    # Block bootstrap: frames close in time are not independent, so resample ten contiguous blocks.
     rng = np.random.default_rng(seed)
-    blocks = np.array_split(np.arange(len(axis)), min(10, len(axis)))
+    # Frames close in time are not independent: resample whole people, or (fewer than three) ten blocks of frames.
+    blocks = ([np.flatnonzero(owner == i) for i in range(len(axes))] if len(axes) >= 3
+              else np.array_split(np.arange(len(axis)), min(10, len(axis))))
     estimates = []
     for _ in range(bootstrap):
         chosen = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
         estimates.append(_PersonProblem(axis[chosen], (width, height), person_height, focal_px).solve(best.x))
     spread = np.std(estimates, axis=0) if bootstrap > 1 else np.zeros_like(best.x)
-    floor = MODEL_ERROR_SD if model_error else dict.fromkeys(MODEL_ERROR_SD, 0.0)
+    shrink = 1.0 / np.sqrt(len(axes))  # independent people's gaits and statures average out
+    floor = {k: v * shrink for k, v in MODEL_ERROR_SD.items()} if model_error else dict.fromkeys(MODEL_ERROR_SD, 0.0)
     camera = dataclasses.replace(problem.camera(best.x), name="person-calibrated")
-    height_sd = camera.camera_height * float(np.linalg.norm([spread[2], person_height_sd / person_height,
+    height_sd = camera.camera_height * float(np.linalg.norm([spread[2], shrink * person_height_sd / person_height,
                                                              floor["height_fraction"]]))
     residuals = problem.pixel_residuals(best.x)
+    rms = float(np.sqrt(np.nanmean(residuals ** 2) * 2))
     return PersonCalibration(
         camera=camera, height_sd_m=height_sd,
         pitch_sd_deg=float(np.hypot(np.degrees(spread[0]), floor["pitch_deg"])),
         roll_sd_deg=float(np.hypot(np.degrees(spread[1]), floor["roll_deg"])),
         focal_sd_px=float(camera.K[0, 0] * spread[3]) if focal_px is None else 0.0,
-        rms_px=float(np.sqrt(np.nanmean(residuals ** 2) * 2)), frames_used=len(axis))
+        rms_px=rms, frames_used=len(axis), people=len(axes),
+        warnings=_fit_warnings(axis, rms, height_sd / camera.camera_height, focal_px is None))
+
+
+def _fit_warnings(axis: np.ndarray, rms_px: float, height_fraction_sd: float, focal_unknown: bool) -> tuple[str, ...]:
+    """What makes a person calibration doubtful: a poor fit of the upright model, few frames, everybody at one
+    distance while the focal length is unknown, or a wide uncertainty."""
+    tall = np.linalg.norm(axis[:, 3] - axis[:, 0], axis=-1)  # head above the ankles, pixels
+    warnings = []
+    if rms_px > 0.06 * np.median(tall):
+        warnings.append(f"the upright-body model fits poorly (RMS {rms_px:.1f} px, {100 * rms_px / np.median(tall):.0f}% "
+                        "of a person's height): are they bending or sitting, or are the keypoints wrong?")
+    if len(axis) < 50:
+        warnings.append(f"only {len(axis)} upright frames: the estimate rests on little")
+    if focal_unknown and np.percentile(tall, 90) < 1.3 * np.percentile(tall, 10):
+        warnings.append("everybody stays at about one distance from the camera: the focal length is poorly "
+                        "determined; give it (focal_px) if it is known")
+    if height_fraction_sd > 0.2:
+        warnings.append(f"the camera height is uncertain by {100 * height_fraction_sd:.0f}%")
+    return tuple(warnings)
 
 
 class _PersonProblem:

@@ -11,7 +11,7 @@ from pathlib import Path
 from ray3d.errors import InputError
 
 
-def _write_json(path: Path, document: dict, overwrite: bool) -> None:
+def write_json(path: Path, document: dict, overwrite: bool) -> None:
     from ray3d.io.atomic import atomic_path
 
     with atomic_path(path, overwrite=overwrite) as temporary:
@@ -133,7 +133,7 @@ def evaluate(args: argparse.Namespace) -> int:
         print(row(name, values))
     print(row("overall (mm)", result))
     if args.json:
-        _write_json(args.json, result, args.force)
+        write_json(args.json, result, args.force)
     return 0
 
 
@@ -232,11 +232,19 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
     image_size = _image_size(args)
     focal = args.focal or (focal_from_hfov(image_size[0], args.hfov) if args.hfov is not None else None)
     keypoints = read_keypoints(args.from_person, args.layout)
-    track, _, pixels, confidences = keypoints.track(args.track)
-    result = from_person(pixels, image_size, args.person_height, focal, keypoints.layout, confidences=confidences)
+    if args.track is not None:
+        track, _, pixels, confidences = keypoints.track(args.track)
+        tracks, people = [track], ([pixels], [confidences])
+    else:  # everybody, jointly
+        entries = keypoints.by_track()
+        tracks, people = list(entries), ([e[1] for e in entries.values()], [e[2] for e in entries.values()])
+    confidences = None if any(c is None for c in people[1]) else people[1]
+    result = from_person(people[0], image_size, args.person_height, focal, keypoints.layout, confidences=confidences)
     save_cameras(args.out, [result.camera], overwrite=args.force, calibration="from person",
-                 person_height_m=args.person_height, track=str(track), **result.to_dict())
-    print(f"{result.summary()} (person {args.person_height:.2f} m tall, track {track}) -> {args.out}")
+                 person_height_m=args.person_height, tracks=[str(t) for t in tracks], **result.to_dict())
+    print(f"{result.summary()} (people {args.person_height:.2f} m tall on average) -> {args.out}")
+    for warning in result.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     return 0
 
 
@@ -277,20 +285,28 @@ def _print_refinements(tracks: dict) -> None:
 
 
 def video(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ray3d.lift import Lifter
     from ray3d.video import lift_video, make_detector, read_video_info
 
     info = read_video_info(args.input)
     if args.camera is None and args.image_size is None:
         args.image_size = f"{info.image_size[0]}x{info.image_size[1]}"
-    result = lift_video(args.input, _camera(args), args.out, make_detector(args.detector), Lifter.load(args.checkpoint),
-                        fps=args.fps, world_format=args.format, overlay=not args.no_overlay, overwrite=args.force,
-                        smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d, flip_test=args.flip_test,
-                        refine=not args.no_refine)
-    found = int((result.confidences > 0).any(axis=1).sum())
-    print(f"{args.input}: {len(result.keypoints)} frames, a person found in {found}; "
-          f"{100 * result.lifted.missing_fraction:.1f}% of joints filled in from neighbouring frames")
-    _print_refinements({"0": result.lifted})
+    camera = _camera(args)
+    result = lift_video(args.input, camera, args.out, make_detector(args.detector, camera),
+                        Lifter.load(args.checkpoint), fps=args.fps, world_format=args.format,
+                        overlay=not args.no_overlay, overwrite=args.force, start=args.start, frames=args.frames,
+                        max_gap_s=args.max_gap, min_track_s=args.min_track, smooth_2d=args.smooth_2d,
+                        smooth_3d=args.smooth_3d, flip_test=args.flip_test, refine=not args.no_refine)
+    tracks = result.world.tracks
+    filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
+    print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked ({len(result.dropped)} short or "
+          f"unliftable tracks dropped); {100 * filled:.1f}% of their frames filled in between detections")
+    seconds = result.seconds
+    print(f"  {result.frames / sum(seconds.values()):.1f} frames/s end to end: people {seconds['people']:.1f} s, "
+          f"lifting {seconds['lifting']:.1f} s, writing {seconds['writing']:.1f} s")
+    _print_refinements(tracks)
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
     return 0
@@ -304,92 +320,20 @@ def viz(args: argparse.Namespace) -> int:
 
     if not args.html and not args.animation:
         raise InputError("viz: nothing to write: pass --html and/or --animation")
-    if args.animation and not args.camera:
-        raise InputError("viz: --animation draws the 2D view and the camera: pass --camera")
-    sequences = {path.stem: read_world(path).track(args.track).joints for path in args.world}
-    fps = args.fps or 60.0
-    camera = read_camera(args.camera) if args.camera else None
+    worlds = [read_world(path) for path in args.world]
+    sequences = {}
+    for path, world in zip(args.world, worlds):
+        chosen = [args.track] if args.track is not None else list(world.tracks)
+        for track in chosen:  # every track of every file; a file's stem names it when there are several files
+            result = world.track(track)
+            sequences[track if len(worlds) == 1 else f"{path.stem}:{track}"] = result
+    fps = args.fps or worlds[0].fps
+    camera = read_camera(args.camera) if args.camera else worlds[0].camera
     if args.html:
         write_viewer(args.html, sequences, fps, camera, overwrite=args.force)
-        print(f"wrote {args.html}")
+        print(f"wrote {args.html} ({len(sequences)} tracks, {fps:g} frames/s)")
     if args.animation:
-        first = next(iter(sequences.values()))
-        images = render_frames(camera.project(first), first, camera, stride=args.stride)
+        images = render_frames(sequences, camera, stride=args.stride)
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")
-    return 0
-
-
-def bench_robustness(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from ray3d.bench.robustness import run, write
-    from ray3d.data import motion as motion_data
-
-    clips = motion_data.load_shipped(args.data_dir, "test")
-    if args.clips:
-        clips = clips.select(np.arange(clips.num_clips) < args.clips)
-    sweeps = run(args.models, clips, args.frame_stride, args.camera_stride)
-    files = write(sweeps, args.out)
-    print(f"{len(sweeps)} sweeps x {len(args.models)} methods on {clips.num_clips} test clips -> {len(files)} files "
-          f"in {args.out} (see {args.out / 'summary.md'})")
-    return 0
-
-
-def bench_calibration(args: argparse.Namespace) -> int:
-    from ray3d.bench.calibration import run, write
-    from ray3d.data import motion as motion_data
-    from ray3d.lift import Lifter
-
-    rows = run(motion_data.load_shipped(args.data_dir, args.split), Lifter.load(args.checkpoint), args.pairs, args.seed,
-               args.bootstrap)
-    files = write(rows, args.out)
-    print((args.out / "calibration.md").read_text())
-    print(f"{len(rows)} estimates -> {', '.join(map(str, files))}")
-    return 0
-
-
-def bench_real_video(args: argparse.Namespace) -> int:
-    from ray3d.bench.real_video import run_emulated, run_video, write
-    from ray3d.data import motion as motion_data
-    from ray3d.io.camera_files import read_camera
-    from ray3d.io.keypoints import read_keypoints
-    from ray3d.lift import Lifter
-
-    lifter, video_rows, name = Lifter.load(args.checkpoint), None, ""
-    if args.video or args.keypoints:
-        if not args.camera:
-            raise InputError("bench real-video: --video and --keypoints need --camera")
-        if args.keypoints:
-            keypoints, name = read_keypoints(args.keypoints, fps=args.fps), args.keypoints.name
-        else:
-            from ray3d.video import make_detector, video_keypoints
-
-            keypoints, name = video_keypoints(args.video, make_detector(args.detector), args.fps), args.video.name
-        video_rows = run_video(lifter, keypoints, read_camera(args.camera))
-    emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed)
-    files = write(args.out, emulated, video_rows, name)
-    print(files[1].read_text())
-    print(f"-> {', '.join(map(str, files))}")
-    return 0
-
-
-def bench_speed(args: argparse.Namespace) -> int:
-    from ray3d.bench.speed import measure_all
-
-    result = measure_all(args.models, args.repeats, batch_size=args.batch, sequence_frames=args.sequence_frames,
-                         train_batch=args.train_batch)
-    by_path = ", ".join(f"{name.removesuffix('_gflops')} {rate:.0f}"
-                        for name, rate in result["matmul_paths_gflops"].items())
-    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s ({by_path}); torch threads "
-          f"{result['torch_threads']}")
-    print(f"{'model':<15}{'backend':<13}{'params':>12}{'MFLOP/f':>9}{'batch f/s':>11}{'seq f/s':>10}"
-          f"{'latency ms':>11}{'stream ms':>10}{'train s/s':>10}{'% peak':>8}")
-    for r in result["models"]:
-        train_rate = f"{r['train_samples_per_s']:>10,.0f}" if r["train_samples_per_s"] else f"{'-':>10}"
-        print(f"{r['model']:<15}{r['backend']:<13}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}"
-              f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}"
-              f"{r['stream_ms_per_frame']:>10.2f}{train_rate}{100 * r['fraction_of_peak']:>8.1f}")
-    if args.json:
-        _write_json(args.json, result, args.force)
     return 0

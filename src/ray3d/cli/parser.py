@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 import ray3d
+from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
 
 
@@ -138,13 +139,19 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("--force", action="store_true", help="replace --out if it exists")
     lift.set_defaults(handler=handlers.lift)
 
-    video = commands.add_parser("video", help="a video -> 2D detections -> world 3D, viewer and overlay video "
-                                              "(pip install 'ray3d[video]')")
+    video = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
+                                              "viewer and overlay video (pip install 'ray3d[video]')")
     video.add_argument("input", type=Path, help="the video file (anything OpenCV reads: .mp4, .avi, ...)")
     _add_camera_arguments(video, image_size_note=" (default: the video's)")
     video.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
                                                                 "overlay.mp4")
-    video.add_argument("--detector", default="mediapipe", help="2D detector (default mediapipe)")
+    video.add_argument("--detector", default="people",
+                       help="people (default): everybody in view of a fixed camera; mediapipe: one person, close up")
+    video.add_argument("--start", type=int, default=0, help="first frame to process (default 0)")
+    video.add_argument("--frames", type=int, help="how many frames to process (default: to the end)")
+    video.add_argument("--max-gap", type=float, default=0.5,
+                       help="seconds a person may go undetected and keep their track (default 0.5)")
+    video.add_argument("--min-track", type=float, default=1.0, help="drop tracks shorter than this, seconds (default 1)")
     video.add_argument("--format", choices=[".json", ".csv", ".npz"], default=".json", help="world file format")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
@@ -152,13 +159,15 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 
-    viz = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift)")
-    viz.add_argument("world", nargs="+", type=Path, help="world outputs of ray3d lift (.json/.csv/.npz): one per method")
-    viz.add_argument("--camera", help="the camera (drawn as a frustum; needed for --animation)")
+    viz = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
+                                          "ray3d video): every track, with its id and path on the floor")
+    viz.add_argument("world", nargs="+", type=Path,
+                     help="world files (.json/.csv/.npz): several people, or one per method to compare")
+    viz.add_argument("--camera", help="the camera drawn and projected through (default: the first world file's)")
     viz.add_argument("--html", type=Path, help="write the interactive viewer here")
     viz.add_argument("--animation", type=Path, help="write a .gif (or .mp4 with ffmpeg) here")
-    viz.add_argument("--track", help="which track to show (default: the first)")
-    viz.add_argument("--fps", type=float, help="playback frame rate (default 60)")
+    viz.add_argument("--track", help="show only this track (default: every track)")
+    viz.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
     viz.add_argument("--force", action="store_true", help="replace existing outputs")
     viz.set_defaults(handler=handlers.viz)
@@ -174,7 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
     robustness.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
     robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
     robustness.add_argument("--data-dir", help=data_dir_help)
-    robustness.set_defaults(handler=handlers.bench_robustness)
+    robustness.set_defaults(handler=bench_handlers.robustness)
     calibration = bench_commands.add_parser("calibration", help="camera estimation from a walking person: errors "
                                                                 "and their cost to Ray3D (CSV, JSON, markdown)")
     calibration.add_argument("--out", required=True, type=Path, help="folder for calibration.{csv,json,md}")
@@ -185,20 +194,21 @@ def build_parser() -> argparse.ArgumentParser:
     calibration.add_argument("--split", choices=["train", "validation", "test"], default="test",
                              help="whose walking clips (default: the test performers)")
     calibration.add_argument("--data-dir", help=data_dir_help)
-    calibration.set_defaults(handler=handlers.bench_calibration)
+    calibration.set_defaults(handler=bench_handlers.calibration)
     real = bench_commands.add_parser("real-video", help="physical checks (feet on the floor, stature, walking speed, "
                                                         "bones, skating, jitter) on a video and on emulated detections")
     real.add_argument("--out", required=True, type=Path, help="folder for real-video.{json,md}")
     real.add_argument("--video", type=Path, help="a video of people walking on a floor (needs --camera)")
     real.add_argument("--keypoints", type=Path, help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
     real.add_argument("--camera", help="the video's camera file")
-    real.add_argument("--detector", default="mediapipe", help="2D detector for --video (default mediapipe)")
+    real.add_argument("--detector", default="people",
+                      help="2D detector for --video (default people)")
     real.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
     real.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
     real.add_argument("--pairs", type=int, default=12, help="emulated (test clip, camera) pairs (default 12)")
     real.add_argument("--seed", type=int, default=0)
     real.add_argument("--data-dir", help=data_dir_help)
-    real.set_defaults(handler=handlers.bench_real_video)
+    real.set_defaults(handler=bench_handlers.real_video)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
     speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")
@@ -207,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
     speed_bench.add_argument("--sequence-frames", type=int, default=10_000)
     speed_bench.add_argument("--train-batch", type=int, default=1024)
     speed_bench.add_argument("--force", action="store_true", help="replace --json if it exists")
-    speed_bench.set_defaults(handler=handlers.bench_speed)
+    speed_bench.set_defaults(handler=bench_handlers.speed)
 
     calibrate = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
                                                       "person walking on the floor")
@@ -218,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
                                 "floor (any format ray3d lift reads); estimates height, pitch, roll (and focal)")
     calibrate.add_argument("--person-height", type=float, default=1.70,
                            help="with --from-person: the person's stature in metres (default 1.70)")
-    calibrate.add_argument("--track", help="with --from-person: which track (default: the longest)")
+    calibrate.add_argument("--track", help="with --from-person: only this track (default: every track, jointly)")
     calibrate.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
     calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
     _add_lens_arguments(calibrate, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")

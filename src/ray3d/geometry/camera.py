@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from ray3d.errors import InputError
 from ray3d.geometry import transforms as tf
-from ray3d.geometry.arrays import Array, check_points, like
+from ray3d.geometry.arrays import Array, check_points, like, namespace
 
 ORTHONORMAL_TOLERANCE = 1e-6
 
@@ -273,6 +273,18 @@ class Camera:
         (not unit length)."""
         rays = self.pixels_to_rays(pixels, frame="camera")
         return rays @ like(self.R, rays)
+
+    def pixels_to_height_plane(self, pixels: Array, height_m: float = 0.0) -> Array:
+        """(..., 2) pixels -> (..., 3) world points where their rays meet the horizontal plane ``z = height_m``
+        (the floor by default); NaN where a ray never reaches it in front of the camera."""
+        xp = namespace(pixels)
+        directions = self.pixels_to_world_directions(pixels)
+        centre = like(self.center, directions)
+        dz = directions[..., 2]
+        # Solve C_z + s d_z = height for the ray parameter s; only s > 0 lies in front of the camera.
+        s = (height_m - centre[2]) / xp.where(dz != 0, dz, xp.ones_like(dz))
+        s = xp.where((dz != 0) & (s > 0) & xp.isfinite(s), s, xp.full_like(s, float("nan")))
+        return centre + s[..., None] * directions
 
     def sees(self, points_world: np.ndarray) -> bool:
         """Whether every (..., 3) world point lies in front of the camera and projects inside the image."""

@@ -264,14 +264,15 @@ def read_keypoints(path: str | Path, layout: str | None = None, fps: float | Non
     raise InputError(f"{path}: unknown keypoint format (expected .npz, .json, .csv or an OpenPose folder)")
 
 
-def write_keypoints_json(path: str | Path, pixels: np.ndarray, confidences: np.ndarray, layout: str, fps: float,
-                         overwrite: bool = False) -> Path:
-    """One person's detections (T, J, 2) pixels and (T, J) confidences in our JSON format (read by
-    ``read_keypoints``): one detection per frame where any joint was found, missing joints as confidence 0."""
-    rows = np.concatenate([np.nan_to_num(pixels), confidences[..., None]], axis=-1)
-    document = {"layout": layout, "fps": fps, "detections": [
-        {"frame": i, "track": 0, "keypoints": np.round(r, 3).tolist()} for i, r in enumerate(rows)
-        if (confidences[i] > 0).any()]}
+def write_keypoints_json(path: str | Path, keypoints: Keypoints, overwrite: bool = False) -> Path:
+    """Detections in our JSON format (read back by ``read_keypoints``): one row per detection with its frame
+    index and track id; missing joints as confidence 0."""
+    confidences = (np.ones(keypoints.pixels.shape[:2]) if keypoints.confidences is None
+                   else np.where(np.isfinite(keypoints.pixels).all(-1), keypoints.confidences, 0.0))
+    rows = np.concatenate([np.nan_to_num(keypoints.pixels), confidences[..., None]], axis=-1)
+    document = {"layout": keypoints.layout, "fps": keypoints.fps, "detections": [
+        {"frame": int(f), "track": int(t) if isinstance(t, (int, np.integer)) else str(t),
+         "keypoints": np.round(r, 3).tolist()} for f, t, r in zip(keypoints.frames, keypoints.tracks, rows)]}
     with atomic_path(path, overwrite) as temporary:
         temporary.write_text(json.dumps(document))
     return Path(path)

@@ -1,7 +1,9 @@
-"""From a video to world coordinates: a 2D pose detector behind a small interface, then ``Lifter``."""
+"""From a video to world coordinates: frames -> the people in each (detection, crops) -> tracks -> ``Lifter``."""
 
-from ray3d.video.detectors import DETECTORS, MediaPipeDetector, PoseDetector, make_detector
-from ray3d.video.pipeline import VideoResult, detect_video, lift_video, read_video_info, video_keypoints
+from ray3d.video.detectors import DETECTORS, Detection, MediaPipeDetector, PeopleDetector, PoseDetector, make_detector
+from ray3d.video.frames import VideoInfo, read_frames, read_video_info
+from ray3d.video.pipeline import VideoResult, lift_video, track_video
+from ray3d.video.tracking import FloorTracker, Track
 
-__all__ = ["DETECTORS", "MediaPipeDetector", "PoseDetector", "VideoResult", "detect_video", "lift_video",
-           "make_detector", "read_video_info", "video_keypoints"]
+__all__ = ["DETECTORS", "Detection", "FloorTracker", "MediaPipeDetector", "PeopleDetector", "PoseDetector", "Track",
+           "VideoInfo", "VideoResult", "lift_video", "make_detector", "read_frames", "read_video_info", "track_video"]

@@ -1,28 +1,154 @@
 """2D pose detectors: anything with a ``layout`` (a ``ray3d.skeleton`` layout name) that maps an RGB frame to
-one person's pixels and confidences. MediaPipe Pose 0.10.21 is the one found to run fully offline from a
-registry package (``pip install 'ray3d[video]'``): its wheel bundles the ``model_complexity=1`` landmark model."""
+the people in it, each a ``Detection``. Both detectors run offline from registry packages
+(``pip install 'ray3d[video]'``): their weights ship inside the mediapipe wheel.
+
+- ``people`` (default): every person, also small ones, for a fixed camera. Moving foreground cut into
+  person-sized regions (``proposals``) plus the regions of the people found in the previous frame (people who
+  stop walking), BlazePose's landmark network on an upscaled crop of each (``landmarks``), duplicates removed.
+- ``mediapipe``: MediaPipe Pose's own graph, one person per frame, for a close-up of one person (its
+  full-frame detector misses people under about 150 px, and it jumps between people in a crowd).
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from typing import Protocol
 
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
+from ray3d.video.landmarks import BlazePoseLandmarks
+from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
+
+
+@dataclasses.dataclass(frozen=True)
+class Detection:
+    """One person in one frame: pixels (J, 2) and confidences (J,) in the detector's layout, and how sure the
+    detector is that it is a person (0-1)."""
+
+    pixels: np.ndarray
+    confidences: np.ndarray
+    score: float
+
+    @functools.cached_property
+    def box(self) -> np.ndarray:
+        """(4,) x0, y0, x1, y1 around the joints seen with confidence 0.5 or more (all if fewer than two are)."""
+        seen = self.pixels[self.confidences >= 0.5]
+        seen = seen if len(seen) >= 2 else self.pixels
+        return np.concatenate([seen.min(axis=0), seen.max(axis=0)])
 
 
 class PoseDetector(Protocol):
-    """One person per frame: ``detector(frame)`` with an (H, W, 3) uint8 RGB frame returns pixels (J, 2) and
-    confidences (J,) in ``layout``; NaN pixels and zero confidences where nobody (or no joint) was found."""
+    """``detector(frame)`` with an (H, W, 3) uint8 RGB frame returns the people in it; ``prepare(frames)`` is
+    given frames spread over the whole video before the first call (a fixed camera's empty scene)."""
 
     layout: str
 
-    def __call__(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+    def prepare(self, frames: list[np.ndarray]) -> None: ...
+
+    def __call__(self, frame: np.ndarray) -> list[Detection]: ...
+
+
+def box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection over union of boxes (N, 4) and (M, 4) -> (N, M)."""
+    low = np.maximum(a[:, None, :2], b[None, :, :2])
+    high = np.minimum(a[:, None, 2:], b[None, :, 2:])
+    inter = np.prod(np.clip(high - low, 0, None), axis=-1)
+    area = lambda x: np.prod(x[:, 2:] - x[:, :2], axis=-1)  # noqa: E731
+    return inter / np.maximum(area(a)[:, None] + area(b)[None] - inter, 1e-9)
+
+
+class PeopleDetector:
+    """Every person in view of a fixed camera (see the module's note).
+
+    Args:
+        camera: the video's camera; its geometry says how tall a person looks at each floor pixel.
+        min_score: the landmark network's person score below which a crop holds nobody.
+        threads: CPU threads for the landmark network.
+    """
+
+    layout = BLAZEPOSE33.name
+
+    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2):
+        self.camera, self.min_score = camera, min_score
+        self._landmarks = BlazePoseLandmarks(threads)
+        self._proposals = ForegroundProposals(camera)
+        self._previous: list[Detection] = []
+
+    def prepare(self, frames: list[np.ndarray]) -> None:
+        self._proposals = ForegroundProposals(self.camera, median_background(frames) if frames else None)
+        self._previous = []
+
+    def __call__(self, frame: np.ndarray) -> list[Detection]:
+        # The people of the last frame are looked for where they were (also when they stopped, or merged with
+        # others into one blob); a moving blob is looked at only where it is not one of them; then, once more,
+        # where part of a blob is left that nobody found explains (the second of two walking together).
+        known = np.array([_region_around(d) for d in self._previous]).reshape(-1, 3)
+        blobs = self._proposals.blobs(frame)
+        proposed = self._proposals.split_blobs(blobs)
+        boxes = np.array([d.box for d in self._previous]).reshape(-1, 4)
+        fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes)]
+        found = self._look(frame, np.concatenate([known, fresh]))
+        if found:
+            found += self._look(frame, self._proposals.unexplained(blobs, np.stack([d.box for d in found])))
+        self._previous = _without_duplicates(found)
+        return self._previous
+
+    def _look(self, frame: np.ndarray, regions: np.ndarray) -> list[Detection]:
+        """The people the landmark network finds in ``regions`` (N, 3) of the frame."""
+        pixels, confidences, scores = self._landmarks(frame, regions)
+        found = [Detection(p, c, float(s)) for p, c, s in zip(pixels, confidences, scores) if s >= self.min_score]
+        return [d for d in found if self._person_sized(d)]
+
+    def _person_sized(self, detection: Detection) -> bool:
+        """Whether the detection is between a third and twice a person's height at its feet, and not wider
+        than most of it (joints strewn over two people)."""
+        x0, y0, x1, y1 = detection.box
+        expected = float(self._proposals.person_height([(x0 + x1) / 2, y1]))
+        return bool(np.isfinite(expected)) and expected / 3 <= y1 - y0 <= 2 * expected and x1 - x0 <= 0.75 * expected
+
+
+def _region_around(detection: Detection) -> np.ndarray:
+    """(3,) the crop region (centre u, centre v, side) around a detection's joints."""
+    x0, y0, x1, y1 = detection.box
+    return np.array([(x0 + x1) / 2, (y0 + y1) / 2, ROI_MARGIN * max(y1 - y0, x1 - x0)])
+
+
+def _near(regions: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """(N,) whether each region (N, 3) frames about the same person as one of ``others`` (M, 3): centres
+    within a quarter of the side apart, sides within a factor 1.6 (a neighbour walking close beside counts as
+    near: the second look, at the foreground nobody explains, finds them)."""
+    if not len(others) or not len(regions):
+        return np.zeros(len(regions), dtype=bool)
+    gap = np.linalg.norm(regions[:, None, :2] - others[None, :, :2], axis=-1)
+    ratio = regions[:, None, 2] / others[None, :, 2]
+    return ((gap < regions[:, None, 2] / 4) & (ratio > 1 / 1.6) & (ratio < 1.6)).any(axis=1)
+
+
+def _inside(points: np.ndarray, boxes: np.ndarray, grow: float = 1.25) -> np.ndarray:
+    """(N,) whether each point (N, 2) lies in one of the boxes (M, 4) grown ``grow`` times about its centre (a
+    blob's limb, shadow or fragment beside somebody already found)."""
+    if not len(boxes) or not len(points):
+        return np.zeros(len(points), dtype=bool)
+    centre, half = (boxes[:, :2] + boxes[:, 2:]) / 2, grow * (boxes[:, 2:] - boxes[:, :2]) / 2
+    return (np.abs(points[:, None] - centre[None]) <= half[None]).all(axis=-1).any(axis=1)
+
+
+def _without_duplicates(detections: list[Detection], overlap: float = 0.5) -> list[Detection]:
+    """Greedy non-maximum suppression on the joints' boxes: of two crops that found the same person, the surer."""
+    order = sorted(detections, key=lambda d: -d.score * float(d.confidences.mean()))
+    kept: list[Detection] = []
+    for detection in order:
+        if not kept or box_overlap(detection.box[None], np.stack([k.box for k in kept])).max() < overlap:
+            kept.append(detection)
+    return kept
 
 
 class MediaPipeDetector:
-    """MediaPipe Pose (BlazePose, 33 landmarks), tracking across frames (video mode).
+    """MediaPipe Pose (BlazePose, 33 landmarks), one person, tracking across frames (video mode).
 
     Its landmarks are surface points (e.g. the hip landmarks lie outside the hip joint centres the mocap has):
     ``ray3d.skeleton`` maps them to H36M-17 joints, and the residual offset is a systematic 2D error the
@@ -31,7 +157,8 @@ class MediaPipeDetector:
 
     layout = BLAZEPOSE33.name
 
-    def __init__(self, min_detection_confidence: float = 0.5, min_tracking_confidence: float = 0.5):
+    def __init__(self, camera: Camera | None = None, min_detection_confidence: float = 0.5,
+                 min_tracking_confidence: float = 0.5):
         try:
             from mediapipe.python.solutions import pose
         except ImportError:
@@ -41,23 +168,26 @@ class MediaPipeDetector:
                                min_detection_confidence=min_detection_confidence,
                                min_tracking_confidence=min_tracking_confidence)
 
-    def __call__(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def prepare(self, frames: list[np.ndarray]) -> None:
+        """Nothing to learn from the scene."""
+
+    def __call__(self, frame: np.ndarray) -> list[Detection]:
         height, width = frame.shape[:2]
         result = self._pose.process(np.ascontiguousarray(frame))
         if result.pose_landmarks is None:
-            return np.full((BLAZEPOSE33.num_joints, 2), np.nan), np.zeros(BLAZEPOSE33.num_joints)
+            return []
         landmarks = result.pose_landmarks.landmark
         pixels = np.array([[m.x * width, m.y * height] for m in landmarks])
-        return pixels, np.array([m.visibility for m in landmarks])
+        return [Detection(pixels, np.array([m.visibility for m in landmarks]), 1.0)]
 
     def close(self) -> None:
         self._pose.close()
 
 
-DETECTORS = {"mediapipe": MediaPipeDetector}
+DETECTORS = {"people": PeopleDetector, "mediapipe": MediaPipeDetector}
 
 
-def make_detector(name: str) -> PoseDetector:
+def make_detector(name: str, camera: Camera) -> PoseDetector:
     if name not in DETECTORS:
-        raise InputError(f"unknown detector {name!r}; one of {', '.join(DETECTORS)}")
-    return DETECTORS[name]()
+        raise InputError(f"unknown detector {name!r}; one of {', '.join(DETECTORS)}", arguments=("detector",))
+    return DETECTORS[name](camera)

@@ -1,5 +1,6 @@
-"""The 2D keypoints beside the 3D world view, frame by frame: ground grid, camera frustum, trajectory trail;
-ground truth dashed, prediction solid; the person's left in blue and right in red (as the paper's figures).
+"""The camera's view beside the 3D world view and the floor plan, frame by frame: ground grid, camera frustum,
+everybody's path; ground truth dashed, prediction solid; one person's left in blue and right in red (as the
+paper's figures), several people each in their own colour with their id.
 GIF through Pillow (no ffmpeg needed); MP4 when an ffmpeg binary is present."""
 
 from __future__ import annotations
@@ -17,9 +18,19 @@ from PIL import Image  # noqa: E402
 from ray3d.errors import InputError  # noqa: E402
 from ray3d.geometry import Camera  # noqa: E402
 from ray3d.io.atomic import atomic_path  # noqa: E402
+from ray3d.io.world import LiftResult  # noqa: E402
 from ray3d.skeleton import H36M17  # noqa: E402
 
 LEFT, RIGHT, CENTRE = "#1f5fd6", "#d62f2f", "#444444"
+PALETTE = ("#d62f2f", "#1f5fd6", "#2a9d3c", "#9c27b0", "#ef8a00", "#00a0a0", "#7a4a00", "#c800c8")
+
+
+def as_track(sequence: np.ndarray | LiftResult) -> tuple[int, np.ndarray, np.ndarray]:
+    """(first frame, joints (T, 17, 3), filled in (T,)) of an array from frame 0 or a lifted track."""
+    if isinstance(sequence, LiftResult):
+        return int(sequence.frames[0]), sequence.joints, sequence.interpolated.all(axis=1)
+    joints = np.asarray(sequence, dtype=np.float64)
+    return 0, joints, np.zeros(len(joints), dtype=bool)
 
 
 def bone_colour(child: int) -> str:
@@ -36,51 +47,83 @@ def frustum_lines(camera: Camera, depth: float = 0.6) -> list[np.ndarray]:
     return [np.stack([centre, c]) for c in corners] + [np.stack([corners[i], corners[(i + 1) % 4]]) for i in range(4)]
 
 
-def render_frames(pixels: np.ndarray, predicted: np.ndarray, camera: Camera, target: np.ndarray | None = None,
-                  stride: int = 1, size_px: int = 720) -> list[Image.Image]:
-    """One image per ``stride``-th frame: pixels (T, 17, 2), predicted / target world joints (T, 17, 3)."""
-    frames = range(0, len(predicted), stride)
-    everything = np.concatenate([predicted.reshape(-1, 3), camera.center[None]]
+def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera, pixels: dict | None = None,
+                  target: np.ndarray | None = None, stride: int = 1, size_px: int = 720) -> list[Image.Image]:
+    """One image per ``stride``-th frame: the camera's view, the world, and the floor plan with everybody's path.
+
+    ``sequences`` are {name: world joints (T, 17, 3) from frame 0, or a ``LiftResult`` (a track: it starts at its
+    own frame)}; one sequence is drawn left blue / right red, several each in its own colour with its name.
+    ``pixels`` ({name: (T, 17, 2)}) is the 2D input drawn in the camera's view (default: the world joints
+    projected through ``camera``, so labelled); ``target`` (T, 17, 3) is ground truth, dashed, for the first.
+    """
+    tracks = {str(name): as_track(s) for name, s in sequences.items()}
+    first = min(start for start, _, _ in tracks.values())
+    last = max(start + len(joints) - 1 for start, joints, _ in tracks.values())
+    shown = {name: pixels.get(name) if pixels is not None else camera.project(joints)
+             for name, (_, joints, _) in tracks.items()}
+    everything = np.concatenate([j.reshape(-1, 3) for _, j, _ in tracks.values()] + [camera.center[None]]
                                 + ([target.reshape(-1, 3)] if target is not None else []))
-    low, high = everything.min(axis=0), everything.max(axis=0)
-    centre = (low + high) / 2
-    reach = max(1.5, (high[:2] - low[:2]).max() / 2 + 0.5)
-    fig = plt.figure(figsize=(size_px / 50, size_px / 100), dpi=100)
-    image_axes = fig.add_subplot(1, 2, 1)
-    world_axes = fig.add_subplot(1, 2, 2, projection="3d")
+    everything = everything[np.isfinite(everything).all(-1)]
+    people = np.concatenate([j[:, 0, :2] for _, j, _ in tracks.values()])
+    centre = np.median(people, axis=0)
+    reach = max(1.5, np.percentile(np.abs(people - centre), 98) + 0.8)
+    colours = {name: PALETTE[i % len(PALETTE)] for i, name in enumerate(tracks)}
+    fig = plt.figure(figsize=(size_px * 3 / 200, size_px / 100), dpi=100)
+    image_axes, world_axes = fig.add_subplot(1, 3, 1), fig.add_subplot(1, 3, 2, projection="3d")
+    plan_axes = fig.add_subplot(1, 3, 3)
     grid = np.arange(np.floor(centre[0] - reach), np.ceil(centre[0] + reach) + 0.01, 0.5)
     grid_y = np.arange(np.floor(centre[1] - reach), np.ceil(centre[1] + reach) + 0.01, 0.5)
+    top = max(2.0, float(np.percentile(everything[:, 2], 99)) + 0.3)
+    width, height = camera.image_size
     images = []
-    for t in frames:
-        image_axes.cla()
-        world_axes.cla()
-        width, height = camera.image_size
-        image_axes.set_xlim(0, width)
-        image_axes.set_ylim(height, 0)
-        image_axes.set_aspect("equal")
-        image_axes.set_title(f"2D keypoints (frame {t})", fontsize=9)
-        for child, parent in enumerate(H36M17.parents):
-            if parent >= 0:
-                image_axes.plot(*pixels[t, [child, parent]].T, color=bone_colour(child), lw=2)
+    for t in range(first, last + 1, stride):
+        for axes in (image_axes, world_axes, plan_axes):
+            axes.cla()
+        image_axes.set(xlim=(0, width), ylim=(height, 0), aspect="equal", xlabel="u (px)", ylabel="v (px)")
+        image_axes.set_title(f"camera view (frame {t})", fontsize=9)
         for x in grid:
             world_axes.plot([x, x], [grid_y[0], grid_y[-1]], [0, 0], color="#dddddd", lw=0.5)
         for y in grid_y:
             world_axes.plot([grid[0], grid[-1]], [y, y], [0, 0], color="#dddddd", lw=0.5)
-        world_axes.plot(*predicted[: t + 1, 0, :2].T, np.zeros(t + 1), color="#2a9d3c", lw=1)  # trail on floor
         for line in frustum_lines(camera):
             world_axes.plot(*line.T, color="#888888", lw=0.8)
-        for pose, style in ((target, "--"), (predicted, "-")):
-            if pose is None:
+        plan_axes.plot(*camera.center[:2], "ks", ms=5)
+        for name, (start, joints, filled) in tracks.items():
+            row = t - start
+            single = len(tracks) == 1
+            plan_axes.plot(*joints[:, 0, :2].T, color=colours[name], lw=0.8, alpha=0.4)
+            if not 0 <= row < len(joints):
                 continue
+            grey = filled[row]
+            colour_of = (lambda child: bone_colour(child)) if single and not grey else \
+                (lambda child: "#aaaaaa" if grey else colours[name])
+            world_axes.plot(*joints[: row + 1, 0, :2].T, np.zeros(row + 1), color=colours[name] if not single
+                            else "#2a9d3c", lw=1)  # the path on the floor so far
+            two_d = shown[name]
+            poses = [(joints, "-")] + ([(target, "--")] if target is not None and name == next(iter(tracks)) else [])
             for child, parent in enumerate(H36M17.parents):
-                if parent >= 0:
-                    world_axes.plot(*pose[t, [child, parent]].T, style, color=bone_colour(child), lw=2)
-        world_axes.set_xlim(centre[0] - reach, centre[0] + reach)
-        world_axes.set_ylim(centre[1] - reach, centre[1] + reach)
-        world_axes.set_zlim(0, max(2.0, high[2] + 0.3))
-        world_axes.set_box_aspect((1, 1, max(2.0, high[2] + 0.3) / (2 * reach)))
-        world_axes.set_title("world (m): prediction solid" + (", truth dashed" if target is not None else ""),
+                if parent < 0:
+                    continue
+                if two_d is not None:
+                    image_axes.plot(*two_d[row, [child, parent]].T, color=colour_of(child), lw=1.5)
+                for pose, style in poses:
+                    world_axes.plot(*pose[row, [child, parent]].T, style, color=colour_of(child), lw=2)
+            plan_axes.plot(*joints[row, 0, :2], "o", color=colours[name], ms=5)
+            if not single:
+                world_axes.text(*joints[row, 10] + [0, 0, 0.15], name, color=colours[name], fontsize=7)
+                plan_axes.annotate(name, joints[row, 0, :2], xytext=(4, 4), textcoords="offset points",
+                                   color=colours[name], fontsize=7)
+                if two_d is not None and np.isfinite(two_d[row, 10]).all():
+                    image_axes.annotate(name, two_d[row, 10], xytext=(3, 6), textcoords="offset points",
+                                        color=colours[name], fontsize=7)
+        world_axes.set(xlim=(centre[0] - reach, centre[0] + reach), ylim=(centre[1] - reach, centre[1] + reach),
+                       zlim=(0, top), xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
+        world_axes.set_box_aspect((1, 1, top / (2 * reach)))
+        world_axes.set_title("world (m)" + (": prediction solid, truth dashed" if target is not None else ""),
                              fontsize=9)
+        plan_axes.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
+        plan_axes.set_title("floor plan: paths, camera (square)", fontsize=9)
+        fig.tight_layout()
         fig.canvas.draw()
         images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()))
     plt.close(fig)

@@ -1,5 +1,9 @@
 """A self-contained, offline HTML viewer of 3D sequences: orbit (drag), zoom (wheel), play/pause, a frame
-slider, and several methods side by side (each in its own colour over a shared ground grid)."""
+slider, several people or methods at once (each in its own colour, labelled, over a shared ground grid with a
+metre scale), a floor plan with everybody's path, and a "follow" choice that keeps one person in the middle.
+
+A sequence is either world joints (T, 17, 3) from frame 0 or a ``LiftResult`` (a track of a world file: it
+starts at its own frame, and frames it filled in rather than detected are drawn thin and grey)."""
 
 from __future__ import annotations
 
@@ -9,68 +13,108 @@ from pathlib import Path
 import numpy as np
 
 from ray3d.io.atomic import atomic_path
+from ray3d.io.world import LiftResult
+from ray3d.viz.animation import PALETTE, as_track, frustum_lines
 from ray3d.skeleton import H36M17
 
-PALETTE = ("#d62f2f", "#1f5fd6", "#2a9d3c", "#9c27b0", "#ef8a00", "#555555")
 
 _TEMPLATE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
 <style>
  body { font-family: sans-serif; margin: 0; background: #fafafa; }
  #bar { padding: 8px; display: flex; gap: 12px; align-items: center; flex-wrap: wrap; }
- #view { display: block; background: #ffffff; border-top: 1px solid #ddd; cursor: grab; }
+ #view { display: block; width: 100%; background: #ffffff; border-top: 1px solid #ddd; cursor: grab; }
  .key { display: inline-block; width: 14px; height: 4px; margin-right: 4px; vertical-align: middle; }
 </style></head>
 <body>
 <div id="bar">
  <button id="play">pause</button>
- <input id="slider" type="range" min="0" value="0" style="width: 40%">
+ <input id="slider" type="range" min="0" value="0" style="width: 30%">
  <span id="label"></span>
+ <label>follow <select id="follow"><option value="">everybody</option></select></label>
  <span id="legend"></span>
- <span style="color: #777">drag to orbit, wheel to zoom; metres, z up</span>
+ <span style="color: #777">drag to orbit, wheel to zoom; metres, z up; grey: filled in, not detected</span>
 </div>
-<canvas id="view" width="960" height="600"></canvas>
+<canvas id="view"></canvas>
 <script>
 const DATA = __DATA__;
 const canvas = document.getElementById("view"), ctx = canvas.getContext("2d");
 const slider = document.getElementById("slider"), label = document.getElementById("label");
-const names = Object.keys(DATA.sequences), frames = DATA.frames;
+const follow = document.getElementById("follow");
+const names = Object.keys(DATA.sequences), first = DATA.first, frames = DATA.last - DATA.first + 1;
 slider.max = frames - 1;
-let frame = 0, playing = true, yaw = -0.6, elevation = 0.35, zoom = 1.0;
+let frame = 0, playing = true, yaw = -0.6, elevation = 0.35, zoom = 1.0, centre = DATA.centre.slice();
+names.forEach(n => { const o = document.createElement("option"); o.value = n; o.textContent = n; follow.appendChild(o); });
 document.getElementById("legend").innerHTML = names.map((n, i) =>
   `<span class="key" style="background:${DATA.colours[i]}"></span>${n}`).join(" &nbsp; ");
+function resize() { canvas.width = Math.max(320, window.innerWidth); canvas.height = Math.max(240, window.innerHeight - 60); draw(); }
+function pose(seq, absolute) { const row = absolute - seq.start; return row >= 0 && row < seq.joints.length ? row : -1; }
 function project(p) {
-  const x = p[0] - DATA.centre[0], y = p[1] - DATA.centre[1], z = p[2];
+  const x = p[0] - centre[0], y = p[1] - centre[1], z = p[2];
   const cx = Math.cos(yaw) * x - Math.sin(yaw) * y, cy = Math.sin(yaw) * x + Math.cos(yaw) * y;
   const depth = Math.cos(elevation) * cy + Math.sin(elevation) * z;
   const up = -Math.sin(elevation) * cy + Math.cos(elevation) * z;
   const scale = zoom * canvas.height / (2.2 * DATA.extent);
-  return [canvas.width / 2 + scale * cx, canvas.height * 0.75 - scale * up, depth];
+  return [canvas.width / 2 + scale * cx, canvas.height * 0.7 - scale * up, depth];
 }
 function line(a, b, colour, width) {
   const p = project(a), q = project(b);
   ctx.strokeStyle = colour; ctx.lineWidth = width;
   ctx.beginPath(); ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
 }
+function floorPlan(absolute) {
+  const size = Math.min(220, canvas.width / 4), x0 = canvas.width - size - 10, y0 = 10, b = DATA.bounds;
+  const span = Math.max(b[2] - b[0], b[3] - b[1], 1e-3), s = (size - 20) / span;
+  const at = p => [x0 + 10 + (p[0] - b[0]) * s, y0 + size - 10 - (p[1] - b[1]) * s];
+  ctx.fillStyle = "rgba(255,255,255,0.92)"; ctx.fillRect(x0, y0, size, size);
+  ctx.strokeStyle = "#bbb"; ctx.lineWidth = 1; ctx.strokeRect(x0, y0, size, size);
+  ctx.fillStyle = "#555"; ctx.font = "11px sans-serif";
+  ctx.fillText(`floor plan, ${span.toFixed(1)} m across`, x0 + 6, y0 + 14);
+  names.forEach((name, i) => {
+    const seq = DATA.sequences[name];
+    ctx.strokeStyle = DATA.colours[i]; ctx.globalAlpha = 0.45; ctx.beginPath();
+    seq.joints.forEach((j, t) => { const q = at(j[0]); t ? ctx.lineTo(q[0], q[1]) : ctx.moveTo(q[0], q[1]); });
+    ctx.stroke(); ctx.globalAlpha = 1;
+    const row = pose(seq, absolute);
+    if (row >= 0) { const q = at(seq.joints[row][0]); ctx.fillStyle = DATA.colours[i];
+      ctx.beginPath(); ctx.arc(q[0], q[1], 3.5, 0, 7); ctx.fill(); ctx.fillText(name, q[0] + 5, q[1] - 4); }
+  });
+  if (DATA.camera_lines.length) { const q = at(DATA.camera_lines[0][0]); ctx.fillStyle = "#000";
+    ctx.fillRect(q[0] - 3, q[1] - 3, 6, 6); ctx.fillText("camera", q[0] + 5, q[1] + 4); }
+}
 function draw() {
+  const absolute = first + frame;
+  if (follow.value) { const seq = DATA.sequences[follow.value], row = pose(seq, absolute);
+    if (row >= 0) centre = [seq.joints[row][0][0], seq.joints[row][0][1]]; }
   ctx.fillStyle = "#ffffff"; ctx.fillRect(0, 0, canvas.width, canvas.height);
-  const g = DATA.extent, c = DATA.centre;
+  const g = DATA.extent, c = [Math.round(centre[0] * 2) / 2, Math.round(centre[1] * 2) / 2];
   for (let k = -g; k <= g + 1e-9; k += 0.5) {
     line([c[0] + k, c[1] - g, 0], [c[0] + k, c[1] + g, 0], "#e3e3e3", 1);
     line([c[0] - g, c[1] + k, 0], [c[0] + g, c[1] + k, 0], "#e3e3e3", 1);
   }
+  line([c[0], c[1], 0], [c[0] + 1, c[1], 0], "#d62f2f", 2); line([c[0], c[1], 0], [c[0], c[1] + 1, 0], "#2a9d3c", 2);
+  line([c[0], c[1], 0], [c[0], c[1], 1], "#1f5fd6", 2);
+  const tip = project([c[0] + 1.05, c[1], 0]); ctx.fillStyle = "#555"; ctx.font = "12px sans-serif";
+  ctx.fillText("x, 1 m", tip[0], tip[1]); const ty = project([c[0], c[1] + 1.05, 0]); ctx.fillText("y", ty[0], ty[1]);
+  const tz = project([c[0], c[1], 1.05]); ctx.fillText("z", tz[0], tz[1]);
   DATA.camera_lines.forEach(s => line(s[0], s[1], "#999999", 1));
   names.forEach((name, i) => {
-    const seq = DATA.sequences[name], pose = seq[Math.min(frame, seq.length - 1)];
-    for (let t = 1; t <= Math.min(frame, seq.length - 1); t++)
-      line([seq[t - 1][0][0], seq[t - 1][0][1], 0], [seq[t][0][0], seq[t][0][1], 0], DATA.colours[i], 1);
-    DATA.parents.forEach((p, j) => { if (p >= 0) line(pose[j], pose[p], DATA.colours[i], DATA.sides[j] ? 3 : 2); });
+    const seq = DATA.sequences[name], row = pose(seq, absolute);
+    if (row < 0) return;
+    for (let t = 1; t <= row; t++)
+      line([seq.joints[t - 1][0][0], seq.joints[t - 1][0][1], 0], [seq.joints[t][0][0], seq.joints[t][0][1], 0], DATA.colours[i], 1);
+    const p = seq.joints[row], filled = seq.filled[row], colour = filled ? "#aaaaaa" : DATA.colours[i];
+    DATA.parents.forEach((q, j) => { if (q >= 0) line(p[j], p[q], colour, filled ? 1 : (DATA.sides[j] ? 3 : 2)); });
+    const head = project(p[10]); ctx.fillStyle = colour; ctx.font = "13px sans-serif";
+    ctx.fillText(name, head[0] + 6, head[1] - 6);
   });
-  label.textContent = `frame ${frame + 1} / ${frames}`;
+  floorPlan(absolute);
+  label.textContent = `frame ${absolute} (${frame + 1} / ${frames})`;
   slider.value = frame;
 }
 document.getElementById("play").onclick = e => { playing = !playing; e.target.textContent = playing ? "pause" : "play"; };
 slider.oninput = () => { frame = +slider.value; draw(); };
+follow.onchange = () => { if (!follow.value) centre = DATA.centre.slice(); draw(); };
 let drag = null;
 canvas.onmousedown = e => { drag = [e.clientX, e.clientY, yaw, elevation]; };
 window.onmouseup = () => { drag = null; };
@@ -78,27 +122,34 @@ window.onmousemove = e => { if (!drag) return;
   yaw = drag[2] - (e.clientX - drag[0]) * 0.01;
   elevation = Math.max(-0.2, Math.min(1.5, drag[3] + (e.clientY - drag[1]) * 0.01)); draw(); };
 canvas.onwheel = e => { e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 0.9; draw(); };
+window.onresize = resize;
 setInterval(() => { if (playing) { frame = (frame + 1) % frames; draw(); } }, 1000 / DATA.fps);
-draw();
+resize();
 </script></body></html>
 """
 
 
-def write_viewer(path: str | Path, sequences: dict[str, np.ndarray], fps: float, camera=None,
+def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult], fps: float, camera=None,
                  title: str = "ray3d viewer", overwrite: bool = False) -> Path:
-    """Write the viewer for {method name: world joints (T, 17, 3)} (metres, z up)."""
-    from ray3d.viz.animation import frustum_lines
-
-    stacked = np.concatenate([s.reshape(-1, 3) for s in sequences.values()])
+    """Write the viewer for {name: world joints (T, 17, 3) or a LiftResult} (metres, z up) played at ``fps``."""
+    tracks = {str(name): as_track(s) for name, s in sequences.items()}
+    stacked = np.concatenate([j.reshape(-1, 3) for _, j, _ in tracks.values()])
+    stacked = stacked[np.isfinite(stacked).all(-1)]
     centre = np.median(stacked, axis=0)
+    camera_lines = [line.round(4).tolist() for line in frustum_lines(camera)] if camera is not None else []
+    plan = np.concatenate([stacked[:, :2]] + ([np.asarray(camera.center[:2])[None]] if camera is not None else []))
     data = {
-        "sequences": {name: np.round(s, 4).tolist() for name, s in sequences.items()},
-        "frames": max(len(s) for s in sequences.values()), "fps": fps,
+        "sequences": {name: {"start": start, "joints": np.round(joints, 4).tolist(), "filled": filled.tolist()}
+                      for name, (start, joints, filled) in tracks.items()},
+        "first": min(start for start, _, _ in tracks.values()),
+        "last": max(start + len(joints) - 1 for start, joints, _ in tracks.values()),
+        "fps": float(fps),
         "parents": list(H36M17.parents), "sides": [n[:2] in ("l_", "r_") for n in H36M17.joint_names],
-        "colours": list(PALETTE[: len(sequences)]) if len(sequences) <= len(PALETTE) else None,
+        "colours": [PALETTE[i % len(PALETTE)] for i in range(len(tracks))],
         "centre": [float(centre[0]), float(centre[1])],
-        "extent": float(max(1.5, np.abs(stacked[:, :2] - centre[:2]).max() + 0.5)),
-        "camera_lines": [line.round(4).tolist() for line in frustum_lines(camera)] if camera is not None else [],
+        "extent": float(max(1.5, np.percentile(np.abs(stacked[:, :2] - centre[:2]), 98) + 0.5)),
+        "bounds": [*plan.min(axis=0).round(3).tolist(), *plan.max(axis=0).round(3).tolist()],
+        "camera_lines": camera_lines,
     }
     html = _TEMPLATE.replace("__TITLE__", title).replace("__DATA__", json.dumps(data))
     path = Path(path)

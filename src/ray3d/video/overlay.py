@@ -1,0 +1,74 @@
+"""The overlay video: on every frame, each person's detections (thin, white) and lifted joints projected back
+through the camera (thick, in the person's colour, labelled with their track id). Frames a track did not
+detect but filled in are drawn thin and grey; nothing is drawn where nobody was."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from ray3d.errors import InputError
+from ray3d.io.atomic import atomic_path
+from ray3d.io.keypoints import Keypoints
+from ray3d.io.world import World
+from ray3d.skeleton import H36M17, convert_keypoints
+from ray3d.video.frames import read_frames, read_video_info
+
+# BGR, distinct on grass, road and brick.
+TRACK_COLOURS = ((47, 47, 214), (214, 95, 31), (60, 160, 42), (156, 39, 176), (0, 138, 239), (180, 180, 0),
+                 (120, 60, 0), (200, 0, 200))
+_FILLED, _DETECTED = (150, 150, 150), (255, 255, 255)
+
+
+def write_overlay(video: Path, target: Path, keypoints: Keypoints, world: World, start: int, frames: int,
+                  overwrite: bool = False, progress: bool = True) -> Path:
+    """Draw every track of ``world`` (and its ``keypoints``) on ``frames`` frames of ``video`` from ``start``;
+    MP4 at the keypoints' frame rate."""
+    info = read_video_info(video)
+    detected = {}  # (track, frame) -> H36M-17 pixels (17, 2)
+    for track, (seen, pixels, confidences) in keypoints.by_track().items():
+        h36m, _ = convert_keypoints(pixels, keypoints.layout, confidences)
+        detected.update({(str(track), int(f)): p for f, p in zip(seen, h36m)})
+    projected = {name: (result.frames, world.camera.project(result.joints), result.interpolated.all(axis=1),
+                        TRACK_COLOURS[i % len(TRACK_COLOURS)]) for i, (name, result) in enumerate(world.tracks.items())}
+    with atomic_path(target, overwrite) as temporary:
+        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), keypoints.fps, info.image_size)
+        if not writer.isOpened():
+            raise InputError(f"{target}: OpenCV cannot write MP4 video here")
+        try:
+            for index, frame in tqdm(read_frames(video, start, frames), total=frames, desc="overlay", unit="frame",
+                                     disable=not progress):
+                canvas = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
+                for name, (spanned, pixels, filled, own) in projected.items():
+                    row = index - int(spanned[0])
+                    if not 0 <= row < len(spanned):
+                        continue
+                    if (name, index) in detected:
+                        _draw_skeleton(canvas, detected[(name, index)], _DETECTED, 1)
+                    colour, width = (_FILLED, 1) if filled[row] else (own, 2)
+                    _draw_skeleton(canvas, pixels[row], colour, width)
+                    _label(canvas, pixels[row], name, colour)
+                writer.write(canvas)
+        finally:
+            writer.release()
+    return target
+
+
+def _draw_skeleton(canvas: np.ndarray, points: np.ndarray, colour, width: int) -> None:
+    for child, parent in enumerate(H36M17.parents):
+        if parent < 0 or not np.isfinite(points[[child, parent]]).all():
+            continue
+        start, end = (tuple(int(round(v)) for v in points[i]) for i in (child, parent))
+        cv2.line(canvas, start, end, colour, width, cv2.LINE_AA)
+
+
+def _label(canvas: np.ndarray, points: np.ndarray, text: str, colour) -> None:
+    seen = points[np.isfinite(points).all(-1)]
+    if not len(seen):
+        return
+    u, v = int(seen[:, 0].mean()) - 4, int(seen[:, 1].min()) - 6
+    cv2.putText(canvas, text, (u, v), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(canvas, text, (u, v), cv2.FONT_HERSHEY_SIMPLEX, 0.45, colour, 1, cv2.LINE_AA)

@@ -1,0 +1,222 @@
+"""Who is who: detections linked into tracks on the floor plan, in metres.
+
+Each person is a constant-velocity Kalman filter (OpenCV's ``cv2.KalmanFilter``) on the floor point between
+their ankles (the camera says where that pixel's ray meets the floor); detections are assigned to people by
+the Hungarian method (scipy's ``linear_sum_assignment``) on the Mahalanobis distance of that point plus the
+colour of their clothes, so that two people crossing in the image, at different depths or in different
+clothes, keep their ids. A person unseen for longer than ``max_gap_s`` has left: their track ends, and
+whoever appears later starts a new one (a track never bridges a long gap, so it never joins two people).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import cv2
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ray3d.geometry import Camera
+from ray3d.skeleton import H36M17, convert_keypoints
+from ray3d.video.detectors import Detection, box_overlap
+
+_ANKLES = [H36M17.joint_names.index("l_ankle"), H36M17.joint_names.index("r_ankle")]
+_TORSO = [H36M17.joint_names.index(j) for j in ("l_shoulder", "r_shoulder", "l_hip", "r_hip")]
+_GATE = 13.8  # chi-square, 2 degrees of freedom, 99.9 %: beyond it a detection cannot be that person
+_APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared standard deviations of position
+_COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two detections are different people
+
+
+@dataclasses.dataclass
+class Track:
+    """One person: the frame indices they were detected in and their detections there."""
+
+    id: int
+    frames: list[int] = dataclasses.field(default_factory=list)
+    detections: list[Detection] = dataclasses.field(default_factory=list)
+
+
+class _Person:
+    """A tracked person's filter (state x, y, vx, vy in metres and m/s) and clothes colour."""
+
+    def __init__(self, floor: np.ndarray, noise: np.ndarray, colour: np.ndarray, dt: float, acceleration: float):
+        self.filter = cv2.KalmanFilter(4, 2, 0, cv2.CV_64F)
+        self.filter.transitionMatrix = np.array([[1, 0, dt, 0], [0, 1, 0, dt], [0, 0, 1, 0], [0, 0, 0, 1]], np.float64)
+        self.filter.measurementMatrix = np.eye(2, 4, dtype=np.float64)
+        # White acceleration noise, integrated over one frame.
+        q = np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]]) * acceleration ** 2
+        self.filter.processNoiseCov = np.kron(q, np.eye(2))  # states ordered x, y, vx, vy
+        self.filter.statePost = np.array([[floor[0]], [floor[1]], [0.0], [0.0]])
+        self.filter.errorCovPost = np.diag([noise[0, 0], noise[1, 1], 2.0 ** 2, 2.0 ** 2]).astype(np.float64)
+        self.colour, self.hits, self.missed = colour, 1, 0
+        self.track: Track | None = None
+        self.waiting: list[tuple[int, Detection]] = []  # detections before the track is confirmed
+
+    def predict(self) -> None:
+        self.filter.predict()
+
+    def distance(self, floor: np.ndarray, noise: np.ndarray) -> float:
+        """Squared Mahalanobis distance of a measured floor point from the prediction."""
+        innovation = floor - self.filter.statePre[:2, 0]
+        covariance = self.filter.errorCovPre[:2, :2] + noise
+        return float(innovation @ np.linalg.solve(covariance, innovation))
+
+    def correct(self, floor: np.ndarray, noise: np.ndarray, colour: np.ndarray | None) -> None:
+        """``colour`` None: the detection overlaps somebody else's, and its colours may be theirs."""
+        self.filter.measurementNoiseCov = noise
+        self.filter.correct(floor.reshape(2, 1).astype(np.float64))
+        if colour is not None:
+            self.colour = 0.8 * self.colour + 0.2 * colour
+        self.hits, self.missed = self.hits + 1, 0
+
+    def coast(self) -> None:
+        """No detection this frame: the prediction stands."""
+        self.filter.statePost = self.filter.statePre.copy()
+        self.filter.errorCovPost = self.filter.errorCovPre.copy()
+        self.missed += 1
+
+
+class FloorTracker:
+    """``tracker.update(frame_index, detections, frame)`` once per frame, then ``tracker.tracks()``.
+
+    Args:
+        camera: the video's camera.
+        fps: the video's frame rate.
+        layout: the detections' joint layout.
+        max_gap_s: the longest time a person may go undetected and keep their track.
+        confirm_hits: detections before a new track counts (one-off false detections never become tracks).
+        acceleration: how hard people change speed, m/s^2 (standard deviation).
+    """
+
+    def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5, confirm_hits: int = 3,
+                 acceleration: float = 2.0):
+        self.camera, self.layout, self.confirm_hits, self.acceleration = camera, layout, confirm_hits, acceleration
+        self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
+        self._active: list[_Person] = []
+        self._tracks: list[Track] = []
+
+    def update(self, frame_index: int, detections: list[Detection], frame: np.ndarray) -> list[tuple[int, Detection]]:
+        """Assign this frame's detections; returns (track id, detection) for the confirmed people seen now."""
+        measured = self._measure(detections, frame)
+        usable = [i for i, m in enumerate(measured) if m is not None]
+        for person in self._active:
+            person.predict()
+        matched_people, matched_detections = set(), set()
+        # A matching cascade: people seen in the last frame choose first, then those missed for one frame, and
+        # so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
+        # person in front, who is still being seen.
+        def priority(person: _Person) -> tuple[bool, int]:
+            return person.track is None, person.missed
+
+        for level in sorted({priority(p) for p in self._active}):
+            rows = [r for r, p in enumerate(self._active) if priority(p) == level]
+            cols = [i for i in usable if i not in matched_detections]
+            if not cols:
+                break
+            cost = np.full((len(rows), len(cols)), np.inf)
+            for a, r in enumerate(rows):
+                for b, i in enumerate(cols):
+                    floor, noise, colour = measured[i]
+                    d2 = self._active[r].distance(floor, noise)
+                    unlike = _colour_distance(self._active[r].colour, colour[0])
+                    if d2 < _GATE and unlike < _COLOUR_GATE:
+                        cost[a, b] = d2 + _APPEARANCE_WEIGHT * unlike
+            chosen_rows, chosen_cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
+            for a, b in zip(chosen_rows, chosen_cols):
+                if np.isfinite(cost[a, b]):
+                    r, i = rows[a], cols[b]
+                    matched_people.add(r)
+                    matched_detections.add(i)
+                    floor, noise, (colour, alone) = measured[i]
+                    self._active[r].correct(floor, noise, colour if alone else None)
+                    self._record(self._active[r], frame_index, detections[i])
+        for r, person in enumerate(self._active):
+            if r not in matched_people:
+                person.coast()
+        survivors = []
+        for person in self._active:
+            confirmed = person.track is not None
+            if person.missed <= (self.max_gap if confirmed else 0):
+                survivors.append(person)
+        for i in usable:
+            if i not in matched_detections:
+                floor, noise, (colour, _) = measured[i]
+                person = _Person(floor, noise, colour, self.dt, self.acceleration)
+                survivors.append(person)
+                self._record(person, frame_index, detections[i])
+        self._active = survivors
+        return [(p.track.id, p.track.detections[-1]) for p in self._active
+                if p.track is not None and p.missed == 0 and p.track.frames[-1] == frame_index]
+
+    def tracks(self) -> list[Track]:
+        """Every confirmed track so far, in the order they were confirmed."""
+        return list(self._tracks)
+
+    def _record(self, person: _Person, frame_index: int, detection: Detection) -> None:
+        if person.track is not None:
+            person.track.frames.append(frame_index)
+            person.track.detections.append(detection)
+            return
+        person.waiting.append((frame_index, detection))
+        if person.hits >= self.confirm_hits:
+            person.track = Track(len(self._tracks), [f for f, _ in person.waiting], [d for _, d in person.waiting])
+            self._tracks.append(person.track)
+
+    def _measure(self, detections: list[Detection], frame: np.ndarray) -> list:
+        """Each detection's floor point (2,), its covariance (2, 2) and (clothes colour, whether its box is clear
+        of everybody else's), or None where the camera cannot place it on the floor."""
+        if not detections:
+            return []
+        feet = np.stack([self._foot_pixel(d) for d in detections])
+        # The foot point wanders with the stride and the detector: a few percent of the person's height in pixels.
+        sd_px = np.maximum(2.0, 0.04 * np.array([d.box[3] - d.box[1] for d in detections]))
+        nudged = np.stack([feet, feet + sd_px[:, None] * [1, 0], feet + sd_px[:, None] * [0, 1]], axis=1)
+        points = self.camera.pixels_to_height_plane(nudged, 0.0)  # (N, 3, 3)
+        boxes = np.stack([d.box for d in detections])
+        overlap = box_overlap(boxes, boxes)
+        np.fill_diagonal(overlap, 0.0)
+        alone = overlap.max(axis=1) < 0.05
+        measured = []
+        for detection, point, clear in zip(detections, points, alone):
+            if not np.isfinite(point).all():
+                measured.append(None)
+                continue
+            spread = (point[1:, :2] - point[0, :2]).T
+            noise = spread @ spread.T + np.eye(2) * 0.15 ** 2  # the stride: the ankles swing about the body
+            measured.append((point[0, :2], noise, (_clothes_colour(frame, self._torso_box(detection)), clear)))
+        return measured
+
+    def _torso_box(self, detection: Detection) -> np.ndarray:
+        """(4,) the box of the shoulders and hips (where the clothes are, and not the neighbour's arm), or the
+        middle of the person's box when those joints are not seen."""
+        pixels, seen = convert_keypoints(detection.pixels[None], self.layout, detection.confidences[None] >= 0.5)
+        torso = pixels[0, _TORSO][seen[0, _TORSO]]
+        if len(torso) >= 3:
+            return np.concatenate([torso.min(axis=0), torso.max(axis=0)])
+        x0, y0, x1, y1 = detection.box
+        return np.array([x0 + 0.2 * (x1 - x0), y0 + 0.2 * (y1 - y0), x1 - 0.2 * (x1 - x0), y0 + 0.6 * (y1 - y0)])
+
+    def _foot_pixel(self, detection: Detection) -> np.ndarray:
+        pixels, seen = convert_keypoints(detection.pixels[None], self.layout, detection.confidences[None] >= 0.3)
+        ankles = pixels[0, _ANKLES][seen[0, _ANKLES]]
+        if len(ankles):
+            return ankles.mean(axis=0)
+        x0, _, x1, y1 = detection.box
+        return np.array([(x0 + x1) / 2, y1])
+
+
+def _clothes_colour(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """A normalised hue-saturation histogram (8 x 4) of the frame inside a box (the torso)."""
+    height, width = frame.shape[:2]
+    x0, y0, x1, y1 = box
+    u0, u1 = int(np.clip(x0, 0, width - 1)), int(np.clip(x1, 1, width))
+    v0, v1 = int(np.clip(y0, 0, height - 1)), int(np.clip(y1, 1, height))
+    patch = frame[v0:max(v1, v0 + 1), u0:max(u1, u0 + 1)]
+    hsv = cv2.cvtColor(np.ascontiguousarray(patch), cv2.COLOR_RGB2HSV)
+    histogram = cv2.calcHist([hsv], [0, 1], None, [8, 4], [0, 180, 0, 256]).ravel()
+    return histogram / max(float(histogram.sum()), 1e-9)
+
+
+def _colour_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Bhattacharyya distance of two normalised histograms: 0 the same, 1 nothing in common."""
+    return float(np.sqrt(max(0.0, 1.0 - np.sum(np.sqrt(a * b)))))
