@@ -226,3 +226,17 @@ def test_bench_calibration_writes_its_tables(test_motion, tmp_path):
     for key in calibration.ERRORS:
         assert np.isfinite(summary["focal known, true stature"][key]["median"])
     assert "| focal known, true stature | 1 |" in (tmp_path / "calibration.md").read_text()
+
+
+def test_bench_calibration_with_several_people_per_camera(test_motion, tmp_path, capsys):
+    from ray3d.bench import calibration
+    from ray3d.lift import Lifter
+
+    rows = calibration.run(test_motion, Lifter.load(), pairs=1, bootstrap=2, people=3,
+                           cases={"focal known, true stature": (True, True, 0.0)})
+    assert len(rows) == 1 and rows[0]["people"] == 3 and rows[0]["estimated_people"] == 3
+    clips = calibration.walking_clips(test_motion)
+    assert rows[0]["frames"] == sum(len(clips[k % len(clips)]) for k in range(3))
+    assert abs(rows[0]["pitch_error_deg"]) < 5 and np.isfinite(rows[0]["mrpe_mm"])
+    assert main(["bench", "calibration", "--out", str(tmp_path / "x"), "--people", "0"]) == 2
+    assert "people must be at least 1, got 0 (--people)" in capsys.readouterr().err

@@ -6,6 +6,7 @@ landmark network runs when the video extra is installed."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -284,3 +285,39 @@ def test_mediapipe_detector_finds_nobody_in_an_empty_frame():
     detector = MediaPipeDetector()
     assert detector(np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)) == []
     detector.close()
+
+
+def test_the_real_chain_finds_and_follows_two_people_in_a_generated_video(tmp_path):
+    """Two figures (matplotlib's sample portrait of Grace Hopper over a dark coat, which the landmark network
+    takes for a person) walking past each other over a textured background: foreground proposals, landmarks on
+    the crops, tracking and lifting run for real and give one track per figure, each staying on its figure."""
+    pytest.importorskip("ai_edge_litert", reason="the video extra is not installed: pip install 'ray3d[video]'")
+    import matplotlib
+
+    from ray3d.video import PeopleDetector
+
+    portrait = cv2.imread(str(Path(matplotlib.get_data_path()) / "sample_data" / "grace_hopper.jpg"))
+    figure, drawn = np.zeros((170, 68, 3), np.uint8), np.zeros((170, 68), dtype=bool)
+    figure[:80], drawn[:80] = cv2.resize(portrait, (68, 80)), True
+    figure[80:, 10:58], drawn[80:, 10:58] = (40, 35, 30), True  # the coat
+    camera = Camera.from_height_pitch(5.0, 20.0, SIZE, hfov_deg=30.0)  # a person standing at row 350 is 166 px
+    rng = np.random.default_rng(1)
+    background = cv2.GaussianBlur(rng.integers(70, 150, (SIZE[1], SIZE[0], 3), dtype=np.uint8), (5, 5), 0)
+    frames, centre = 30, {}
+    writer = cv2.VideoWriter(str(tmp_path / "two.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), FPS, SIZE)
+    for t in range(frames):
+        image = background.copy()
+        for person, (row, start, step) in enumerate(((170, 60, 12), (190, 470, -11))):  # they cross at frame 12
+            column = start + step * t
+            image[row:row + 170, column:column + 68][drawn] = figure[drawn]
+            centre[(person, t)] = column + 34
+        writer.write(image)
+    writer.release()
+    result = lift_video(tmp_path / "two.mp4", camera, tmp_path / "out", PeopleDetector(camera, threads=1),
+                        Lifter.load(), min_track_s=0.5, overlay=False, progress=False)
+    assert len(result.world.tracks) == 2
+    for track, (seen, pixels, confidences) in result.keypoints.by_track().items():
+        nose = pixels[:, 0, 0]  # BlazePose's first landmark: on one figure all along
+        person = int(np.argmin([abs(nose[0] - centre[(p, int(seen[0]))]) for p in (0, 1)]))
+        assert len(seen) >= 0.7 * frames
+        assert all(abs(u - centre[(person, int(f))]) < 30 for u, f in zip(nose, seen))

@@ -195,7 +195,7 @@ def _fit_warnings(axis: np.ndarray, rms_px: float, height_fraction_sd: float, fo
     distance while the focal length is unknown, or a wide uncertainty."""
     tall = np.linalg.norm(axis[:, 3] - axis[:, 0], axis=-1)  # head above the ankles, pixels
     warnings = []
-    if rms_px > 0.06 * np.median(tall):
+    if rms_px > 0.1 * np.median(tall):
         warnings.append(f"the upright-body model fits poorly (RMS {rms_px:.1f} px, {100 * rms_px / np.median(tall):.0f}% "
                         "of a person's height): are they bending or sitting, or are the keypoints wrong?")
     if len(axis) < 50:

@@ -10,7 +10,8 @@ from ray3d.errors import InputError
 # The flag that sets each library argument an error can name.
 FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout": "--layout",
          "camera_index": "--camera-index", "subject": "--subject", "action": "--action", "data_dir": "--data-dir",
-         "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov"}
+         "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov", "start": "--start",
+         "frames": "--frames", "detector": "--detector", "people": "--people"}
 
 
 def main(argv: list[str] | None = None) -> int:

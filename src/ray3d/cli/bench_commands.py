@@ -30,8 +30,10 @@ def calibration(args: argparse.Namespace) -> int:
     from ray3d.data import motion as motion_data
     from ray3d.lift import Lifter
 
+    if args.people < 1:
+        raise InputError(f"bench calibration: people must be at least 1, got {args.people}", arguments=("people",))
     rows = run(motion_data.load_shipped(args.data_dir, args.split), Lifter.load(args.checkpoint), args.pairs, args.seed,
-               args.bootstrap)
+               args.bootstrap, people=args.people)
     files = write(rows, args.out)
     print((args.out / "calibration.md").read_text())
     print(f"{len(rows)} estimates -> {', '.join(map(str, files))}")

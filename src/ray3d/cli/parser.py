@@ -189,6 +189,8 @@ def build_parser() -> argparse.ArgumentParser:
     calibration.add_argument("--out", required=True, type=Path, help="folder for calibration.{csv,json,md}")
     calibration.add_argument("--pairs", type=int, default=12, help="random (camera, walking clip) pairs")
     calibration.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
+    calibration.add_argument("--people", type=int, default=1,
+                             help="walking clips seen at once by each camera, fitted jointly (default 1)")
     calibration.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
     calibration.add_argument("--seed", type=int, default=0)
     calibration.add_argument("--split", choices=["train", "validation", "test"], default="test",

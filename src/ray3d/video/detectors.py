@@ -86,7 +86,7 @@ class PeopleDetector:
         # The people of the last frame are looked for where they were (also when they stopped, or merged with
         # others into one blob); a moving blob is looked at only where it is not one of them; then, once more,
         # where part of a blob is left that nobody found explains (the second of two walking together).
-        known = np.array([_region_around(d) for d in self._previous]).reshape(-1, 3)
+        known = np.array([self._region_around(d) for d in self._previous]).reshape(-1, 3)
         blobs = self._proposals.blobs(frame)
         proposed = self._proposals.split_blobs(blobs)
         boxes = np.array([d.box for d in self._previous]).reshape(-1, 4)
@@ -103,18 +103,20 @@ class PeopleDetector:
         found = [Detection(p, c, float(s)) for p, c, s in zip(pixels, confidences, scores) if s >= self.min_score]
         return [d for d in found if self._person_sized(d)]
 
+    def _region_around(self, detection: Detection) -> np.ndarray:
+        """(3,) the crop region (centre u, centre v, side) for looking again at a person found in the last
+        frame: around their joints, and where only the upper body was seen (legs hidden, a half-body pose), as
+        tall as a person standing there, so the next crop holds all of them."""
+        x0, y0, x1, y1 = detection.box
+        tall = max(y1 - y0, 0.8 * float(np.nan_to_num(self._proposals.person_height([(x0 + x1) / 2, y1]))))
+        return np.array([(x0 + x1) / 2, y0 + tall / 2, ROI_MARGIN * max(tall, x1 - x0)])
+
     def _person_sized(self, detection: Detection) -> bool:
         """Whether the detection is between a third and twice a person's height at its feet, and not wider
         than most of it (joints strewn over two people)."""
         x0, y0, x1, y1 = detection.box
         expected = float(self._proposals.person_height([(x0 + x1) / 2, y1]))
         return bool(np.isfinite(expected)) and expected / 3 <= y1 - y0 <= 2 * expected and x1 - x0 <= 0.75 * expected
-
-
-def _region_around(detection: Detection) -> np.ndarray:
-    """(3,) the crop region (centre u, centre v, side) around a detection's joints."""
-    x0, y0, x1, y1 = detection.box
-    return np.array([(x0 + x1) / 2, (y0 + y1) / 2, ROI_MARGIN * max(y1 - y0, x1 - x0)])
 
 
 def _near(regions: np.ndarray, others: np.ndarray) -> np.ndarray:

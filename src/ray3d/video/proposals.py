@@ -15,6 +15,8 @@ from ray3d.geometry import Camera
 
 STATURE_M = 1.70          # the person the size prior imagines
 ROI_MARGIN = 1.35         # a crop's side over the person's height in pixels (MediaPipe's ROI is about 1.25-1.5x)
+MIN_BLOB_PX = 16          # blobs shorter than this hold nobody the landmark network could pose
+MAX_REGIONS = 24          # per frame, the largest blobs first: a flickering scene cannot run away with the time
 
 
 def person_height_px(camera: Camera, foot_pixels: np.ndarray, stature_m: float = STATURE_M) -> np.ndarray:
@@ -43,6 +45,17 @@ class PersonScale:
         """(..., 2) foot pixels -> (...,) a person's height there in pixels (NaN above the horizon)."""
         foot = np.asarray(foot_pixels, dtype=np.float64)
         return self._table(foot[..., ::-1].reshape(-1, 2)).reshape(foot.shape[:-1])
+
+    def foot_below_head(self, u: float, head_v: float, guess: float) -> float:
+        """The foot row of a person standing in column ``u`` whose head is at row ``head_v``: v with
+        v - height(v) = head_v (``guess``: a height in pixels to start from)."""
+        foot = head_v + guess
+        for _ in range(4):
+            height = float(self([u, foot]))
+            if not np.isfinite(height):
+                break
+            foot = head_v + height
+        return foot
 
 
 def median_background(frames: list[np.ndarray]) -> np.ndarray:
@@ -94,13 +107,14 @@ class ForegroundProposals:
         return cv2.resize(frame, (frame.shape[1] // 2, frame.shape[0] // 2), interpolation=cv2.INTER_AREA)
 
     def split_blobs(self, boxes: np.ndarray) -> np.ndarray:
-        """Boxes (N, 4) -> person regions (M, 3): a blob wider or taller than one person at its foot pixel is
-        cut into several; blobs much smaller than a person there are dropped."""
+        """Boxes (N, 4) -> person regions (M, 3), largest blobs first and at most ``MAX_REGIONS``: a blob wider
+        or taller than one person at its foot pixel is cut into several; blobs much smaller than a person there
+        (or than ``MIN_BLOB_PX``) are dropped."""
         regions = []
-        for x0, y0, x1, y1 in boxes:
+        for x0, y0, x1, y1 in sorted(boxes, key=lambda b: -(b[2] - b[0]) * (b[3] - b[1])):
             width, height = x1 - x0, y1 - y0
             person = float(self.person_height([(x0 + x1) / 2, y1]))
-            if not np.isfinite(person) or height < self.min_height_fraction * person:
+            if not np.isfinite(person) or height < max(MIN_BLOB_PX, self.min_height_fraction * person):
                 continue
             columns = max(1, int(round(width / (0.35 * person)))) if width > 0.55 * person else 1
             centres_u = x0 + (np.arange(columns) + 0.5) * width / columns
@@ -113,9 +127,9 @@ class ForegroundProposals:
                 # is taller than that person, one whose head is at its top.
                 regions.append((u, y1 - person / 2, ROI_MARGIN * person))
                 if height > 1.4 * person:
-                    foot = self._foot_below_head(u, y0, person)
+                    foot = self.person_height.foot_below_head(u, y0, person)
                     regions.append((u, (y0 + foot) / 2, ROI_MARGIN * (foot - y0)))
-        return np.array(regions, dtype=np.float64).reshape(-1, 3)
+        return np.array(regions[:MAX_REGIONS], dtype=np.float64).reshape(-1, 3)
 
     def unexplained(self, blobs: np.ndarray, people: np.ndarray) -> np.ndarray:
         """Regions (M, 3) for the parts of blobs (N, 4) that none of the people found (boxes (K, 4)) covers: the
@@ -138,13 +152,3 @@ class ForegroundProposals:
             if len(widest) >= 0.3 * person:
                 regions.append((widest.mean(), y1 - person / 2, ROI_MARGIN * person))
         return np.array(regions, dtype=np.float64).reshape(-1, 3)
-
-    def _foot_below_head(self, u: float, head_v: float, guess: float) -> float:
-        """The foot row of a person whose head is at ``head_v``: v with v - height(v) = head_v."""
-        foot = head_v + guess
-        for _ in range(4):
-            height = float(self.person_height([u, foot]))
-            if not np.isfinite(height):
-                break
-            foot = head_v + height
-        return foot

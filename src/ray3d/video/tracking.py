@@ -19,6 +19,7 @@ from scipy.optimize import linear_sum_assignment
 from ray3d.geometry import Camera
 from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.detectors import Detection, box_overlap
+from ray3d.video.proposals import PersonScale
 
 _ANKLES = [H36M17.joint_names.index("l_ankle"), H36M17.joint_names.index("r_ankle")]
 _TORSO = [H36M17.joint_names.index(j) for j in ("l_shoulder", "r_shoulder", "l_hip", "r_hip")]
@@ -91,6 +92,7 @@ class FloorTracker:
     def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5, confirm_hits: int = 3,
                  acceleration: float = 2.0):
         self.camera, self.layout, self.confirm_hits, self.acceleration = camera, layout, confirm_hits, acceleration
+        self.person_height = PersonScale(camera)
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
@@ -197,12 +199,19 @@ class FloorTracker:
         return np.array([x0 + 0.2 * (x1 - x0), y0 + 0.2 * (y1 - y0), x1 - 0.2 * (x1 - x0), y0 + 0.6 * (y1 - y0)])
 
     def _foot_pixel(self, detection: Detection) -> np.ndarray:
-        pixels, seen = convert_keypoints(detection.pixels[None], self.layout, detection.confidences[None] >= 0.3)
+        """The pixel between the feet: the ankles where they are seen (also when the person crouches); where
+        they are not, the bottom of the joints seen, or, if that is too short for a person standing there (the
+        legs hidden, or a half-body pose), the row a person's height below the head."""
+        pixels, seen = convert_keypoints(detection.pixels[None], self.layout, detection.confidences[None] >= 0.5)
         ankles = pixels[0, _ANKLES][seen[0, _ANKLES]]
         if len(ankles):
             return ankles.mean(axis=0)
-        x0, _, x1, y1 = detection.box
-        return np.array([(x0 + x1) / 2, y1])
+        x0, y0, x1, y1 = detection.box
+        foot = np.array([(x0 + x1) / 2, y1])
+        expected = float(self.person_height(foot))
+        if np.isfinite(expected) and y1 - y0 < 0.6 * expected:
+            foot[1] = self.person_height.foot_below_head(foot[0], y0, expected)
+        return foot
 
 
 def _clothes_colour(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
