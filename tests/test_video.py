@@ -235,6 +235,10 @@ def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):
         lift_video(path, CAMERA, tmp_path / "one", StubDetector(pixels), frames=1, progress=False)
     with pytest.raises(InputError, match="start frame 99"):
         lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), start=99, progress=False)
+    with pytest.raises(InputError, match="frames must be at least 1"):
+        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), frames=0, progress=False)
+    with pytest.raises(InputError, match="max_gap_s must be a duration"):
+        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), max_gap_s=-1.0, progress=False)
     (tmp_path / "notes.mp4").write_text("not a video")
     with pytest.raises(InputError, match="notes.mp4"):
         lift_video(tmp_path / "notes.mp4", CAMERA, tmp_path / "e", StubDetector(pixels), progress=False)
@@ -259,6 +263,8 @@ def test_video_cli_tracks_everybody_with_a_registered_detector(scene, tmp_path, 
     assert "unknown detector 'yolo'" in capsys.readouterr().err
     assert main(["video", str(path), *common, "--out", str(tmp_path / "out")]) == 2
     assert "not empty" in capsys.readouterr().err
+    assert main(["video", str(path), *common, "--out", str(tmp_path / "y"), "--min-track", "nan"]) == 2
+    assert "(--min-track)" in capsys.readouterr().err
 
 
 def test_landmark_network_on_crops():

@@ -11,7 +11,8 @@ from ray3d.errors import InputError
 FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout": "--layout",
          "camera_index": "--camera-index", "subject": "--subject", "action": "--action", "data_dir": "--data-dir",
          "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov", "start": "--start",
-         "frames": "--frames", "detector": "--detector", "people": "--people"}
+         "frames": "--frames", "detector": "--detector", "people": "--people", "max_gap_s": "--max-gap",
+         "min_track_s": "--min-track"}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -56,6 +56,9 @@ def track_video(path: str | Path, camera: Camera, detector: PoseDetector, fps: f
     frames read, {track id: why it was dropped} for tracks shorter than ``min_track_s``)."""
     info = read_video_info(path)
     fps = _frame_rate(info, fps)
+    for name, value in (("max_gap_s", max_gap_s), ("min_track_s", min_track_s)):
+        if not np.isfinite(value) or value < 0:
+            raise InputError(f"{name} must be a duration in seconds, 0 or more; got {value}", arguments=(name,))
     count = _span(info, start, frames)
     detector.prepare(spread_frames(info, start, count) if count else [])
     tracker = FloorTracker(camera, fps, detector.layout, max_gap_s)
