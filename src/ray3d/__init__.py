@@ -2,9 +2,11 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
-from ray3d import cameras, metrics, skeleton
+from ray3d import calibrate, cameras, metrics, skeleton
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.io.camera_files import read_camera
+from ray3d.io.world import read_world
 from ray3d.lift import Lifter
 
 try:
@@ -12,4 +14,5 @@ try:
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["Camera", "InputError", "Lifter", "cameras", "metrics", "skeleton", "__version__"]
+__all__ = ["Camera", "InputError", "Lifter", "calibrate", "cameras", "metrics", "read_camera", "read_world", "skeleton",
+           "__version__"]

@@ -12,7 +12,7 @@ from typing import Any
 import torch
 from safetensors.torch import load_file, save_file
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.io.atomic import atomic_path
 from ray3d.models.network import LiftingNetwork, ModelConfig
 
@@ -50,6 +50,7 @@ def _json_default(value: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
+@reads_file("checkpoint")
 def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str, Any]]:
     path = Path(path)
     if path.suffix != ".safetensors":
@@ -89,9 +90,14 @@ def resolve(name_or_path: str | Path) -> Path:
     if path.suffix in (".safetensors", ".json") or path.exists():
         return path.with_suffix(".safetensors")
     shipped = resources.files("ray3d").joinpath(SHIPPED_DIR, f"{name_or_path}.safetensors")
+    if str(name_or_path) == RFRH:
+        raise InputError(f"{RFRH} is the no-learning baseline (the root only, at a fixed height), which ray3d evaluate "
+                         f"compares against; it lifts no pose: choose a model ({', '.join(shipped_models())})",
+                         arguments=("checkpoint",))
     if not shipped.is_file():
         raise InputError(f"no checkpoint {name_or_path!r}: not a file, and not a shipped model "
-                         f"({', '.join(shipped_models() + [RFRH]) or 'none shipped'})")
+                         f"({', '.join(shipped_models()) or 'none shipped'}; {RFRH}, the no-learning baseline, "
+                         "only in evaluation)", arguments=("checkpoint",))
     return Path(str(shipped))
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 
 class InputError(ValueError):
     """Raised for input that is malformed, non-finite, wrongly shaped or physically impossible.
@@ -26,3 +28,26 @@ class InputError(ValueError):
             return f"{self.message} ({', '.join(names[a] for a in self.arguments)})"
         label = "argument" if len(self.arguments) == 1 else "arguments"
         return f"{self.message} ({label}: {', '.join(self.arguments)})"
+
+
+def reads_file(what: str):
+    """Decorate a reader whose first argument is a path: anything but an ``InputError`` escaping it (a
+    ``KeyError`` from a missing field, a ``TypeError`` from a wrong type, OpenCV's or zlib's errors on a corrupt
+    file, ...) becomes an ``InputError`` naming the file, so a bad file never ends in a traceback."""
+
+    def decorate(reader):
+        @functools.wraps(reader)
+        def read(path, *args, **kwargs):
+            try:
+                return reader(path, *args, **kwargs)
+            except InputError:
+                raise
+            except RecursionError:
+                raise InputError(f"{path}: nested too deeply to be a {what}") from None
+            except Exception as err:  # the file boundary: whatever a malformed file makes the parsers raise
+                detail = str(err).strip().splitlines()[0][:200] if str(err).strip() else ""
+                raise InputError(f"{path}: not a readable {what} ({type(err).__name__}{': ' + detail if detail else ''})"
+                                 ) from None
+        return read
+
+    return decorate

@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 import torch
+from tqdm import tqdm
 
 from ray3d import temporal
 from ray3d.checkpoints import load_model
@@ -81,7 +82,8 @@ class Lifter:
 
     def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
              smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
-             chunk: int = 8192, refine: bool | RefineConfig = True) -> LiftResult | list[LiftResult]:
+             chunk: int = 8192, refine: bool | RefineConfig = True,
+             progress: bool | str = False) -> LiftResult | list[LiftResult]:
         """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
 
         Args:
@@ -91,11 +93,14 @@ class Lifter:
             smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
             refine: move the person along their rays so the feet rest on the floor and the body keeps one size
                 (``ray3d.refine``; a ``RefineConfig`` sets its uncertainties); False keeps the network's output.
+            progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
         """
+        if fps is not None and (not np.isfinite(fps) or fps <= 0):
+            raise InputError(f"fps: expected a positive frame rate, got {fps}", arguments=("fps",))
         keypoints = np.asarray(keypoints, dtype=np.float64)
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences
-            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine)
+            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress)
                     for k, c in zip(keypoints, scores)]
         skeleton = layout_skeleton(layout)
         if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
@@ -117,7 +122,7 @@ class Lifter:
         pixels = temporal.smooth(temporal.fill_missing(pixels, missing), smooth_2d, input_fps)
         resampled = temporal.needs_resampling(input_fps, MODEL_FPS)
         model_pixels = temporal.resample(pixels, input_fps, MODEL_FPS) if resampled else pixels
-        joints = self._lift_pixels(model_pixels, camera, flip_test, chunk)
+        joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
         refinement = None
@@ -146,6 +151,8 @@ class Lifter:
             if rest and rest[0] is not None:
                 dense_conf = np.zeros((len(span), joints))
                 dense_conf[frames[order] - span[0]] = np.asarray(rest[0], dtype=np.float64)[order]
+            if options.get("progress") is True:
+                options = {**options, "progress": f"track {track}"}
             result = self.lift(dense, camera, dense_conf, fps, layout, **options)
             results[track] = dataclasses.replace(result, frames=span)
         return results
@@ -160,7 +167,8 @@ class Lifter:
         return World(tracks, camera, self.name)
 
     @torch.no_grad()
-    def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int) -> np.ndarray:
+    def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int,
+                     progress: bool | str = False) -> np.ndarray:
         rays = camera.pixels_to_rays(pixels, remove_roll=self.model.config.remove_roll)
         if not np.isfinite(rays).all():
             raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
@@ -170,9 +178,13 @@ class Lifter:
         index = temporal.sequence_window_indices(count, self.model.config.window)
         cameras = CameraBatch.from_cameras([camera])
         out = np.empty((count, 17, 3))
+        bar = tqdm(total=count, unit="frame", desc=progress if isinstance(progress, str) else "lifting",
+                   disable=not progress or count <= chunk)
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
             out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], cameras, flip_test)
+            bar.update(len(part))
+        bar.close()
         return out
 
     @torch.no_grad()

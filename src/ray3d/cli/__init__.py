@@ -12,7 +12,8 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "camera_index": "--camera-index", "subject": "--subject", "action": "--action", "data_dir": "--data-dir",
          "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov", "start": "--start",
          "frames": "--frames", "detector": "--detector", "people": "--people", "max_gap_s": "--max-gap",
-         "min_track_s": "--min-track"}
+         "min_track_s": "--min-track", "height_m": "--camera-height", "pitch_deg": "--pitch", "roll_deg": "--roll",
+         "checkpoint": "--checkpoint"}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -28,3 +29,12 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as err:
         print(f"ray3d {args.command}: error: {err.message_for(FLAGS)}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"ray3d {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as err:  # a bug, not bad input: one line and how to report it, the traceback with --debug
+        if args.debug:
+            raise
+        print(f"ray3d {args.command}: internal error: {type(err).__name__}: {err} -- this is a bug in ray3d; "
+              "please report it with the command (run again with --debug for the traceback)", file=sys.stderr)
+        return 1

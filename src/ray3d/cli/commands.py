@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from ray3d.errors import InputError
+from ray3d.io.atomic import check_output
 
 
 def write_json(path: Path, document: dict, overwrite: bool) -> None:
@@ -202,6 +203,7 @@ def calibrate(args: argparse.Namespace) -> int:
 
     if (args.floor_points is None) == (args.from_person is None):
         raise InputError("calibrate: pass exactly one of --floor-points FILE and --from-person KEYPOINTS")
+    check_output(args.out, (args.floor_points, args.from_person, args.intrinsics))
     if args.from_person is not None:
         return _calibrate_from_person(args)
     floor_xy, pixels = read_floor_points(args.floor_points)
@@ -253,17 +255,18 @@ def lift(args: argparse.Namespace) -> int:
     from ray3d.io.world import write_world
     from ray3d.lift import Lifter
 
+    check_output(args.out, (args.keypoints, args.camera))
     if args.out.exists() and not args.force:
         raise InputError(f"{args.out}: already exists; refusing to overwrite it", arguments=("overwrite",))
     keypoints = read_keypoints(args.keypoints, args.layout, args.fps, subject=args.subject, action=args.action,
                                camera_index=args.camera_index)
     camera = _camera(args)
+    lifter = Lifter.load(args.checkpoint)
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
-    world = Lifter.load(args.checkpoint).lift_keypoints(keypoints, camera, smooth_2d=args.smooth_2d,
-                                                        smooth_3d=args.smooth_3d, flip_test=args.flip_test,
-                                                        refine=not args.no_refine)
+    world = lifter.lift_keypoints(keypoints, camera, smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d,
+                                  flip_test=args.flip_test, refine=not args.no_refine, progress=True)
     write_world(args.out, world, overwrite=args.force)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
@@ -313,6 +316,8 @@ def video(args: argparse.Namespace) -> int:
 
 
 def viz(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ray3d.io.camera_files import read_camera
     from ray3d.io.world import read_world
     from ray3d.viz.animation import render_frames, save_animation
@@ -320,6 +325,9 @@ def viz(args: argparse.Namespace) -> int:
 
     if not args.html and not args.animation:
         raise InputError("viz: nothing to write: pass --html and/or --animation")
+    for target in (args.html, args.animation):
+        if target is not None:
+            check_output(target, (*args.world, args.camera))
     worlds = [read_world(path) for path in args.world]
     sequences = {}
     for path, world in zip(args.world, worlds):
@@ -327,7 +335,9 @@ def viz(args: argparse.Namespace) -> int:
         for track in chosen:  # every track of every file; a file's stem names it when there are several files
             result = world.track(track)
             sequences[track if len(worlds) == 1 else f"{path.stem}:{track}"] = result
-    fps = args.fps or worlds[0].fps
+    fps = worlds[0].fps if args.fps is None else args.fps
+    if not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"viz: fps must be a positive frame rate, got {fps}", arguments=("fps",))
     camera = read_camera(args.camera) if args.camera else worlds[0].camera
     if args.html:
         write_viewer(args.html, sequences, fps, camera, overwrite=args.force)

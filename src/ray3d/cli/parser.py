@@ -50,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
     parser.add_argument("--version", action="version", version=f"ray3d {ray3d.__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an internal error")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
     demo = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
                                             "the baselines, write an HTML viewer and a GIF")

@@ -15,7 +15,7 @@ import numpy as np
 from ray3d.data import asf_amc, bvh, mapping
 from ray3d.data.motion import MotionSet
 from ray3d.data.skeleton_fk import KinematicTree
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.geometry import y_up_to_z_up
 from ray3d.skeleton import H36M17
 from ray3d.temporal import resample
@@ -67,6 +67,7 @@ def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit
                         naming.name)
 
 
+@reads_file("BVH file")
 def import_bvh(path: str | Path, fps: float = 60.0, drop_native_frames: int = 0, floor: bool = True,
                units: str | None = None) -> ImportedClip:
     """Import a BVH take (cgspeed MotionBuilder, 3dsMax or Daz naming).
@@ -86,6 +87,7 @@ def import_bvh(path: str | Path, fps: float = 60.0, drop_native_frames: int = 0,
                    floor, str(path))
 
 
+@reads_file("ASF/AMC file")
 def import_amc(asf_path: str | Path, amc_path: str | Path, fps: float = 60.0, native_fps: float = 120.0,
                drop_native_frames: int = 0, floor: bool = True) -> ImportedClip:
     """Import an ASF/AMC take (CMU or HDM05 conventions). AMC files do not state their rate: ``native_fps``

@@ -179,6 +179,11 @@ class Camera:
         """A camera placed by what a user can measure: its height above the floor, how far it looks down and
         its field of view (or focal length in pixels). The world frame is the floor below the camera: the
         centre is (0, 0, height) and the camera looks along +x; the principal point is the image centre."""
+        for argument, value, low, high in (("height_m", height_m, 0.0, 1000.0), ("pitch_deg", pitch_deg, -90.0, 90.0),
+                                           ("roll_deg", roll_deg, -90.0, 90.0)):
+            if not np.isfinite(value) or not low < value < high:
+                raise InputError(f"{argument}: expected a value between {low:g} and {high:g}, got {value}",
+                                 arguments=(argument,))
         fx, fy, cx, cy = pinhole_intrinsics(image_size, focal_px, hfov_deg)
         return cls.from_pose([0.0, 0.0, height_m], 0.0, np.radians(pitch_deg), np.radians(roll_deg), fx, fy, cx, cy,
                              image_size, dist, name or f"height{height_m:g}m-pitch{pitch_deg:g}deg")

@@ -1,5 +1,6 @@
 """Atomic file writes: write beside the target, then rename, so a crash never leaves half a file and an
-existing output is only replaced when asked."""
+existing output is only replaced when asked. The file gets the permissions the user's umask gives a new file
+(a temporary file starts private, readable by its owner only)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,30 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from ray3d.errors import InputError
+
+
+def _umask() -> int:
+    """The process's umask (reading it means setting it: set it straight back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def check_output(target: str | Path, inputs: tuple = (), argument: str = "out") -> Path:
+    """Refuse, before any work, an output path that is one of the ``inputs`` (files or folders read), is an
+    existing folder, or lies below a file; returns it as a ``Path``."""
+    target = Path(target)
+    resolved = target.resolve()
+    for source in inputs:
+        if source is not None and Path(source).exists() and Path(source).resolve() == resolved:
+            raise InputError(f"{target}: is also an input; writing it would destroy what was read",
+                             arguments=(argument,))
+    if target.is_dir():
+        raise InputError(f"{target}: is a folder; give a file name", arguments=(argument,))
+    for parent in resolved.parents:
+        if parent.exists() and not parent.is_dir():
+            raise InputError(f"{target}: {parent} is a file, not a folder", arguments=(argument,))
+    return target
 
 
 @contextlib.contextmanager
@@ -27,6 +52,7 @@ def atomic_path(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     os.close(handle)
     try:
         yield Path(temporary)
+        os.chmod(temporary, 0o666 & ~_umask())
         os.replace(temporary, target)
     finally:
         if os.path.exists(temporary):

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.io.json_files import read_json
@@ -21,6 +22,7 @@ def save_cameras(path: str | Path, cams: list[Camera], overwrite: bool = False, 
         temporary.write_text(json.dumps({**info, "cameras": [c.to_dict() for c in cams]}, indent=1))
 
 
+@reads_file("camera file")
 def load_cameras(path: str | Path) -> list[Camera]:
     """Read a camera list, or a single camera object, from JSON."""
     path = Path(path)
@@ -79,6 +81,34 @@ def _from_opencv_fields(fields: dict[str, Any], path: Path) -> Camera:
     return Camera(K, dist, R, t, (int(width), int(height)), name=path.stem)
 
 
+_MATRIX_SIZE = re.compile(r"(?:\brows\b\s*:|\bcols\b\s*:|<rows>|<cols>)\s*([^\s<]*)")
+
+
+@reads_file("OpenCV camera file")
+def _read_opencv_storage(path: Path) -> Camera:
+    """An OpenCV YAML / XML camera, its matrix sizes checked first: OpenCV's reader aborts the process on a
+    negative or huge ``rows`` / ``cols``, which no ``try`` can catch."""
+    if path.stat().st_size > 1_000_000:
+        raise InputError(f"{path}: {path.stat().st_size} bytes is too large for a camera file")
+    text = path.read_text(errors="replace")
+    for size in _MATRIX_SIZE.findall(text):
+        if not size.isdigit() or not 0 < int(size) <= 16:
+            raise InputError(f"{path}: matrix size {size!r}: a camera's matrices have 1-16 rows and columns")
+    if not text.strip():
+        raise InputError(f"{path}: empty file")
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    if not storage.isOpened():
+        raise InputError(f"{path}: OpenCV cannot read this file")
+    fields: dict[str, Any] = {}
+    for key in ("camera_matrix", "dist_coeffs", "distortion_coefficients", "rvec", "tvec", "R", "t",
+                "image_width", "image_height", "width", "height"):
+        node = storage.getNode(key)
+        if not node.empty():
+            fields[key] = node.mat() if node.isMap() or node.isSeq() else node.real()
+    storage.release()
+    return _from_opencv_fields({k: v for k, v in fields.items() if v is not None}, path)
+
+
 def read_camera(spec: str | Path, index: int = 0) -> Camera:
     """One camera from ``h36m:SUBJECT:CAMERA_ID``, our JSON (one camera or {"cameras": [...]}: ``index``),
     OpenCV-style JSON (camera_matrix, dist_coeffs, rvec/tvec or R/t, image_width/height) or OpenCV YAML."""
@@ -94,17 +124,7 @@ def read_camera(spec: str | Path, index: int = 0) -> Camera:
     if not path.is_file():
         raise InputError(f"{path}: no such camera file")
     if path.suffix.lower() in (".yaml", ".yml", ".xml"):
-        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-        if not storage.isOpened():
-            raise InputError(f"{path}: OpenCV cannot read this file")
-        fields: dict[str, Any] = {}
-        for key in ("camera_matrix", "dist_coeffs", "distortion_coefficients", "rvec", "tvec", "R", "t",
-                    "image_width", "image_height", "width", "height"):
-            node = storage.getNode(key)
-            if not node.empty():
-                fields[key] = node.mat() if node.isMap() or node.isSeq() else node.real()
-        storage.release()
-        return _from_opencv_fields({k: v for k, v in fields.items() if v is not None}, path)
+        return _read_opencv_storage(path)
     document = read_json(path)
     if isinstance(document, dict) and "camera_matrix" in document:
         return _from_opencv_fields(document, path)

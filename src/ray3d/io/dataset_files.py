@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.geometry import y_up_to_z_up
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import convert
@@ -54,6 +54,7 @@ def _to_layout(array, dataset: str, path: Path, where: str, up: str) -> np.ndarr
     return array[:, list(H36M32_TO_17)] if source is None else convert(array, source, target)
 
 
+@reads_file("positions_3d file")
 def load_positions_3d(path: str | Path, dataset: str = "h36m", up: str = "z") -> dict[str, dict[str, np.ndarray]]:
     """{subject: {action: (N, J, 3)}} in metres, z up: Human3.6M's 32 joints and 3DHP's 17 become H36M-17,
     HumanEva's 15 the 14-joint cross-dataset layout. ``up="y"`` rotates y-up files to z-up."""
@@ -67,6 +68,7 @@ def load_positions_3d(path: str | Path, dataset: str = "h36m", up: str = "z") ->
             for subject, actions in _nested(path, "positions_3d", read_npz_entries(path)).items()}
 
 
+@reads_file("positions_2d file")
 def load_positions_2d(path: str | Path, dataset: str = "h36m",
                       entries: dict | None = None) -> tuple[dict[str, dict[str, list[np.ndarray]]], dict]:
     """({subject: {action: [(N, J, 2) per camera]}}, metadata); Human3.6M cameras in H36M_2D_CAMERA_ORDER.

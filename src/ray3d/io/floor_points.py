@@ -7,12 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.io.json_files import read_json
 
 MIN_FLOOR_POINTS = 4
 
 
+@reads_file("floor-point file")
 def read_floor_points(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(N, 2) floor positions in metres (z = 0) and (N, 2) pixels from a CSV (columns x, y, u, v) or a JSON list
     of {"x", "y", "u", "v"} objects."""

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.json_files import read_json
@@ -97,6 +97,16 @@ def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source
             raise InputError(f"{path}: confidences must be {pixels.shape[:2]}, got {confidences.shape}")
     if len(frames) != len(pixels) or len(tracks) != len(pixels):
         raise InputError(f"{path}: frames and tracks need one entry per detection ({len(pixels)})")
+    if fps is not None and (isinstance(fps, bool) or not isinstance(fps, (int, float)) or not np.isfinite(fps)
+                            or fps <= 0):
+        raise InputError(f"{path}: fps must be a positive number of frames per second, got {fps!r}", arguments=("fps",))
+    if len(frames) and (frames.min() < 0 or frames.max() - frames.min() > 10_000_000):
+        raise InputError(f"{path}: frames: indices must be 0 or more and span at most 10,000,000 frames, got "
+                         f"{frames.min()}-{frames.max()}")
+    rows = np.stack([tracks.astype(str), frames.astype(str)], axis=-1)
+    if len(np.unique(rows, axis=0)) < len(rows):
+        raise InputError(f"{path}: the same frame appears more than once in one track (each person needs their "
+                         "own track id)")
     return Keypoints(pixels, confidences, frames, tracks, layout, fps, source, path)
 
 
@@ -123,7 +133,7 @@ def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
         raise InputError(f"{path}: every detection needs a 'keypoints' list") from None
     pixels, scores = _split_scores(path, rows)
     return _finish(path, pixels, scores, frames, tracks, layout or document.get("layout"),
-                   fps or document.get("fps"), "ray3d json")
+                   document.get("fps") if fps is None else fps, "ray3d json")
 
 
 def read_coco_results(path: Path, document: list, layout, fps) -> Keypoints:
@@ -221,7 +231,8 @@ def read_npz(path: Path, layout, fps, subject=None, action=None, camera_index=No
         index = 0 if camera_index is None and len(per_camera) == 1 else camera_index
         if index is None or not 0 <= index < len(per_camera):
             raise InputError(f"{path}: choose a camera index 0..{len(per_camera) - 1}", arguments=("camera_index",))
-        return _finish(path, per_camera[index], None, None, None, layout, fps or DATASET_FPS["h36m"],
+        return _finish(path, per_camera[index], None, None, None, layout,
+                       DATASET_FPS["h36m"] if fps is None else fps,
                        "videopose3d positions_2d")
     if "keypoints" not in entries:
         raise InputError(f"{path}: an npz of keypoints needs key 'keypoints' (or VideoPose3D's 'positions_2d')")
@@ -229,7 +240,7 @@ def read_npz(path: Path, layout, fps, subject=None, action=None, camera_index=No
     stored_fps = entries.get("fps")
     return _finish(path, entries["keypoints"], entries.get("confidences"), entries.get("frames"),
                    entries.get("tracks"), layout or (str(stored_layout) if stored_layout is not None else None),
-                   fps or (float(stored_fps) if stored_fps is not None else None), "ray3d npz")
+                   (float(stored_fps) if stored_fps is not None else None) if fps is None else fps, "ray3d npz")
 
 
 def _only(path: Path, what: str, choices: list) -> str:
@@ -239,6 +250,7 @@ def _only(path: Path, what: str, choices: list) -> str:
     return choices[0]
 
 
+@reads_file("keypoint file")
 def read_keypoints(path: str | Path, layout: str | None = None, fps: float | None = None, **npz_options) -> Keypoints:
     """Read any supported keypoint file (or OpenPose folder), detecting the format."""
     path = Path(path)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.io.json_files import read_json
@@ -166,6 +166,7 @@ def _read_csv(path: Path) -> World:
     return World(tracks, camera, fields["model"], fields["units"], fields["axes"], path)
 
 
+@reads_file("world file")
 def read_world(path: str | Path) -> World:
     """Read back what :func:`write_world` wrote."""
     path = Path(path)

@@ -4,6 +4,8 @@ export with an ONNX Runtime backend (optional extra: ``pip install ray3d[onnx]``
 
 from __future__ import annotations
 
+import importlib.util
+
 import io
 import warnings
 from pathlib import Path
@@ -74,6 +76,8 @@ class TorchScriptLiftingModel(_Backend):
 
 def export_onnx(model: LiftingNetwork, target: str | Path | io.BytesIO, image_width: float = 1000.0) -> None:
     """Write ``model`` as ONNX (batch axis dynamic). Pixel-input models bake in ``image_width``."""
+    if importlib.util.find_spec("onnx") is None:
+        raise InputError("ONNX export needs the onnx extra: pip install 'ray3d[onnx]'")
     model = model.eval().cpu()
     example = _example_inputs(model, image_width)
     # The trace warns about the window-length checks (the receptive field is fixed by design) and about the

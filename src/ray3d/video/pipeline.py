@@ -86,7 +86,7 @@ def track_video(path: str | Path, camera: Camera, detector: PoseDetector, fps: f
 
 
 def _frame_rate(info: VideoInfo, fps: float | None) -> float:
-    fps = fps or info.fps
+    fps = info.fps if fps is None else fps
     if not fps or not np.isfinite(fps) or fps <= 0:
         raise InputError(f"{info.path}: the video reports no frame rate; give it", arguments=("fps",))
     return float(fps)

@@ -1,0 +1,223 @@
+"""Bad input through the command line and the readers: one line naming the file or field, exit code 2, no
+traceback, nothing the user had changed; anything unexpected is one line and exit code 1. Fuzzed files reach
+the readers and end as ``InputError`` or a result, never another exception."""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import ray3d
+from ray3d import InputError, cameras
+from ray3d.cli import main
+from ray3d.demo import demo_clip
+from ray3d.io.camera_files import read_camera
+from ray3d.io.keypoints import read_keypoints
+from ray3d.io.world import read_world
+
+CAMERA = "h36m:S9:54138969"
+
+
+@pytest.fixture()
+def keypoints_file(tmp_path):
+    path = tmp_path / "k.npz"
+    np.savez(path, keypoints=cameras.h36m("S9", "54138969").project(demo_clip()[:20]))
+    return path
+
+
+def _fails_cleanly(capsys, argv, *needles):
+    """Runs the CLI; asserts exit code 2 and one line on stderr holding every needle."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for needle in needles:
+        assert needle in err, err
+    return err
+
+
+def _lift(keypoints, out, *extra, camera=CAMERA):
+    return ["lift", "--keypoints", str(keypoints), "--camera", str(camera), "--out", str(out), *extra]
+
+
+CAMERA_FILES = {
+    "negative.yaml": ("%YAML:1.0\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: -1\n   dt: d\n"
+                      "   data: [1, 0, 0]\n", "matrix size '-1'"),
+    "huge.yaml": ("%YAML:1.0\ncamera_matrix: !!opencv-matrix\n   rows: 100000\n   cols: 100000\n   dt: d\n"
+                  "   data: [1]\n", "matrix size '100000'"),
+    "empty.yaml": ("", "empty file"),
+    "bigint.json": ('{"fx": 1' + "0" * 400 + ', "fy": 1, "cx": 1, "cy": 1, "R": [[1,0,0],[0,1,0],[0,0,1]], '
+                    '"t": [0,0,0], "image_size": [10, 10]}', "bigint.json"),
+    "list.json": ("[]", "list.json"),
+    "text.json": ('"camera"', "text.json"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CAMERA_FILES))
+def test_bad_camera_files_end_in_one_line(name, tmp_path, keypoints_file, capsys):
+    text, needle = CAMERA_FILES[name]
+    camera = tmp_path / name
+    camera.write_text(text)
+    _fails_cleanly(capsys, _lift(keypoints_file, tmp_path / "out.json", camera=camera), needle)
+    assert not (tmp_path / "out.json").exists()
+
+
+def test_a_negative_opencv_matrix_size_cannot_abort_the_process(tmp_path):
+    """OpenCV's own reader aborts on it: checked in a child process, so a regression cannot take pytest down."""
+    camera = tmp_path / "negative.yaml"
+    camera.write_text(CAMERA_FILES["negative.yaml"][0])
+    code = f"from ray3d.io.camera_files import read_camera\ntry:\n read_camera({str(camera)!r})\nexcept ValueError as e:\n print(e)"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and "matrix size" in run.stdout
+
+
+KEYPOINT_FILES = {
+    "empty-list.json": ("[]", "k"),
+    "null.json": ("null", "k"),
+    "deep.json": ("[" * 5000 + "]" * 5000, "deep.json"),
+    "fewer-fields.csv": ("frame,joint,x,y\n0,0,1,2\n0,1,3\n", "fewer-fields.csv"),
+    "fps-zero.json": (json.dumps({"fps": 0, "layout": "h36m17", "detections": [
+        {"frame": 0, "keypoints": [[1.0, 2.0]] * 17}]}), "fps must be a positive number"),
+    "duplicate-frames.json": (json.dumps({"layout": "h36m17", "detections": [
+        {"frame": 3, "keypoints": [[1.0, 2.0]] * 17}] * 30}), "same frame appears more than once"),
+    "absurd-frames.json": (json.dumps({"layout": "h36m17", "detections": [
+        {"frame": 0, "keypoints": [[1.0, 2.0]] * 17}, {"frame": 10 ** 12, "keypoints": [[1.0, 2.0]] * 17}]}),
+        "span at most"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(KEYPOINT_FILES))
+def test_bad_keypoint_files_end_in_one_line(name, tmp_path, capsys):
+    text, needle = KEYPOINT_FILES[name]
+    keypoints = tmp_path / name
+    keypoints.write_text(text)
+    _fails_cleanly(capsys, _lift(keypoints, tmp_path / "out.json"), needle)
+
+
+def test_a_corrupted_npz_ends_in_one_line(tmp_path, keypoints_file, capsys):
+    data = bytearray(keypoints_file.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    broken = tmp_path / "broken.npz"
+    broken.write_bytes(bytes(data))
+    _fails_cleanly(capsys, _lift(broken, tmp_path / "out.json"), "broken.npz")
+
+
+@pytest.mark.parametrize("flags, needle", [
+    (["--camera-height", "3", "--pitch", "95", "--hfov", "60", "--image-size", "1000x1000"], "(--pitch)"),
+    (["--camera-height", "-1", "--pitch", "10", "--hfov", "60", "--image-size", "1000x1000"], "(--camera-height)"),
+    (["--camera", CAMERA, "--fps", "0"], "(--fps)"),
+    (["--camera", CAMERA, "--fps", "nan"], "(--fps)"),
+    (["--camera", CAMERA, "--checkpoint", "rfrh"], "no-learning baseline"),
+    (["--camera", CAMERA, "--layout", "coco"], "unknown joint layout 'coco'"),
+])
+def test_impossible_cameras_rates_and_models_are_refused(flags, needle, tmp_path, keypoints_file, capsys):
+    _fails_cleanly(capsys, ["lift", "--keypoints", str(keypoints_file), "--out", str(tmp_path / "o.json"), *flags],
+                   needle)
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_an_output_that_is_an_input_or_a_folder_is_refused_before_any_work(tmp_path, keypoints_file, capsys):
+    before = keypoints_file.read_bytes()
+    _fails_cleanly(capsys, _lift(keypoints_file, keypoints_file, "--force"), "is also an input")
+    assert keypoints_file.read_bytes() == before
+    (tmp_path / "folder").mkdir()
+    _fails_cleanly(capsys, _lift(keypoints_file, tmp_path / "folder", "--force"), "is a folder")
+    _fails_cleanly(capsys, _lift(keypoints_file, keypoints_file / "inside.json"), "is a file, not a folder")
+    world = tmp_path / "w.json"
+    assert main(_lift(keypoints_file, world)) == 0
+    capsys.readouterr()
+    _fails_cleanly(capsys, ["viz", str(world), "--html", str(world), "--force"], "is also an input")
+    assert read_world(world).tracks
+
+
+def test_export_onnx_without_the_extra_says_what_to_install(tmp_path, monkeypatch, capsys):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "onnx" else real(name, *a))
+    _fails_cleanly(capsys, ["export", "--onnx", "--out", str(tmp_path / "m.onnx")], "pip install 'ray3d[onnx]'")
+
+
+def test_an_internal_error_is_one_line_with_exit_code_1_and_a_traceback_only_with_debug(monkeypatch, capsys):
+    from ray3d.cli import commands
+
+    def broken(args):
+        raise RuntimeError("something inside broke")
+
+    monkeypatch.setattr(commands, "models", broken)
+    assert main(["models"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "internal error: RuntimeError: something inside broke" in err
+    assert "--debug" in err
+    with pytest.raises(RuntimeError):
+        main(["--debug", "models"])
+
+
+def test_written_files_follow_the_umask(tmp_path, keypoints_file):
+    previous = os.umask(0o022)
+    try:
+        assert main(_lift(keypoints_file, tmp_path / "w.csv")) == 0
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE((tmp_path / "w.csv").stat().st_mode) == 0o644
+
+
+def test_the_package_reaches_calibration_and_the_file_readers():
+    assert callable(ray3d.calibrate.from_person) and ray3d.read_camera is read_camera
+    assert ray3d.read_camera(CAMERA).name
+
+
+_FUZZ = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+
+
+def _only_input_errors(read, path):
+    try:
+        read(path)
+    except InputError:
+        pass
+
+
+@_FUZZ
+@given(data=st.binary(max_size=400), suffix=st.sampled_from([".json", ".csv", ".npz"]))
+def test_fuzzed_keypoint_files_raise_only_input_errors(tmp_path_factory, data, suffix):
+    path = tmp_path_factory.mktemp("fuzz") / f"k{suffix}"
+    path.write_bytes(data)
+    _only_input_errors(read_keypoints, path)
+
+
+@_FUZZ
+@given(document=st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5),
+                             lambda inner: st.lists(inner, max_size=4) | st.dictionaries(
+                                 st.sampled_from(["fx", "fy", "cx", "cy", "R", "t", "dist", "image_size", "cameras",
+                                                  "detections", "keypoints", "frame", "track", "fps", "layout",
+                                                  "tracks", "joints", "camera", "units"]), inner, max_size=6),
+                             max_leaves=20))
+def test_fuzzed_json_documents_raise_only_input_errors(tmp_path_factory, document):
+    path = tmp_path_factory.mktemp("fuzz") / "doc.json"
+    path.write_text(json.dumps(document))
+    for read in (read_keypoints, read_camera, read_world):
+        _only_input_errors(read, path)
+
+
+@_FUZZ
+@given(data=st.binary(max_size=300), name=st.sampled_from(["c.yaml", "c.xml"]))
+def test_fuzzed_opencv_camera_files_raise_only_input_errors(tmp_path_factory, data, name):
+    path = tmp_path_factory.mktemp("fuzz") / name
+    path.write_bytes(b"%YAML:1.0\n" + data if name.endswith(".yaml") else data)
+    _only_input_errors(read_camera, path)
+
+
+def test_a_fuzzed_npz_member_raises_only_input_errors(tmp_path):
+    path = tmp_path / "k.npz"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("keypoints.npy", b"\x93NUMPY\x01\x00" + bytes(range(200)))
+    with pytest.raises(InputError, match="k.npz"):
+        read_keypoints(path)
