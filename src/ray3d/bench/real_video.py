@@ -49,8 +49,9 @@ def _camera_seeing(clip: np.ndarray, rng: np.random.Generator, attempts: int = 5
 
 
 def run_emulated(lifter: Lifter, motion: MotionSet, pairs: int = 12, seed: int = 0,
-                 max_frames: int = 600) -> list[dict]:
-    """One row per (clip, camera, refinement): the errors against the truth and the physical checks."""
+                 max_frames: int = 600, smooth_3d: str | None = None) -> list[dict]:
+    """One row per (clip, camera, refinement): the errors against the truth and the physical checks
+    (``smooth_3d`` as for ``Lifter.lift``)."""
     rng = np.random.default_rng(seed)
     step = int(round(60.0 / EMULATED_FPS))
     rows = []
@@ -62,7 +63,7 @@ def run_emulated(lifter: Lifter, motion: MotionSet, pairs: int = 12, seed: int =
         pixels = emulated_detections(clip, camera, rng)
         distance = float(np.median(np.linalg.norm(clip[:, 0] - camera.center, axis=-1)))
         for refine in REFINE:
-            result = lifter.lift(pixels, camera, fps=EMULATED_FPS, refine=refine)
+            result = lifter.lift(pixels, camera, fps=EMULATED_FPS, refine=refine, smooth_3d=smooth_3d)
             rows.append({"pair": pair, "clip": str(motion.clips["clip_id"][pair % motion.num_clips]),
                          "refine": refine, "camera_height_m": camera.camera_height, "distance_m": distance,
                          "mrpe_mm": 1e3 * float(metrics.mrpe(result.joints, clip)),
@@ -73,11 +74,11 @@ def run_emulated(lifter: Lifter, motion: MotionSet, pairs: int = 12, seed: int =
     return rows
 
 
-def run_video(lifter: Lifter, keypoints, camera: Camera) -> list[dict]:
+def run_video(lifter: Lifter, keypoints, camera: Camera, smooth_3d: str | None = None) -> list[dict]:
     """One row per (track, refinement) of the detections of a video (``ray3d.io.keypoints.Keypoints``)."""
     rows = []
     for refine in REFINE:
-        world = lifter.lift_keypoints(keypoints, camera, refine=refine)
+        world = lifter.lift_keypoints(keypoints, camera, refine=refine, smooth_3d=smooth_3d)
         rows += [{"track": track, "refine": refine, **track_checks(result)} for track, result in world.tracks.items()]
     return rows
 

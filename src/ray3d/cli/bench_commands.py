@@ -59,8 +59,9 @@ def real_video(args: argparse.Namespace) -> int:
             camera = read_camera(args.camera)
             keypoints = track_video(args.video, camera, make_detector(args.detector, camera), args.fps)[0]
             name = args.video.name
-        video_rows = run_video(lifter, keypoints, read_camera(args.camera))
-    emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed)
+        video_rows = run_video(lifter, keypoints, read_camera(args.camera), args.smooth_3d)
+    emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed,
+                            smooth_3d=args.smooth_3d)
     files = write(args.out, emulated, video_rows, name)
     print(files[1].read_text())
     print(f"-> {', '.join(map(str, files))}")

@@ -265,8 +265,9 @@ def lift(args: argparse.Namespace) -> int:
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
-    world = lifter.lift_keypoints(keypoints, camera, smooth_2d=args.smooth_2d, smooth_3d=args.smooth_3d,
-                                  flip_test=args.flip_test, refine=not args.no_refine, progress=True)
+    world = lifter.lift_keypoints(keypoints, camera, smooth_2d=args.smooth_2d,
+                                  smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test,
+                                  refine=not args.no_refine, progress=True)
     write_world(args.out, world, overwrite=args.force)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
@@ -276,6 +277,10 @@ def lift(args: argparse.Namespace) -> int:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
     _print_refinements(world.tracks)
     return 0
+
+
+def _smoothing(choice: str) -> str | None:
+    return None if choice == "none" else choice
 
 
 def _print_refinements(tracks: dict) -> None:
@@ -301,7 +306,7 @@ def video(args: argparse.Namespace) -> int:
                         Lifter.load(args.checkpoint), fps=args.fps, world_format=args.format,
                         overlay=not args.no_overlay, overwrite=args.force, start=args.start, frames=args.frames,
                         max_gap_s=args.max_gap, min_track_s=args.min_track, smooth_2d=args.smooth_2d,
-                        smooth_3d=args.smooth_3d, flip_test=args.flip_test, refine=not args.no_refine)
+                        smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test, refine=not args.no_refine)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
     print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked ({len(result.dropped)} short or "

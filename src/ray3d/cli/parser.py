@@ -34,11 +34,13 @@ def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str 
     _add_lens_arguments(parser, "with --pitch", image_size_note)
 
 
-def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "ray3d") -> None:
+def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "ray3d",
+                           smooth_3d: str = "none") -> None:
     parser.add_argument("--checkpoint", default=checkpoint,
                         help=f"shipped model name or checkpoint path (default {checkpoint})")
     parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
-    parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the 3D output in time")
+    parser.add_argument("--smooth-3d", choices=["savgol", "one-euro", "none"], default=smooth_3d,
+                        help=f"smooth the 3D output in time (default {smooth_3d})")
     parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
     parser.add_argument("--no-refine", action="store_true",
                         help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
@@ -156,7 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--format", choices=[".json", ".csv", ".npz"], default=".json", help="world file format")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
-    _add_lifting_arguments(video, "ray3d-real")  # detector keypoints of real footage
+    # Detector keypoints of real footage: the model trained for them, and Savitzky-Golay on the output, which
+    # removes the detector's jitter without lag (docs/RESULTS.md, issue 13).
+    _add_lifting_arguments(video, "ray3d-real", smooth_3d="savgol")
     video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 
@@ -207,6 +211,7 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--detector", default="people",
                       help="2D detector for --video (default people)")
     real.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
+    real.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the lifted joints in time")
     real.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
     real.add_argument("--pairs", type=int, default=12, help="emulated (test clip, camera) pairs (default 12)")
     real.add_argument("--seed", type=int, default=0)

@@ -106,13 +106,15 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
                lifter: Lifter | None = None, fps: float | None = None, world_format: str = ".json",
                overlay: bool = True, overwrite: bool = False, progress: bool = True, start: int = 0,
                frames: int | None = None, max_gap_s: float = 0.5, min_track_s: float = 1.0,
-               **lift_options) -> VideoResult:
+               smooth_3d: str | None = "savgol", **lift_options) -> VideoResult:
     """Detect, track and lift everybody, and write ``out_dir``/{world.json|.csv|.npz, keypoints.json,
     viewer.html, overlay.mp4}.
 
     ``camera`` must have the video's image size; ``fps`` overrides the frame rate the video reports;
     ``start`` / ``frames`` select part of the video; a person unseen for longer than ``max_gap_s`` starts a
-    new track, and tracks shorter than ``min_track_s`` are dropped. ``lift_options`` go to ``Lifter.lift``.
+    new track, and tracks shorter than ``min_track_s`` are dropped. The lifted joints are smoothed in time
+    (``smooth_3d``, Savitzky-Golay by default: it removes a detector's jitter without lag; None keeps them as
+    lifted). ``lift_options`` go to ``Lifter.lift``.
     """
     info = read_video_info(path)
     if tuple(camera.image_size) != info.image_size:
@@ -127,7 +129,8 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
     lifted = {}
     for track, entry in keypoints.by_track().items():
         try:
-            lifted.update(lifter.lift_tracks({track: entry}, camera, keypoints.layout, keypoints.fps, **lift_options))
+            lifted.update(lifter.lift_tracks({track: entry}, camera, keypoints.layout, keypoints.fps,
+                                             smooth_3d=smooth_3d, **lift_options))
         except InputError as err:
             dropped[track] = err.message
     if not lifted:
