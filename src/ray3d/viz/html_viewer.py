@@ -47,7 +47,9 @@ let frame = 0, playing = true, yaw = -0.6, elevation = 0.35, zoom = 1.0, centre 
 names.forEach(n => { const o = document.createElement("option"); o.value = n; o.textContent = n; follow.appendChild(o); });
 document.getElementById("legend").innerHTML = names.map((n, i) =>
   `<span class="key" style="background:${DATA.colours[i]}"></span>${n}`).join(" &nbsp; ");
-function resize() { canvas.width = Math.max(320, window.innerWidth); canvas.height = Math.max(240, window.innerHeight - 60); draw(); }
+function resize() {  // the whole window below the bar (which grows with the legend)
+  canvas.width = Math.max(320, window.innerWidth);
+  canvas.height = Math.max(240, window.innerHeight - document.getElementById("bar").offsetHeight - 6); draw(); }
 function pose(seq, absolute) { const row = absolute - seq.start; return row >= 0 && row < seq.joints.length ? row : -1; }
 function project(p) {
   const x = p[0] - centre[0], y = p[1] - centre[1], z = p[2];
