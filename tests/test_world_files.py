@@ -56,3 +56,30 @@ def test_a_csv_written_before_the_refinement_still_reads(tmp_path, rng):
     back = read_world(tmp_path / "old.csv")
     np.testing.assert_allclose(back.track("7").joints, world.tracks["7"].joints, atol=1e-5)
     assert not back.track("7").interpolated.any() and back.track("7").refinement is None
+
+
+def test_trc_export_has_opensims_header_and_markers_in_millimetres_y_up(tmp_path):
+    """Two tracks, the second starting later: every joint a marker (TRACK_joint), one row per frame of either,
+    blank where a track has no frame; millimetres; OpenSim's y up."""
+    joints = np.zeros((3, 17, 3))
+    joints[:, 0] = [[1.0, 2.0, 0.9], [1.1, 2.0, 0.9], [1.2, 2.0, 0.9]]
+    world = World({"0": LiftResult(joints, np.zeros((3, 17), bool), 25.0, np.arange(3)),
+                   "4": LiftResult(joints + 1.0, np.zeros((3, 17), bool), 25.0, np.arange(2, 5))},
+                  cameras.h36m("S9", "54138969"), "test")
+    path = write_world(tmp_path / "people.trc", world)
+    lines = path.read_text().split("\n")
+    assert lines[0].split("\t") == ["PathFileType", "4", "(X/Y/Z)", "people.trc"]
+    assert lines[1].split("\t")[:5] == ["DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units"]
+    rate, camera_rate, frames, markers, units, *_ = lines[2].split("\t")
+    assert (float(rate), float(camera_rate), int(frames), int(markers), units) == (25.0, 25.0, 5, 34, "mm")
+    names = [n for n in lines[3].split("\t")[2:] if n]
+    assert names[:2] == ["0_pelvis", "0_r_hip"] and names[17] == "4_pelvis" and len(names) == 34
+    assert lines[4].split("\t")[2:5] == ["X1", "Y1", "Z1"] and lines[5] == ""
+    first = lines[6].split("\t")
+    assert first[:2] == ["1", "0.00000"]
+    np.testing.assert_allclose([float(v) for v in first[2:5]], [1000.0, 900.0, -2000.0])  # (x, z, -y) in mm
+    assert first[2 + 17 * 3] == ""  # track 4 has no frame 0
+    last = lines[10].split("\t")
+    assert last[:2] == ["5", "0.16000"] and last[2] == "" and float(last[2 + 17 * 3]) == pytest.approx(2200.0)
+    with pytest.raises(InputError, match="unknown world file format .trc"):  # an export, not read back
+        read_world(path)

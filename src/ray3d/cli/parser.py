@@ -132,7 +132,8 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("--keypoints", required=True, type=Path,
                       help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
     _add_camera_arguments(lift)
-    lift.add_argument("--out", required=True, type=Path, help="output .json, .csv or .npz")
+    lift.add_argument("--out", required=True, type=Path,
+                      help="output .json, .csv or .npz (read back by ray3d viz), or .trc (OpenSim / Pose2Sim markers)")
     lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
     lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
     _add_lifting_arguments(lift)
@@ -155,7 +156,8 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--max-gap", type=float, default=0.5,
                        help="seconds a person may go undetected and keep their track (default 0.5)")
     video.add_argument("--min-track", type=float, default=1.0, help="drop tracks shorter than this, seconds (default 1)")
-    video.add_argument("--format", choices=[".json", ".csv", ".npz"], default=".json", help="world file format")
+    video.add_argument("--format", choices=[".json", ".csv", ".npz", ".trc"], default=".json",
+                       help="world file format (.trc: OpenSim / Pose2Sim markers)")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
     # Detector keypoints of real footage: the model trained for them, and Savitzky-Golay on the output, which

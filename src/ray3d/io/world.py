@@ -19,6 +19,7 @@ from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import H36M17
 
 FORMATS = (".json", ".csv", ".npz")
+EXPORTS = (".trc",)  # written for other tools, not read back
 UNITS = "metres"
 AXES = "world frame, right-handed: x and y horizontal, z up, floor at z = 0"
 CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated")
@@ -96,17 +97,19 @@ class World:
                 "camera": self.camera.to_dict(), "model": self.model}
 
 
-def _check_format(path: Path) -> str:
+def _check_format(path: Path, formats: tuple[str, ...] = FORMATS) -> str:
     suffix = path.suffix.lower()
-    if suffix not in FORMATS:
-        raise InputError(f"{path}: unknown world file format {suffix or '(none)'}; one of {', '.join(FORMATS)}")
+    if suffix not in formats:
+        raise InputError(f"{path}: unknown world file format {suffix or '(none)'}; one of {', '.join(formats)}")
     return suffix
 
 
 def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path:
-    """Write ``world`` to ``path`` (.json, .csv or .npz by its suffix)."""
+    """Write ``world`` to ``path`` by its suffix: .json, .csv or .npz (read back by ``read_world``), or .trc,
+    the marker file of OpenSim and Pose2Sim (every joint a marker, ``TRACK_joint`` when there are several
+    tracks; millimetres, y up as OpenSim expects)."""
     path = Path(path)
-    suffix = _check_format(path)
+    suffix = _check_format(path, FORMATS + EXPORTS)
     meta = world.metadata()
     joints, frames, tracks, interpolated = world.rows()
     with atomic_path(path, overwrite) as temporary:
@@ -116,6 +119,8 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                                                "refinement": r.refinement}
                                            for t, r in world.tracks.items()}}
             temporary.write_text(json.dumps(document))
+        elif suffix == ".trc":
+            temporary.write_text(_trc_text(world, path.name))
         elif suffix == ".csv":
             with temporary.open("w", newline="") as handle:
                 handle.write(f"# units: {world.units}; axes: {world.axes}; fps: {world.fps:g}; model: {world.model}; "
@@ -134,6 +139,31 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                                     model=np.array(world.model), camera_json=np.array(json.dumps(meta["camera"])),
                                     refinement_json=np.array(json.dumps(world.refinements())))
     return path
+
+
+# World (z up) -> OpenSim (y up): a rotation of -90 degrees about x, (x, y, z) -> (x, z, -y).
+_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+
+
+def _trc_text(world: World, name: str) -> str:
+    """The TRC file (OpenSim's "PathFileType 4" marker format, tab-separated) of every track: one row per frame
+    of any track, blank where a track has no frame."""
+    several = len(world.tracks) > 1
+    markers = [f"{t}_{j}" if several else j for t in world.tracks for j in world.joint_names]
+    frames = np.unique(np.concatenate([r.frames for r in world.tracks.values()]))
+    table = np.full((len(frames), len(markers), 3), np.nan)
+    for k, result in enumerate(world.tracks.values()):
+        rows = np.searchsorted(frames, result.frames)
+        table[rows, 17 * k:17 * (k + 1)] = 1000.0 * result.joints @ _Y_UP.T
+    lines = [f"PathFileType\t4\t(X/Y/Z)\t{name}",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+             f"{world.fps:g}\t{world.fps:g}\t{len(frames)}\t{len(markers)}\tmm\t{world.fps:g}\t1\t{len(frames)}",
+             "Frame#\tTime\t" + "\t".join(f"{m}\t\t" for m in markers).rstrip("\t"),
+             "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, len(markers) + 1)), ""]
+    for row, (frame, values) in enumerate(zip(frames, table)):
+        cells = ["" if not np.isfinite(v) else f"{v:.2f}" for v in values.ravel()]
+        lines.append(f"{row + 1}\t{frame / world.fps:.5f}\t" + "\t".join(cells))
+    return "\n".join(lines) + "\n"
 
 
 def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
