@@ -16,6 +16,7 @@ from ray3d.demo import demo_clip, run_demo
 from ray3d.io.world import LiftResult, World, write_world
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
+from ray3d.video.frames import read_video_info
 from ray3d.viz.plots import plot_sweep
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -24,8 +25,8 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 def test_gif_has_one_frame_per_stride(tmp_path):
     truth = demo_clip()[:20]
     camera = cameras.h36m("S9", "54138969")
-    images = render_frames({"ray3d": truth + 0.02}, camera, {"ray3d": camera.project(truth)}, truth, stride=5,
-                           size_px=360)
+    images = list(render_frames({"ray3d": truth + 0.02}, camera, {"ray3d": camera.project(truth)}, truth, stride=5,
+                                size_px=360))
     assert len(images) == 4
     path = save_animation(images, tmp_path / "a.gif", fps=12)
     with Image.open(path) as gif:
@@ -34,6 +35,9 @@ def test_gif_has_one_frame_per_stride(tmp_path):
     assert (pixels < 200).any() and (pixels > 250).any()  # something is drawn on a white background
     with pytest.raises(Exception, match="already exists"):
         save_animation(images, path, fps=12)
+    video = save_animation(iter(images), tmp_path / "a.mp4", fps=12)  # streamed through OpenCV, no ffmpeg
+    info = read_video_info(video)
+    assert info.frames == 4 and info.image_size == images[0].size
 
 
 def test_sweep_plot_is_a_png(tmp_path):
@@ -123,3 +127,13 @@ def test_viz_draws_every_track_at_the_world_files_rate_with_its_camera(tmp_path)
     assert main(["viz", str(path), "--track", "7", "--html", str(tmp_path / "one.html")]) == 0
     one = json.loads((tmp_path / "one.html").read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
     assert set(one["sequences"]) == {"7"} and one["first"] == 6
+
+
+def test_a_gif_too_long_to_hold_in_memory_is_refused_before_rendering(tmp_path, capsys):
+    camera = cameras.h36m("S9", "54138969")
+    clip = np.repeat(demo_clip()[:1], 1200, axis=0)
+    world = write_world(tmp_path / "long.npz", World({"0": LiftResult(clip, np.zeros((1200, 17), dtype=bool), 60.0,
+                                                                      np.arange(1200))}, camera, "test"))
+    assert main(["viz", str(world), "--animation", str(tmp_path / "long.gif"), "--stride", "1"]) == 2
+    assert "1200 frames" in capsys.readouterr().err and not (tmp_path / "long.gif").exists()
+    assert main(["viz", str(world), "--animation", str(tmp_path / "x.gif"), "--stride", "0"]) == 2

@@ -13,7 +13,7 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov", "start": "--start",
          "frames": "--frames", "detector": "--detector", "people": "--people", "max_gap_s": "--max-gap",
          "min_track_s": "--min-track", "height_m": "--camera-height", "pitch_deg": "--pitch", "roll_deg": "--roll",
-         "checkpoint": "--checkpoint"}
+         "checkpoint": "--checkpoint", "stride": "--stride"}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -325,7 +325,7 @@ def viz(args: argparse.Namespace) -> int:
 
     from ray3d.io.camera_files import read_camera
     from ray3d.io.world import read_world
-    from ray3d.viz.animation import render_frames, save_animation
+    from ray3d.viz.animation import GIF_MAX_FRAMES, frame_span, render_frames, save_animation
     from ray3d.viz.html_viewer import write_viewer
 
     if not args.html and not args.animation:
@@ -348,6 +348,13 @@ def viz(args: argparse.Namespace) -> int:
         write_viewer(args.html, sequences, fps, camera, overwrite=args.force)
         print(f"wrote {args.html} ({len(sequences)} tracks, {fps:g} frames/s)")
     if args.animation:
+        if args.stride < 1:
+            raise InputError(f"viz: stride must be 1 or more, got {args.stride}", arguments=("stride",))
+        first, last = frame_span(sequences)
+        if args.animation.suffix.lower() == ".gif" and (last - first) // args.stride + 1 > GIF_MAX_FRAMES:
+            raise InputError(f"{args.animation}: {(last - first) // args.stride + 1} frames; a GIF holds every frame "
+                             f"in memory, so at most {GIF_MAX_FRAMES}: take every n-th frame or write .mp4",
+                             arguments=("stride",))
         images = render_frames(sequences, camera, stride=args.stride)
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")

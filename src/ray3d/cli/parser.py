@@ -172,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="world files (.json/.csv/.npz): several people, or one per method to compare")
     viz.add_argument("--camera", help="the camera drawn and projected through (default: the first world file's)")
     viz.add_argument("--html", type=Path, help="write the interactive viewer here")
-    viz.add_argument("--animation", type=Path, help="write a .gif (or .mp4 with ffmpeg) here")
+    viz.add_argument("--animation", type=Path, help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
     viz.add_argument("--track", help="show only this track (default: every track)")
     viz.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")

@@ -1,12 +1,14 @@
 """The camera's view beside the 3D world view and the floor plan, frame by frame: ground grid, camera frustum,
 everybody's path; ground truth dashed, prediction solid; one person's left in blue and right in red (as the
 paper's figures), several people each in their own colour with their id.
-GIF through Pillow (no ffmpeg needed); MP4 when an ffmpeg binary is present."""
+GIF through Pillow, MP4 through OpenCV (frame by frame, bounded memory; no ffmpeg needed)."""
 
 from __future__ import annotations
 
-import shutil
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+
+import cv2
 
 import matplotlib
 
@@ -22,6 +24,7 @@ from ray3d.io.world import LiftResult  # noqa: E402
 from ray3d.skeleton import H36M17  # noqa: E402
 
 LEFT, RIGHT, CENTRE = "#1f5fd6", "#d62f2f", "#444444"
+GIF_MAX_FRAMES = 1000  # about 0.8 GB of 1080 x 720 paletted frames
 PALETTE = ("#d62f2f", "#1f5fd6", "#2a9d3c", "#9c27b0", "#ef8a00", "#00a0a0", "#7a4a00", "#c800c8")
 
 
@@ -47,9 +50,16 @@ def frustum_lines(camera: Camera, depth: float = 0.6) -> list[np.ndarray]:
     return [np.stack([centre, c]) for c in corners] + [np.stack([corners[i], corners[(i + 1) % 4]]) for i in range(4)]
 
 
+def frame_span(sequences: dict[str, np.ndarray | LiftResult]) -> tuple[int, int]:
+    """(first, last) frame over all ``sequences`` (arrays start at frame 0, tracks at their own frame)."""
+    tracks = [as_track(s) for s in sequences.values()]
+    return min(start for start, _, _ in tracks), max(start + len(joints) - 1 for start, joints, _ in tracks)
+
+
 def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera, pixels: dict | None = None,
-                  target: np.ndarray | None = None, stride: int = 1, size_px: int = 720) -> list[Image.Image]:
-    """One image per ``stride``-th frame: the camera's view, the world, and the floor plan with everybody's path.
+                  target: np.ndarray | None = None, stride: int = 1, size_px: int = 720) -> Iterator[Image.Image]:
+    """One image per ``stride``-th frame, made as it is asked for (a long clip is never all in memory): the
+    camera's view, the world, and the floor plan with everybody's path.
 
     ``sequences`` are {name: world joints (T, 17, 3) from frame 0, or a ``LiftResult`` (a track: it starts at its
     own frame)}; one sequence is drawn left blue / right red, several each in its own colour with its name.
@@ -57,8 +67,7 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     projected through ``camera``, so labelled); ``target`` (T, 17, 3) is ground truth, dashed, for the first.
     """
     tracks = {str(name): as_track(s) for name, s in sequences.items()}
-    first = min(start for start, _, _ in tracks.values())
-    last = max(start + len(joints) - 1 for start, joints, _ in tracks.values())
+    first, last = frame_span(sequences)
     shown = {name: pixels.get(name) if pixels is not None else camera.project(joints)
              for name, (_, joints, _) in tracks.items()}
     everything = np.concatenate([j.reshape(-1, 3) for _, j, _ in tracks.values()] + [camera.center[None]]
@@ -75,7 +84,6 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     grid_y = np.arange(np.floor(centre[1] - reach), np.ceil(centre[1] + reach) + 0.01, 0.5)
     top = max(2.0, float(np.percentile(everything[:, 2], 99)) + 0.3)
     width, height = camera.image_size
-    images = []
     for t in range(first, last + 1, stride):
         for axes in (image_axes, world_axes, plan_axes):
             axes.cla()
@@ -125,33 +133,37 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
         plan_axes.set_title("floor plan: paths, camera (square)", fontsize=9)
         fig.tight_layout()
         fig.canvas.draw()
-        images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()))
+        yield Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
     plt.close(fig)
-    return images
 
 
-def save_animation(images: list[Image.Image], path: str | Path, fps: float, overwrite: bool = False) -> Path:
-    """Write a GIF (Pillow) or, for .mp4, a video through ffmpeg (refused when no ffmpeg binary exists)."""
+def save_animation(images: Iterable[Image.Image], path: str | Path, fps: float, overwrite: bool = False) -> Path:
+    """Write the images as a GIF (Pillow; it holds every frame, so at most ``GIF_MAX_FRAMES``) or an MP4
+    (OpenCV, written frame by frame: any length in bounded memory)."""
     path = Path(path)
-    if path.suffix.lower() == ".gif":
-        with atomic_path(path, overwrite) as temporary:
-            images[0].save(temporary, format="GIF", save_all=True, append_images=images[1:],
-                           duration=int(1000 / fps), loop=0)
-        return path
-    if path.suffix.lower() == ".mp4":
-        if shutil.which("ffmpeg") is None:
-            raise InputError(f"{path}: MP4 needs an ffmpeg binary on PATH; write a .gif instead")
-        import matplotlib.animation as animation
-
-        fig = plt.figure(figsize=(images[0].width / 100, images[0].height / 100), dpi=100)
-        axes = fig.add_axes([0, 0, 1, 1])
-        axes.axis("off")
-        artist = axes.imshow(images[0])
-        writer = animation.FFMpegWriter(fps=fps)
-        with atomic_path(path, overwrite) as temporary, writer.saving(fig, str(temporary), dpi=100):
+    suffix = path.suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise InputError(f"{path}: animations are .gif or .mp4")
+    with atomic_path(path, overwrite) as temporary:
+        if suffix == ".gif":
+            frames = []
             for image in images:
-                artist.set_data(image)
-                writer.grab_frame()
-        plt.close(fig)
-        return path
-    raise InputError(f"{path}: animations are .gif or .mp4")
+                if len(frames) == GIF_MAX_FRAMES:
+                    raise InputError(f"{path}: a GIF holds every frame in memory: at most {GIF_MAX_FRAMES} frames; "
+                                     "take every n-th frame or write .mp4", arguments=("stride",))
+                frames.append(image.convert("P", palette=Image.Palette.ADAPTIVE))  # a third of the memory of RGB
+            frames[0].save(temporary, format="GIF", save_all=True, append_images=frames[1:],
+                           duration=int(1000 / fps), loop=0)
+            return path
+        writer = None
+        try:
+            for image in images:
+                if writer is None:
+                    writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), fps, image.size)
+                    if not writer.isOpened():
+                        raise InputError(f"{path}: OpenCV cannot write MP4 video here")
+                writer.write(cv2.cvtColor(np.asarray(image), cv2.COLOR_RGB2BGR))
+        finally:
+            if writer is not None:
+                writer.release()
+    return path
