@@ -13,6 +13,7 @@ from PIL import Image
 from ray3d import cameras
 from ray3d.cli import main
 from ray3d.demo import demo_clip, run_demo
+from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
 from ray3d.io.world import LiftResult, World, write_world
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
@@ -124,6 +125,14 @@ def test_viz_draws_every_track_at_the_world_files_rate_with_its_camera(tmp_path)
     assert (data["first"], data["last"]) == (0, 19) and len(data["camera_lines"]) == 8
     with Image.open(tmp_path / "v.gif") as gif:
         assert gif.n_frames == 4  # frames 0, 5, 10, 15 of the union of both tracks
+    # The 2D input drawn under the lifted joints: each track's detections at its own frames.
+    pixels = camera.project(clip[:12] + [1.0, 0.5, 0.0])
+    keypoints = Keypoints(pixels, np.ones((12, 17)), np.arange(6, 18), np.full(12, 7), "h36m17", 25.0, "test")
+    write_keypoints_json(tmp_path / "k.json", keypoints)
+    aligned = read_keypoints(tmp_path / "k.json").h36m_pixels("7", np.arange(4, 10))
+    assert np.isnan(aligned[:2]).all() and np.allclose(aligned[2:], pixels[:4], atol=1e-3)
+    assert main(["viz", str(path), "--keypoints", str(tmp_path / "k.json"), "--animation", str(tmp_path / "k.gif"),
+                 "--stride", "10"]) == 0
     assert main(["viz", str(path), "--track", "7", "--html", str(tmp_path / "one.html")]) == 0
     one = json.loads((tmp_path / "one.html").read_text().split("const DATA = ", 1)[1].split(";\n", 1)[0])
     assert set(one["sequences"]) == {"7"} and one["first"] == 6

@@ -332,7 +332,7 @@ def viz(args: argparse.Namespace) -> int:
         raise InputError("viz: nothing to write: pass --html and/or --animation")
     for target in (args.html, args.animation):
         if target is not None:
-            check_output(target, (*args.world, args.camera))
+            check_output(target, (*args.world, args.camera, args.keypoints))
     worlds = [read_world(path) for path in args.world]
     sequences = {}
     for path, world in zip(args.world, worlds):
@@ -355,7 +355,14 @@ def viz(args: argparse.Namespace) -> int:
             raise InputError(f"{args.animation}: {(last - first) // args.stride + 1} frames; a GIF holds every frame "
                              f"in memory, so at most {GIF_MAX_FRAMES}: take every n-th frame or write .mp4",
                              arguments=("stride",))
-        images = render_frames(sequences, camera, stride=args.stride)
+        inputs = None
+        if args.keypoints is not None:
+            from ray3d.io.keypoints import read_keypoints
+
+            keypoints = read_keypoints(args.keypoints)
+            inputs = {name: keypoints.h36m_pixels(name.split(":")[-1], result.frames)
+                      for name, result in sequences.items()}
+        images = render_frames(sequences, camera, inputs, stride=args.stride)
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")
     return 0

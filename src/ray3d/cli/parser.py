@@ -174,6 +174,8 @@ def build_parser() -> argparse.ArgumentParser:
     viz.add_argument("--html", type=Path, help="write the interactive viewer here")
     viz.add_argument("--animation", type=Path, help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
     viz.add_argument("--track", help="show only this track (default: every track)")
+    viz.add_argument("--keypoints", type=Path,
+                     help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
     viz.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
     viz.add_argument("--force", action="store_true", help="replace existing outputs")

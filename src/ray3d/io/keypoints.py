@@ -16,7 +16,7 @@ from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
-from ray3d.skeleton import LAYOUTS, identify_17_joint_layout, layout_skeleton
+from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_skeleton
 
 
 @dataclasses.dataclass
@@ -39,6 +39,21 @@ class Keypoints:
             rows = self.tracks == track
             out[track] = (self.frames[rows], self.pixels[rows],
                           None if self.confidences is None else self.confidences[rows])
+        return out
+
+    def h36m_pixels(self, track, frames: np.ndarray) -> np.ndarray:
+        """(len(frames), 17, 2) the H36M-17 pixels of ``track`` (its id or the id's text) at ``frames``; NaN where
+        it was not detected (to draw a lifted track over its input)."""
+        out = np.full((len(frames), 17, 2), np.nan)
+        rows = np.flatnonzero(self.tracks.astype(str) == str(track))
+        if not len(rows):
+            return out
+        pixels, _ = convert_keypoints(self.pixels[rows], self.layout,
+                                      None if self.confidences is None else self.confidences[rows])
+        where = {int(f): i for i, f in enumerate(self.frames[rows])}
+        for i, frame in enumerate(np.asarray(frames)):
+            if int(frame) in where:
+                out[i] = pixels[where[int(frame)]]
         return out
 
     def track(self, name=None) -> tuple:

@@ -63,13 +63,14 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
 
     ``sequences`` are {name: world joints (T, 17, 3) from frame 0, or a ``LiftResult`` (a track: it starts at its
     own frame)}; one sequence is drawn left blue / right red, several each in its own colour with its name.
-    ``pixels`` ({name: (T, 17, 2)}) is the 2D input drawn in the camera's view (default: the world joints
-    projected through ``camera``, so labelled); ``target`` (T, 17, 3) is ground truth, dashed, for the first.
+    The camera's view shows the world joints projected back through ``camera`` (thick) over the 2D input
+    ``pixels`` ({name: (T, 17, 2)} H36M-17 pixels, one row per row of the sequence; thin, dotted; optional);
+    ``target`` (T, 17, 3) is ground truth, dashed, for the first sequence.
     """
     tracks = {str(name): as_track(s) for name, s in sequences.items()}
     first, last = frame_span(sequences)
-    shown = {name: pixels.get(name) if pixels is not None else camera.project(joints)
-             for name, (_, joints, _) in tracks.items()}
+    shown = {name: camera.project(joints) for name, (_, joints, _) in tracks.items()}
+    inputs = {str(name): np.asarray(p, dtype=np.float64) for name, p in (pixels or {}).items()}
     everything = np.concatenate([j.reshape(-1, 3) for _, j, _ in tracks.values()] + [camera.center[None]]
                                 + ([target.reshape(-1, 3)] if target is not None else []))
     everything = everything[np.isfinite(everything).all(-1)]
@@ -77,7 +78,7 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     centre = np.median(people, axis=0)
     reach = max(1.5, np.percentile(np.abs(people - centre), 98) + 0.8)
     colours = {name: PALETTE[i % len(PALETTE)] for i, name in enumerate(tracks)}
-    fig = plt.figure(figsize=(size_px * 3 / 200, size_px / 100), dpi=100)
+    fig = plt.figure(figsize=(size_px * 3 / 200, size_px / 200), dpi=100)  # three square-ish panels in a row
     image_axes, world_axes = fig.add_subplot(1, 3, 1), fig.add_subplot(1, 3, 2, projection="3d")
     plan_axes = fig.add_subplot(1, 3, 3)
     grid = np.arange(np.floor(centre[0] - reach), np.ceil(centre[0] + reach) + 0.01, 0.5)
@@ -88,7 +89,8 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
         for axes in (image_axes, world_axes, plan_axes):
             axes.cla()
         image_axes.set(xlim=(0, width), ylim=(height, 0), aspect="equal", xlabel="u (px)", ylabel="v (px)")
-        image_axes.set_title(f"camera view (frame {t})", fontsize=9)
+        image_axes.set_title(f"camera view (frame {t}): lifted joints projected" +
+                             (", input dotted" if inputs else ""), fontsize=9)
         for x in grid:
             world_axes.plot([x, x], [grid_y[0], grid_y[-1]], [0, 0], color="#dddddd", lw=0.5)
         for y in grid_y:
@@ -107,13 +109,14 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
                 (lambda child: "#aaaaaa" if grey else colours[name])
             world_axes.plot(*joints[: row + 1, 0, :2].T, np.zeros(row + 1), color=colours[name] if not single
                             else "#2a9d3c", lw=1)  # the path on the floor so far
-            two_d = shown[name]
+            two_d, given = shown[name], inputs.get(name)
             poses = [(joints, "-")] + ([(target, "--")] if target is not None and name == next(iter(tracks)) else [])
             for child, parent in enumerate(H36M17.parents):
                 if parent < 0:
                     continue
-                if two_d is not None:
-                    image_axes.plot(*two_d[row, [child, parent]].T, color=colour_of(child), lw=1.5)
+                if given is not None and row < len(given):
+                    image_axes.plot(*given[row, [child, parent]].T, ":", color=colour_of(child), lw=1)
+                image_axes.plot(*two_d[row, [child, parent]].T, color=colour_of(child), lw=1.5)
                 for pose, style in poses:
                     world_axes.plot(*pose[row, [child, parent]].T, style, color=colour_of(child), lw=2)
             plan_axes.plot(*joints[row, 0, :2], "o", color=colours[name], ms=5)
@@ -121,12 +124,13 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
                 world_axes.text(*joints[row, 10] + [0, 0, 0.15], name, color=colours[name], fontsize=7)
                 plan_axes.annotate(name, joints[row, 0, :2], xytext=(4, 4), textcoords="offset points",
                                    color=colours[name], fontsize=7)
-                if two_d is not None and np.isfinite(two_d[row, 10]).all():
+                if np.isfinite(two_d[row, 10]).all():
                     image_axes.annotate(name, two_d[row, 10], xytext=(3, 6), textcoords="offset points",
                                         color=colours[name], fontsize=7)
         world_axes.set(xlim=(centre[0] - reach, centre[0] + reach), ylim=(centre[1] - reach, centre[1] + reach),
                        zlim=(0, top), xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
-        world_axes.set_box_aspect((1, 1, top / (2 * reach)))
+        world_axes.set_box_aspect((1, 1, max(0.3, top / (2 * reach))))  # a wide scene keeps some height
+        world_axes.set_zticks(np.arange(0.0, top + 1e-9, 1.0))
         world_axes.set_title("world (m)" + (": prediction solid, truth dashed" if target is not None else ""),
                              fontsize=9)
         plan_axes.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
