@@ -95,8 +95,8 @@ class Lifter:
                 (``ray3d.refine``; a ``RefineConfig`` sets its uncertainties); False keeps the network's output.
             progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
         """
-        if fps is not None and (not np.isfinite(fps) or fps <= 0):
-            raise InputError(f"fps: expected a positive frame rate, got {fps}", arguments=("fps",))
+        if fps is not None:
+            temporal.check_frame_rate(fps, "lift")
         keypoints = np.asarray(keypoints, dtype=np.float64)
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences

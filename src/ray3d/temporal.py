@@ -17,6 +17,15 @@ from ray3d.errors import InputError
 SMOOTHING_METHODS = ("savgol", "one-euro")
 
 
+def check_frame_rate(fps, where: str) -> float:
+    """``fps`` as a float, or an ``InputError`` (argument ``fps``) naming ``where`` when it is not a positive,
+    finite number of frames per second."""
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.number)) or not np.isfinite(fps) or fps <= 0:
+        raise InputError(f"{where}: fps must be a positive number of frames per second, got {fps!r}",
+                         arguments=("fps",))
+    return float(fps)
+
+
 @dataclasses.dataclass(frozen=True)
 class Window:
     """A network's temporal window: ``frames`` (odd) frames predicting the centre one, or, when ``causal``,

@@ -321,9 +321,8 @@ def video(args: argparse.Namespace) -> int:
 
 
 def viz(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from ray3d.io.camera_files import read_camera
+    from ray3d.temporal import check_frame_rate
     from ray3d.io.world import read_world
     from ray3d.viz.animation import GIF_MAX_FRAMES, frame_span, render_frames, save_animation
     from ray3d.viz.html_viewer import write_viewer
@@ -340,9 +339,7 @@ def viz(args: argparse.Namespace) -> int:
         for track in chosen:  # every track of every file; a file's stem names it when there are several files
             result = world.track(track)
             sequences[track if len(worlds) == 1 else f"{path.stem}:{track}"] = result
-    fps = worlds[0].fps if args.fps is None else args.fps
-    if not np.isfinite(fps) or fps <= 0:
-        raise InputError(f"viz: fps must be a positive frame rate, got {fps}", arguments=("fps",))
+    fps = check_frame_rate(worlds[0].fps if args.fps is None else args.fps, "viz")
     camera = read_camera(args.camera) if args.camera else worlds[0].camera
     if args.html:
         write_viewer(args.html, sequences, fps, camera, overwrite=args.force)

@@ -17,6 +17,7 @@ from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_skeleton
+from ray3d.temporal import check_frame_rate
 
 
 @dataclasses.dataclass
@@ -112,9 +113,8 @@ def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source
             raise InputError(f"{path}: confidences must be {pixels.shape[:2]}, got {confidences.shape}")
     if len(frames) != len(pixels) or len(tracks) != len(pixels):
         raise InputError(f"{path}: frames and tracks need one entry per detection ({len(pixels)})")
-    if fps is not None and (isinstance(fps, bool) or not isinstance(fps, (int, float)) or not np.isfinite(fps)
-                            or fps <= 0):
-        raise InputError(f"{path}: fps must be a positive number of frames per second, got {fps!r}", arguments=("fps",))
+    if fps is not None:
+        check_frame_rate(fps, str(path))
     if len(frames) and (frames.min() < 0 or frames.max() - frames.min() > 10_000_000):
         raise InputError(f"{path}: frames: indices must be 0 or more and span at most 10,000,000 frames, got "
                          f"{frames.min()}-{frames.max()}")

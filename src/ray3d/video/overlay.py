@@ -16,10 +16,10 @@ from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import World
 from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.frames import read_frames, read_video_info
+from ray3d.viz.animation import PALETTE
 
-# BGR, distinct on grass, road and brick.
-TRACK_COLOURS = ((47, 47, 214), (214, 95, 31), (60, 160, 42), (156, 39, 176), (0, 138, 239), (180, 180, 0),
-                 (120, 60, 0), (200, 0, 200))
+# The viewer's colours, in OpenCV's BGR: a person has the same colour in the overlay and the viewer.
+TRACK_COLOURS = tuple(tuple(int(h[i:i + 2], 16) for i in (5, 3, 1)) for h in PALETTE)
 _FILLED, _DETECTED = (150, 150, 150), (255, 255, 255)
 
 

@@ -19,6 +19,7 @@ from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, write_keypoints_json
 from ray3d.io.world import World, write_world
 from ray3d.lift import Lifter
+from ray3d.temporal import check_frame_rate
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.frames import VideoInfo, read_frames, read_video_info, spread_frames
 from ray3d.video.overlay import write_overlay
@@ -86,10 +87,12 @@ def track_video(path: str | Path, camera: Camera, detector: PoseDetector, fps: f
 
 
 def _frame_rate(info: VideoInfo, fps: float | None) -> float:
-    fps = info.fps if fps is None else fps
-    if not fps or not np.isfinite(fps) or fps <= 0:
+    """The frame rate given, checked, or else the video's own."""
+    if fps is not None:
+        return check_frame_rate(fps, str(info.path))
+    if not info.fps > 0:
         raise InputError(f"{info.path}: the video reports no frame rate; give it", arguments=("fps",))
-    return float(fps)
+    return float(info.fps)
 
 
 def _targets(out_dir: Path, world_format: str, overlay: bool, overwrite: bool) -> dict[str, Path]:

@@ -97,8 +97,8 @@ class FloorTracker:
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
 
-    def update(self, frame_index: int, detections: list[Detection], frame: np.ndarray) -> list[tuple[int, Detection]]:
-        """Assign this frame's detections; returns (track id, detection) for the confirmed people seen now."""
+    def update(self, frame_index: int, detections: list[Detection], frame: np.ndarray) -> None:
+        """Assign this frame's detections to people (``tracks()`` holds the result)."""
         measured = self._measure(detections, frame)
         usable = [i for i, m in enumerate(measured) if m is not None]
         for person in self._active:
@@ -147,8 +147,6 @@ class FloorTracker:
                 survivors.append(person)
                 self._record(person, frame_index, detections[i])
         self._active = survivors
-        return [(p.track.id, p.track.detections[-1]) for p in self._active
-                if p.track is not None and p.missed == 0 and p.track.frames[-1] == frame_index]
 
     def tracks(self) -> list[Track]:
         """Every confirmed track so far, in the order they were confirmed."""
@@ -169,7 +167,9 @@ class FloorTracker:
         of everybody else's), or None where the camera cannot place it on the floor."""
         if not detections:
             return []
-        feet = np.stack([self._foot_pixel(d) for d in detections])
+        h36m, seen = convert_keypoints(np.stack([d.pixels for d in detections]), self.layout,
+                                       np.stack([d.confidences for d in detections]) >= 0.5)
+        feet = np.stack([self._foot_pixel(d, p, s) for d, p, s in zip(detections, h36m, seen)])
         # The foot point wanders with the stride and the detector: a few percent of the person's height in pixels.
         sd_px = np.maximum(2.0, 0.04 * np.array([d.box[3] - d.box[1] for d in detections]))
         nudged = np.stack([feet, feet + sd_px[:, None] * [1, 0], feet + sd_px[:, None] * [0, 1]], axis=1)
@@ -179,31 +179,22 @@ class FloorTracker:
         np.fill_diagonal(overlap, 0.0)
         alone = overlap.max(axis=1) < 0.05
         measured = []
-        for detection, point, clear in zip(detections, points, alone):
+        for detection, point, clear, pixels, found in zip(detections, points, alone, h36m, seen):
             if not np.isfinite(point).all():
                 measured.append(None)
                 continue
             spread = (point[1:, :2] - point[0, :2]).T
             noise = spread @ spread.T + np.eye(2) * 0.15 ** 2  # the stride: the ankles swing about the body
-            measured.append((point[0, :2], noise, (_clothes_colour(frame, self._torso_box(detection)), clear)))
+            torso = _torso_box(detection, pixels, found)
+            measured.append((point[0, :2], noise, (_clothes_colour(frame, torso), clear)))
         return measured
 
-    def _torso_box(self, detection: Detection) -> np.ndarray:
-        """(4,) the box of the shoulders and hips (where the clothes are, and not the neighbour's arm), or the
-        middle of the person's box when those joints are not seen."""
-        pixels, seen = convert_keypoints(detection.pixels[None], self.layout, detection.confidences[None] >= 0.5)
-        torso = pixels[0, _TORSO][seen[0, _TORSO]]
-        if len(torso) >= 3:
-            return np.concatenate([torso.min(axis=0), torso.max(axis=0)])
-        x0, y0, x1, y1 = detection.box
-        return np.array([x0 + 0.2 * (x1 - x0), y0 + 0.2 * (y1 - y0), x1 - 0.2 * (x1 - x0), y0 + 0.6 * (y1 - y0)])
-
-    def _foot_pixel(self, detection: Detection) -> np.ndarray:
-        """The pixel between the feet: the ankles where they are seen (also when the person crouches); where
-        they are not, the bottom of the joints seen, or, if that is too short for a person standing there (the
-        legs hidden, or a half-body pose), the row a person's height below the head."""
-        pixels, seen = convert_keypoints(detection.pixels[None], self.layout, detection.confidences[None] >= 0.5)
-        ankles = pixels[0, _ANKLES][seen[0, _ANKLES]]
+    def _foot_pixel(self, detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
+        """The pixel between the feet, from the detection's H36M-17 ``pixels`` (17, 2) and which are ``seen``
+        (17,): the ankles where they are seen (also when the person crouches); where they are not, the bottom
+        of the joints seen, or, if that is too short for a person standing there (the legs hidden, or a
+        half-body pose), the row a person's height below the head."""
+        ankles = pixels[_ANKLES][seen[_ANKLES]]
         if len(ankles):
             return ankles.mean(axis=0)
         x0, y0, x1, y1 = detection.box
@@ -212,6 +203,16 @@ class FloorTracker:
         if np.isfinite(expected) and y1 - y0 < 0.6 * expected:
             foot[1] = self.person_height.foot_below_head(foot[0], y0, expected)
         return foot
+
+
+def _torso_box(detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """(4,) the box of the shoulders and hips (where the clothes are, and not the neighbour's arm), from the
+    H36M-17 ``pixels`` (17, 2) ``seen`` (17,), or the middle of the person's box when those joints are not seen."""
+    torso = pixels[_TORSO][seen[_TORSO]]
+    if len(torso) >= 3:
+        return np.concatenate([torso.min(axis=0), torso.max(axis=0)])
+    x0, y0, x1, y1 = detection.box
+    return np.array([x0 + 0.2 * (x1 - x0), y0 + 0.2 * (y1 - y0), x1 - 0.2 * (x1 - x0), y0 + 0.6 * (y1 - y0)])
 
 
 def _clothes_colour(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
