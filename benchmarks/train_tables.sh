@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Train the models behind the ablation, 1-frame vs 9-frame, causal and cross-data tables of docs/RESULTS.md, all
+# Train the models behind the ablation, 1-frame vs 9-frame, causal, cross-data, PoseFormer and gravity tables of docs/RESULTS.md, all
 # at one reduced budget (10 epochs x 100 batches of 1024) so they compare like for like; an interrupted run is resumed
 # and a finished one left as it is.
 #   bash benchmarks/train_tables.sh [RUNS_DIR] [NAME ...]
@@ -19,9 +19,13 @@ declare -A how=(
   [ray3d-hdm05]="--config configs/ray3d-hdm05.json"
   [poselifter]="--config configs/ray3d.json --preset poselifter"
   [rie-cmu]="--config configs/ray3d-cmu.json --preset rie"
+  [poseformer]="--config configs/ray3d.json --preset poseformer"
+  [ray3d-rolled]="--config configs/ray3d-rolled.json"
+  [ray3d-gravity]="--config configs/ray3d-gravity.json"
 )
 names=("$@")
-[ ${#names[@]} -gt 0 ] || names=(rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal ray3d-cmu ray3d-hdm05 poselifter rie-cmu)
+[ ${#names[@]} -gt 0 ] || names=(rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal ray3d-cmu ray3d-hdm05 poselifter rie-cmu poseformer
+  ray3d-rolled ray3d-gravity)
 for name in "${names[@]}"; do
   start=$(date +%s)
   resume=(); [ -f "$runs/$name/last.json" ] && resume=(--resume)

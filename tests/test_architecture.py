@@ -52,6 +52,7 @@ def _in_room(module: str, room: str) -> bool:
     ("ray3d.models", "ray3d.data"), ("ray3d.lift", "ray3d.data"), ("ray3d.geometry", "ray3d.data"),
     ("ray3d.temporal", "ray3d.data"), ("ray3d.io", "ray3d.lift"), ("ray3d.io", "ray3d.data"),
     ("ray3d.io", "ray3d.models"), ("ray3d.video", "ray3d.data"), ("ray3d.geometry", "ray3d.models"),
+    ("ray3d.batch", "ray3d.data"), ("ray3d.lift", "ray3d.batch"), ("ray3d.video", "ray3d.batch"),
 ])
 def test_rooms_do_not_import_what_stands_on_them(importer, forbidden):
     offenders = sorted(f"{m} -> {i}" for m, imports in GRAPH.items() if _in_room(m, importer)

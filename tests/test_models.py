@@ -116,6 +116,48 @@ def test_frame_group_linear_is_a_strided_convolution_and_loads_its_weights():
     torch.testing.assert_close(layer(x), conv(x.transpose(1, 2)).transpose(1, 2))
 
 
+@pytest.mark.parametrize("frames", [1, 9, 27])
+def test_poseformer_window_is_its_one_kernel_and_order_matters(frames):
+    """The transformer sees exactly its window; its position embeddings make frame and joint order matter."""
+    model = LiftingNetwork(preset("poseformer", kernels=(frames,), **TINY)).eval()
+    assert model.receptive_field == frames and model.pose_net.backbone.receptive_field == frames
+    batch = _batch(frames)
+    with torch.no_grad():
+        pose, root = model(batch)
+        assert pose.shape == (4, 17, 3) and root.shape == (4, 3)
+        joints_swapped = dataclasses.replace(batch, pixels=batch.pixels[:, :, [0, 2, 1, *range(3, 17)]])
+        assert not torch.allclose(model(joints_swapped)[1], root)
+        if frames > 1:
+            reversed_frames = dataclasses.replace(batch, pixels=batch.pixels.flip(1))
+            assert not torch.allclose(model(reversed_frames)[1], root)
+    with pytest.raises(ValueError, match=f"expected windows of {frames} frames"):
+        model(_batch(frames + 2))
+
+
+def test_poseformer_takes_rays_ground_features_and_a_causal_window():
+    config = preset("ray3d", backbone="transformer", kernels=(9,), layers=1, causal=True, channels=8, hidden=32)
+    model = LiftingNetwork(config).eval()
+    with torch.no_grad():
+        pose, root = model(_batch(9))
+    assert pose.shape == (4, 17, 3) and torch.isfinite(root).all()
+    with pytest.raises(ValueError, match="window is one number"):
+        preset("poseformer", kernels=(3, 3))
+    with pytest.raises(ValueError, match="multiple of 8"):
+        LiftingNetwork(preset("poseformer", channels=12))
+
+
+def test_poseformer_trains_one_step_and_scores_in_flops():
+    model = LiftingNetwork(preset("poseformer", **TINY))
+    before = [p.detach().clone() for p in model.parameters()]
+    pose, root = model(_batch(9))
+    (pose.square().mean() + root.square().mean()).backward()
+    torch.optim.SGD(model.parameters(), lr=0.1).step()
+    moved = [not torch.equal(a, b.detach()) for a, b in zip(before, model.parameters())]
+    assert all(moved)  # every parameter, the position embeddings and frame weights among them, is trained
+    one_layer = flops_per_frame(LiftingNetwork(preset("poseformer", **{**TINY, "layers": 1})))
+    assert flops_per_frame(model) > 1.5 * one_layer  # the transformer layers are counted
+
+
 def test_config_rejects_inconsistent_combinations():
     with pytest.raises(ValueError, match="an NCS output needs ncs_rays input"):
         ModelConfig(input="pixels", output_frame="ncs", ground_features=False)
@@ -123,8 +165,9 @@ def test_config_rejects_inconsistent_combinations():
         ModelConfig(input="pixels", output_frame="camera", ground_features=False, root="ray_depth")
 
 
-def test_flip_test_is_consistent_for_a_mirror_symmetric_input():
-    model = LiftingNetwork(preset("ray3d", **TINY)).eval()
+@pytest.mark.parametrize("name", ["ray3d", "poseformer"])
+def test_flip_test_is_consistent_for_a_mirror_symmetric_input(name):
+    model = LiftingNetwork(preset(name, **TINY)).eval()
     batch = _batch(9)
     with torch.no_grad():
         pose, root = model.predict(batch, flip_test=True)

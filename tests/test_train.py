@@ -1,4 +1,4 @@
-"""Training: the loss falls, checkpoints round-trip exactly, resuming continues, two gloo processes run."""
+"""Training: the loss falls, checkpoints round-trip exactly, resuming continues, two gloo processes train as one."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import torch
 
 from ray3d.checkpoints import load_model, read_checkpoint
 from ray3d.errors import InputError
-from ray3d.models import preset
+from ray3d.models import LiftingNetwork, preset
 from ray3d.train import TrainConfig, batch_tensors, train, validation_batch
 
 
@@ -57,9 +57,11 @@ def test_training_is_deterministic_with_a_seed(tiny_data_dir, tmp_path):
     assert a["loss"] == b["loss"] and a["abs_mpjpe_mm"] == b["abs_mpjpe_mm"]
 
 
-def test_two_gloo_processes_complete_an_epoch(tiny_data_dir, tmp_path):
+def test_two_gloo_processes_with_batch_b_train_as_one_with_batch_2b(tiny_data_dir, tmp_path):
+    """torchrun, 2 CPU processes, one step: the same weights and batch-norm statistics as one process."""
+    config = _config(tiny_data_dir, model=preset("ray3d", channels=32, hidden=64, dropout=0.0), epochs=1,
+                     batches_per_epoch=1, batch_size=128)
     config_path = tmp_path / "config.json"
-    config = _config(tiny_data_dir, epochs=1, batches_per_epoch=3)
     config_path.write_text(json.dumps(config.to_dict()))
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     result = subprocess.run(
@@ -68,7 +70,27 @@ def test_two_gloo_processes_complete_an_epoch(tiny_data_dir, tmp_path):
         capture_output=True, text=True, timeout=300, env=env)
     assert result.returncode == 0, result.stderr[-2000:]
     assert "best epoch 1" in result.stdout
-    assert json.loads((tmp_path / "ddp" / "last.json").read_text())["epoch"] == 1
+    train(config, tmp_path / "one", progress=False)
+    two, _ = read_checkpoint(tmp_path / "ddp" / "last.safetensors")
+    one, _ = read_checkpoint(tmp_path / "one" / "last.safetensors")
+    torch.manual_seed(config.seed)
+    initial = LiftingNetwork(config.model)
+    beta1 = 0.9  # Adam's first moment after one step is (1 - beta1) x the gradient
+    for index, (name, start) in enumerate(initial.named_parameters()):
+        gradient = one[f"optimizer.{index}.exp_avg"] / (1 - beta1)
+        other = two[f"optimizer.{index}.exp_avg"] / (1 - beta1)
+        assert (other - gradient).abs().max() <= 5e-3 * gradient.abs().max() + 1e-5, name  # summed in another order
+        # Adam's first step moves each weight by the learning rate times the sign of its gradient, so where the
+        # gradient is rounding noise (e.g. biases before a batch norm) the sign, and the step, is noise too.
+        clear = gradient.abs() > 1e-5
+        torch.testing.assert_close(two[f"model.{name}"][clear], one[f"model.{name}"][clear], rtol=0, atol=1e-5,
+                                   msg=name)
+        if clear.any():
+            assert not torch.equal(one[f"model.{name}"][clear], start.detach()[clear])  # the step moved them
+    statistics = [k for k in one if k.startswith("model.") and "running_" in k]
+    assert statistics
+    for key in statistics:
+        torch.testing.assert_close(two[key], one[key], rtol=0, atol=1e-5, msg=key)
 
 
 def test_export_keeps_weights_and_provenance_only(tiny_data_dir, tmp_path):

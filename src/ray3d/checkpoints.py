@@ -79,6 +79,10 @@ def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, 
     return model.eval()
 
 
+# The model for detector keypoints of real footage (``ray3d video``), trained for them (docs/RESULTS.md, issue 12).
+VIDEO_MODEL = "ray3d-real"
+
+
 def shipped_models() -> list[str]:
     folder = resources.files("ray3d").joinpath(SHIPPED_DIR)
     return sorted(p.name.removesuffix(".safetensors") for p in folder.iterdir() if p.name.endswith(".safetensors"))

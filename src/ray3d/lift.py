@@ -10,6 +10,7 @@ smoothing of the 2D input and 3D output, and a GPU when there is one.
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -199,6 +200,26 @@ class Lifter:
     def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False) -> LiftStream:
         """Lift frame by frame as keypoints arrive (live use); see ``LiftStream``."""
         return LiftStream(self, camera, layout, flip_test)
+
+
+def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifter: Lifter | None = None,
+              layout: str | None = None, fps: float | None = None, overwrite: bool = False,
+              read_options: dict | None = None, **options) -> tuple[Keypoints, World]:
+    """A keypoint file lifted into the world and written to ``out`` (.json/.csv/.npz/.trc), as ``ray3d lift``
+    does: ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
+    (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), ``options`` as for ``Lifter.lift``.
+    Returns what was read and what was written."""
+    from ray3d.io.atomic import check_output
+    from ray3d.io.keypoints import read_keypoints
+    from ray3d.io.world import write_world
+
+    check_output(out, (keypoints_path,))
+    if Path(out).exists() and not overwrite:
+        raise InputError(f"{out}: already exists; refusing to overwrite it", arguments=("overwrite",))
+    keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
+    world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, **options)
+    write_world(out, world, overwrite=overwrite)
+    return keypoints, world
 
 
 class LiftStream:

@@ -190,7 +190,9 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     ema = None if not config.ema_decay else torch.optim.swa_utils.AveragedModel(
         model, avg_fn=_warming_ema(config.ema_decay), use_buffers=True)
     shipped = model if ema is None else ema.module  # the weights validated and written as "model."
-    generator = sample_generator(config, "train", config.samples, config.seed + 1000 * rank)
+    # Every process draws the same whole batch and trains on its share: N processes with batch B train exactly as
+    # one process with batch N x B (the batch norms see the whole batch too).
+    generator = sample_generator(config, "train", config.samples, config.seed)
     state = {"epoch": 0, "best": None, "history": [], "train_seconds": 0.0}
     if resume and (out / "last.json").exists():
         tensors, document = read_checkpoint(out / "last.safetensors")
@@ -200,9 +202,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
             ema.n_averaged.fill_(int(tensors["ema_steps"]))
         _load_optimizer(optimizer, tensors, document["optimizer_param_groups"])
         state = {k: document.get(k, 0.0) for k in ("epoch", "best", "history", "train_seconds")}
-        saved = document["generator_state"].get(str(rank))
-        if saved is not None:  # only rank 0 writes checkpoints: other ranks restart their stream from the seed
-            generator.rng.bit_generator.state = saved
+        generator.rng.bit_generator.state = document["generator_state"]["0"]
         torch.set_rng_state(tensors["torch_rng_state"])
     if rank == 0:
         out.mkdir(parents=True, exist_ok=True)
@@ -219,7 +219,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
         bar = tqdm(range(config.batches_per_epoch), desc=f"epoch {epoch + 1}/{config.epochs}",
                    disable=not progress or rank != 0, leave=False)
         for step in bar:
-            batch = generator.batch(local_batch)
+            batch = _slice(generator.batch(config.batch_size), slice(rank * local_batch, (rank + 1) * local_batch))
             tensors = batch_tensors(batch, device)
             target_pose, target_root = model.targets(tensors, torch.from_numpy(batch.pose).to(device),
                                                      torch.from_numpy(batch.root).to(device))

@@ -162,13 +162,13 @@ def models(args: argparse.Namespace) -> int:
     from ray3d.models import PRESETS, LiftingNetwork
     from ray3d.models.network import count_parameters, flops_per_frame
 
-    print(f"{'preset':<15}{'frames':>7}{'params':>12}{'MFLOPs/frame':>14}  {'input':<15}{'backbone':<9}{'root':<12}"
+    print(f"{'preset':<15}{'frames':>7}{'params':>12}{'MFLOPs/frame':>14}  {'input':<15}{'backbone':<12}{'root':<12}"
           f"{'camera emb.':<12}shipped")
     shipped = set(shipped_models())
     for name, config in PRESETS.items():
         model = LiftingNetwork(config)
         print(f"{name:<15}{config.frames:>7}{count_parameters(model):>12,}{flops_per_frame(model) / 1e6:>14.2f}  "
-              f"{config.input:<15}{config.backbone:<9}{config.root:<12}{'yes' if config.camera_embedding else 'no':<12}"
+              f"{config.input:<15}{config.backbone:<12}{config.root:<12}{'yes' if config.camera_embedding else 'no':<12}"
               f"{'yes' if name in shipped else 'no'}")
     print(f"\nshipped weights (Lifter.load(NAME), --checkpoint NAME): {', '.join(sorted(shipped))}; what each was "
           "trained on: src/ray3d/assets/models/MODELS.md")
@@ -251,24 +251,18 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 
 
 def lift(args: argparse.Namespace) -> int:
-    from ray3d.io.keypoints import read_keypoints
-    from ray3d.io.world import write_world
-    from ray3d.lift import Lifter
+    from ray3d.lift import Lifter, lift_file
 
-    check_output(args.out, (args.keypoints, args.camera))
-    if args.out.exists() and not args.force:
-        raise InputError(f"{args.out}: already exists; refusing to overwrite it", arguments=("overwrite",))
-    keypoints = read_keypoints(args.keypoints, args.layout, args.fps, subject=args.subject, action=args.action,
-                               camera_index=args.camera_index)
+    check_output(args.out, (args.camera,))
     camera = _camera(args)
-    lifter = Lifter.load(args.checkpoint)
+    keypoints, world = lift_file(
+        args.keypoints, camera, args.out, Lifter.load(args.checkpoint), args.layout, args.fps, args.force,
+        dict(subject=args.subject, action=args.action, camera_index=args.camera_index),
+        smooth_2d=args.smooth_2d, smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test,
+        refine=not args.no_refine, progress=True)
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
-    world = lifter.lift_keypoints(keypoints, camera, smooth_2d=args.smooth_2d,
-                                  smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test,
-                                  refine=not args.no_refine, progress=True)
-    write_world(args.out, world, overwrite=args.force)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
     print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
@@ -317,6 +311,22 @@ def video(args: argparse.Namespace) -> int:
     _print_refinements(tracks)
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
+    return 0
+
+
+def batch(args: argparse.Namespace) -> int:
+    from ray3d.batch import run
+
+    report = run(args.manifest, args.out, args.address, args.workers, args.retries, args.cpus_per_task,
+                 args.gpus_per_task)
+    counts = {status: sum(r.status == status for r in report.reports) for status in ("done", "skipped", "failed")}
+    print(f"{len(report.reports)} inputs: {counts['done']} done, {counts['skipped']} skipped (up to date), "
+          f"{counts['failed']} failed -> {args.out} (summary: {report.summary})")
+    for failure in report.failed:
+        print(f"  failed: {failure.name} ({failure.input}): {failure.error}", file=sys.stderr)
+    if report.failed:
+        print(f"error: {len(report.failed)} of {len(report.reports)} inputs failed", file=sys.stderr)
+        return 1
     return 0
 
 

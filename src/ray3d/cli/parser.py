@@ -47,6 +47,7 @@ def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "r
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from ray3d.checkpoints import VIDEO_MODEL
     from ray3d.data.virtual_cameras import SET_NAMES
 
     parser = argparse.ArgumentParser(
@@ -162,9 +163,24 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
     # Detector keypoints of real footage: the model trained for them, and Savitzky-Golay on the output, which
     # removes the detector's jitter without lag (docs/RESULTS.md, issue 13).
-    _add_lifting_arguments(video, "ray3d-real", smooth_3d="savgol")
+    _add_lifting_arguments(video, VIDEO_MODEL, smooth_3d="savgol")
     video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
+
+    batch = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
+                                              "cluster or a local Ray (pip install 'ray3d[cluster]')")
+    batch.add_argument("manifest", type=Path, help="CSV or JSON: input, camera (or camera_height, pitch, hfov), "
+                                                   "options (docs/batch.md)")
+    batch.add_argument("--out", required=True, type=Path, help="output folder: NAME/ per input and summary.csv")
+    batch.add_argument("--address", help="an existing Ray cluster: auto, or ray://HOST:10001 (default: start a "
+                                         "local Ray for this job)")
+    batch.add_argument("--workers", type=int, help="local Ray: its CPUs (default all); on a cluster: most tasks "
+                                                   "at once (default no limit)")
+    batch.add_argument("--retries", type=int, default=2,
+                       help="retries of a task that crashed or raised (default 2; a bad input is not retried)")
+    batch.add_argument("--cpus-per-task", type=float, default=1, help="CPUs (torch threads) per task (default 1)")
+    batch.add_argument("--gpus-per-task", type=float, default=0, help="GPUs per task (default 0)")
+    batch.set_defaults(handler=handlers.batch)
 
     viz = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
                                           "ray3d video): every track, with its id and path on the floor")

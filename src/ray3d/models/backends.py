@@ -81,13 +81,20 @@ def export_onnx(model: LiftingNetwork, target: str | Path | io.BytesIO, image_wi
     model = model.eval().cpu()
     example = _example_inputs(model, image_width)
     # The trace warns about the window-length checks (the receptive field is fixed by design) and about the
-    # TorchScript exporter, chosen because the torch.export one needs onnxscript as well.
-    with torch.no_grad(), warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=torch.jit.TracerWarning)
-        warnings.simplefilter("ignore", category=DeprecationWarning)
-        torch.onnx.export(_TensorInputs(model, image_width), example, target, input_names=list(INPUT_NAMES),
-                          output_names=list(OUTPUT_NAMES), dynamic_axes={n: {0: "batch"} for n in INPUT_NAMES + OUTPUT_NAMES},
-                          opset_version=17, dynamo=False)
+    # TorchScript exporter, chosen because the torch.export one needs onnxscript as well. Transformer layers
+    # are exported as their parts: ONNX has no operator for torch's fused inference kernel.
+    fastpath = torch.backends.mha.get_fastpath_enabled()
+    torch.backends.mha.set_fastpath_enabled(False)
+    try:
+        with torch.no_grad(), warnings.catch_warnings():
+            warnings.simplefilter("ignore", category=torch.jit.TracerWarning)
+            warnings.simplefilter("ignore", category=DeprecationWarning)
+            torch.onnx.export(_TensorInputs(model, image_width), example, target, input_names=list(INPUT_NAMES),
+                              output_names=list(OUTPUT_NAMES),
+                              dynamic_axes={n: {0: "batch"} for n in INPUT_NAMES + OUTPUT_NAMES},
+                              opset_version=17, dynamo=False)
+    finally:
+        torch.backends.mha.set_fastpath_enabled(fastpath)
 
 
 class OnnxLiftingModel(_Backend):

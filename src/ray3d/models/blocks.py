@@ -34,16 +34,36 @@ class FrameGroupLinear(nn.Linear):
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
 
-class ChannelsLastBatchNorm(nn.BatchNorm1d):
-    """``BatchNorm1d`` over the last axis of (B, L, C): statistics over B and L, as for (B, C, L)."""
+class BatchNorm(nn.BatchNorm1d):
+    """``BatchNorm1d`` over the last axis of (..., C): statistics over every other axis, as for (B, C, L).
+
+    In data-parallel training (torchrun, several processes) the statistics are those of the whole batch, summed
+    over the processes, so N processes with batch B train as one process with batch N x B. torch's own
+    ``SyncBatchNorm`` does this on GPUs only; this one also works with gloo on CPUs.
+    """
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return super().forward(x.reshape(-1, x.shape[-1])).reshape(x.shape)
+        flat = x.reshape(-1, x.shape[-1])
+        if not (self.training and torch.distributed.is_available() and torch.distributed.is_initialized()
+                and torch.distributed.get_world_size() > 1):
+            return super().forward(flat).reshape(x.shape)
+        from torch.distributed.nn.functional import all_reduce  # differentiable: gradients see the global mean
+
+        count = flat.shape[0] * torch.distributed.get_world_size()
+        mean = all_reduce(flat.sum(0)) / count
+        centred = flat - mean
+        variance = all_reduce(centred.square().sum(0)) / count  # two passes: no cancellation in float32
+        with torch.no_grad():
+            self.num_batches_tracked += 1
+            self.running_mean.lerp_(mean, self.momentum)
+            self.running_var.lerp_(variance * count / max(count - 1, 1), self.momentum)
+        normalised = centred * torch.rsqrt(variance + self.eps)
+        return (normalised * self.weight + self.bias).reshape(x.shape)
 
 
 def _conv_unit(in_channels: int, out_channels: int, kernel: int, dropout: float) -> nn.Sequential:
     return nn.Sequential(FrameGroupLinear(in_channels, out_channels, kernel),
-                         ChannelsLastBatchNorm(out_channels, momentum=0.1), nn.LeakyReLU(0.2), nn.Dropout(dropout))
+                         BatchNorm(out_channels), nn.LeakyReLU(0.2), nn.Dropout(dropout))
 
 
 class TemporalEncoder(nn.Module):
@@ -79,7 +99,7 @@ def mlp(in_features: int, hidden: int, out_features: int, depth: int, dropout: f
     layers: list[nn.Module] = []
     width = in_features
     for _ in range(depth):
-        layers += [nn.Linear(width, hidden, bias=False), nn.BatchNorm1d(hidden), nn.LeakyReLU(0.2), nn.Dropout(dropout)]
+        layers += [nn.Linear(width, hidden, bias=False), BatchNorm(hidden), nn.LeakyReLU(0.2), nn.Dropout(dropout)]
         width = hidden
     layers.append(nn.Linear(width, out_features))
     return nn.Sequential(*layers)
@@ -93,8 +113,8 @@ class CameraEmbedding(nn.Module):
     def __init__(self, dropout: float):
         super().__init__()
         self.net = nn.Sequential(
-            nn.Linear(2, 32), nn.BatchNorm1d(32), nn.LeakyReLU(0.2), nn.Dropout(dropout),
-            nn.Linear(32, self.out_features), nn.BatchNorm1d(self.out_features), nn.LeakyReLU(0.2), nn.Dropout(dropout))
+            nn.Linear(2, 32), BatchNorm(32), nn.LeakyReLU(0.2), nn.Dropout(dropout),
+            nn.Linear(32, self.out_features), BatchNorm(self.out_features), nn.LeakyReLU(0.2), nn.Dropout(dropout))
 
     def forward(self, camera_params: torch.Tensor) -> torch.Tensor:
         return self.net(camera_params)

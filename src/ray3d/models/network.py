@@ -6,7 +6,8 @@ What differs between the methods is only configuration (see ``presets.py``):
 
 - input: ``ncs_rays`` (Ray3D), ``camera_rays`` (intrinsic decoupling only), ``pixels`` (normalised by the
   image width, VideoPose3D-style) or ``pixels_centred`` (principal point removed, PoseLifter-style);
-- backbone: ``rie`` (grouped, RIE), ``tcn`` (one temporal conv stack, VideoPose3D) or ``mlp`` (single frame);
+- backbone: ``rie`` (grouped, RIE), ``tcn`` (one temporal conv stack, VideoPose3D), ``mlp`` (single frame) or
+  ``transformer`` (spatial then temporal attention, PoseFormer);
 - camera embedding of (height, pitch) concatenated to every decoder input, or not;
 - root: ``xyz`` (regressed directly, the paper), ``ray_depth`` (the depth along the root's observed ray,
   regressed in log space: the root's direction is known from its pixel, only its distance is not) or
@@ -26,12 +27,13 @@ from torch import nn
 from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
 from ray3d.models.blocks import CameraEmbedding, TemporalEncoder, mlp, receptive_field
+from ray3d.models.poseformer import PoseTransformer
 from ray3d.models.rie import RIEBackbone
 from ray3d.skeleton import LAYOUTS, Skeleton, flip, layout_skeleton, mirror_pixels
 from ray3d.temporal import Window
 
 INPUTS = ("ncs_rays", "camera_rays", "pixels", "pixels_centred")
-BACKBONES = ("rie", "tcn", "mlp")
+BACKBONES = ("rie", "tcn", "mlp", "transformer")
 ROOTS = ("xyz", "ray_depth", "focal_depth")
 DEPTH_SCALE_M = 5.0      # log-depth outputs are relative to this
 CANONICAL_FOCAL_PX = 1000.0
@@ -47,8 +49,9 @@ class ModelConfig:
     output_frame: str = "ncs"
     root: str = "ray_depth"
     ground_features: bool = True
-    kernels: tuple[int, ...] = (3, 3)
-    channels: int = 128
+    kernels: tuple[int, ...] = (3, 3)   # temporal conv widths; the window is their product (one: a transformer's)
+    channels: int = 128                 # conv channels; for the transformer, each joint's feature size
+    layers: int = 2                     # transformer blocks, spatial and temporal each
     hidden: int = 256
     dropout: float = 0.1
     fusion: bool = False
@@ -67,6 +70,9 @@ class ModelConfig:
             (self.root != "ray_depth" or self.input.endswith("rays"), "ray_depth needs ray input"),
             (self.root != "focal_depth" or self.output_frame == "camera", "focal_depth predicts in the camera frame"),
             (self.backbone != "mlp" or self.frames == 1, "the mlp backbone sees a single frame: kernels (1,)"),
+            (self.backbone != "transformer" or len(self.kernels) == 1,
+             "the transformer backbone's window is one number: kernels (F,)"),
+            (self.backbone != "transformer" or self.layers >= 1, "the transformer backbone needs layers >= 1"),
             (self.layout in LAYOUTS, f"layout must be one of {tuple(LAYOUTS)}"),
         ]
         for ok, message in checks:
@@ -148,6 +154,14 @@ class _Branch(nn.Module):
                                                for g, j in groups.items()})
             else:
                 self.head = mlp(c * (len(groups) + 1) + camera, h, root_outputs, 1, config.dropout)
+        elif config.backbone == "transformer":
+            self.backbone = PoseTransformer(skeleton.num_joints, config.input_channels, c, config.layers,
+                                            config.frames, int(config.ground_features))
+            # PoseFormer's head, a LayerNorm and a Linear: a batch norm after the attention layers learns
+            # features so narrow that its running statistics no longer fit any one batch.
+            width = self.backbone.out_features + camera
+            self.head = nn.Sequential(nn.LayerNorm(width), nn.Linear(
+                width, 3 * skeleton.num_joints if outputs == "pose" else root_outputs))
         else:
             features = config.input_channels * skeleton.num_joints + extra
             self.backbone = (TemporalEncoder(features, c, config.kernels, config.dropout, config.causal)
@@ -168,6 +182,9 @@ class _Branch(nn.Module):
                     pose = pose.index_copy(1, self.backbone.group_index(g), decoded.view(batch, len(joints), 3))
                 return pose
             return self.head(torch.cat([*features.values(), global_feature, *tail], dim=-1))
+        if self.config.backbone == "transformer":
+            out = self.head(torch.cat([self.backbone(x, extra), *tail], dim=-1))
+            return out.view(batch, self.skeleton.num_joints, 3) if self.outputs == "pose" else out
         flat = x.reshape(batch, x.shape[1], -1)
         if extra is not None:
             flat = torch.cat([flat, extra], dim=-1)
@@ -308,7 +325,8 @@ def flops_per_frame(model: LiftingNetwork) -> float:
     batch = TensorBatch.example(model.receptive_field, model.skeleton.num_joints, 2)
     was_training = model.training
     model.eval()
-    with FlopCounterMode(display=False) as counter, torch.no_grad():
+    # With gradients on: without them the transformer layers take a fused kernel the counter does not see.
+    with FlopCounterMode(display=False) as counter:
         model(batch)
     model.train(was_training)
     return counter.get_total_flops() / 2

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from ray3d.checkpoints import VIDEO_MODEL
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, write_keypoints_json
@@ -128,7 +129,7 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
     keypoints, read, dropped = track_video(info.path, camera, detector, fps, start, frames, max_gap_s, min_track_s,
                                            progress)
     clock.append(time.perf_counter())
-    lifter = lifter or Lifter.load()
+    lifter = lifter or Lifter.load(VIDEO_MODEL)
     lifted = {}
     for track, entry in keypoints.by_track().items():
         try:
