@@ -1,8 +1,9 @@
 """`ray3d batch` on 1 and on 2 local Ray workers: 20 keypoint files (test-performer mocap clips seen by
-extrinsic-test cameras, GT 2D), the same manifest and outputs; wall time of the job, with and without starting
+extrinsic-test cameras, GT 2D, each played forwards and backwards to ``--frames`` frames so that a file is minutes
+long, as a camera's footage is), the same manifest and outputs; wall time of the job, with and without starting
 Ray, and the ratio. The outputs of the two runs are compared byte for byte.
 
-    python benchmarks/batch_scaling.py [OUT_DIR] [--files 20]
+    python benchmarks/batch_scaling.py [OUT_DIR] [--files 20] [--frames 6000]
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from ray3d.data.virtual_cameras import centre_clip, grid
 from ray3d.io.camera_files import save_cameras
 
 
-def make_inputs(folder: Path, count: int) -> Path:
+def make_inputs(folder: Path, count: int, frames: int) -> Path:
     """``count`` keypoint files of the longest test clips, each through its own camera, and their manifest."""
     folder.mkdir(parents=True, exist_ok=True)
     motion = load_shipped(split="test")
@@ -32,6 +33,7 @@ def make_inputs(folder: Path, count: int) -> Path:
     for clip in clips:
         camera = next(c for c in cameras[k % len(cameras):] + cameras if c.sees(clip))
         k += 1
+        clip = np.concatenate([clip, clip[::-1]] * (frames // (2 * len(clip)) + 1))[:frames]
         save_cameras(folder / f"camera{len(rows)}.json", [camera], overwrite=True)
         np.savez(folder / f"take{len(rows)}.npz", keypoints=camera.project(clip), fps=60.0)
         rows.append(f"take{len(rows)}.npz,camera{len(rows)}.json,60")
@@ -60,8 +62,9 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("out", nargs="?", type=Path, default=Path("results/batch-scaling"))
     parser.add_argument("--files", type=int, default=20)
+    parser.add_argument("--frames", type=int, default=6000, help="frames per file (60 fps)")
     args = parser.parse_args()
-    manifest = make_inputs(args.out / "inputs", args.files)
+    manifest = make_inputs(args.out / "inputs", args.files, args.frames)
     one = timed(manifest, args.out / "one-worker", 1)
     two = timed(manifest, args.out / "two-workers", 2)
     same = all((args.out / "one-worker" / p.parent.name / "world.json").read_bytes() == p.read_bytes()

@@ -5,7 +5,7 @@
 set -euo pipefail
 out=${1:-results}
 mkdir -p "$out"
-for model in ray3d ray3d-wide ray3d-causal videopose3d rie rfrh; do
+for model in ray3d ray3d-wide ray3d-causal videopose3d rie poseformer rfrh; do
   for cameras in h36m extrinsic-test intrinsic-test; do
     .venv/bin/ray3d evaluate --checkpoint "$model" --cameras "$cameras" --frame-stride 4 \
       --json "$out/$model@$cameras.json" --force > /dev/null

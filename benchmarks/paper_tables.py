@@ -1,4 +1,4 @@
-"""The ablation, temporal-window and cross-data tables from the JSON files of benchmarks/paper_tables.sh
+"""The ablation, baselines, temporal-window and cross-data tables from the JSON files of benchmarks/paper_tables.sh
 (named MODEL@CAMERAS[@OPTIONS].json).
 
     .venv/bin/python benchmarks/paper_tables.py results/tables
@@ -34,8 +34,9 @@ table("Ablation (mm; every model trained 10 x 100 batches of 1024):", [
     ("ray3d-xyz", "+ camera embedding of (height, pitch): the paper's Ray3D"),
     ("ray3d", "+ root as depth along its ray, ground-plane features (ours)"),
 ])
-table("A single-frame baseline (mm; same budget):", [
+table("Other baselines (mm; same budget):", [
     ("poselifter", "PoseLifter-style: one frame, pixels minus the principal point, depth x focal length"),
+    ("poseformer", "PoseFormer-style: attention over each frame's joints, then over 9 frames; pixels"),
 ])
 table("Temporal window (mm; same budget):", [
     ("ray3d-1frame", "1 frame"), ("ray3d", "9 frames, centred"), ("ray3d-causal", "9 frames, past only (live)"),

@@ -18,7 +18,7 @@ evaluate() {  # NAME CAMERAS [extra evaluate arguments]; skips what exists
   [ -f "$file" ] || .venv/bin/ray3d evaluate --checkpoint "$runs/$name/best.safetensors" --cameras "$cameras" \
     --frame-stride 8 --json "$file" "$@" > /dev/null
 }
-for name in rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal poselifter; do
+for name in rie rie-decoupled ray3d-no-ce ray3d-xyz ray3d ray3d-1frame ray3d-causal poselifter poseformer; do
   finished "$name" || continue
   for cameras in h36m extrinsic-test; do evaluate "$name" "$cameras"; done
 done

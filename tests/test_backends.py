@@ -9,7 +9,7 @@ from ray3d import InputError, Lifter, cameras
 from ray3d.demo import demo_clip
 
 
-@pytest.mark.parametrize("name", ["ray3d", "videopose3d"])
+@pytest.mark.parametrize("name", ["ray3d", "videopose3d", "poseformer"])
 def test_torchscript_backend_equals_torch_within_a_tenth_of_a_millimetre(name):
     camera = cameras.h36m("S9", "54138969")
     pixels = camera.project(demo_clip()[:40])

@@ -12,7 +12,7 @@ from ray3d.demo import demo_clip
 onnxruntime = pytest.importorskip("onnxruntime", reason="the onnx extra is not installed: pip install 'ray3d[onnx]'")
 
 
-@pytest.mark.parametrize("name", ["ray3d", "videopose3d", "rie", "ray3d-causal"])
+@pytest.mark.parametrize("name", ["ray3d", "videopose3d", "rie", "ray3d-causal", "poseformer"])
 def test_onnx_backend_equals_torch_within_a_tenth_of_a_millimetre(name):
     camera = cameras.h36m("S9", "54138969")
     truth = demo_clip()[:40]

@@ -15,6 +15,7 @@ import csv
 import dataclasses
 import io
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -131,9 +132,10 @@ def _start_ray(address: str | None, workers: int | None):
     if ray.is_initialized():
         return ray, False
     if address:
-        ray.init(address=address, log_to_driver=False)
+        ray.init(address=address, log_to_driver=False, logging_level=logging.WARNING)
     else:
-        ray.init(num_cpus=workers or os.cpu_count(), include_dashboard=False, log_to_driver=False)
+        ray.init(num_cpus=workers or os.cpu_count(), include_dashboard=False, log_to_driver=False,
+                 logging_level=logging.WARNING)
     return ray, True
 
 
