@@ -73,16 +73,17 @@ def _choice(options: tuple[str, ...]):
 
 
 # column -> (parser, which inputs it applies to)
+_BOTH = ("keypoints", "video")
 COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
-    "input": (_text, ("keypoints", "video")), "name": (_text, ("keypoints", "video")),
-    "camera": (_text, ("keypoints", "video")), "camera_height": (_number, ("keypoints", "video")),
-    "pitch": (_number, ("keypoints", "video")), "roll": (_number, ("keypoints", "video")),
-    "hfov": (_number, ("keypoints", "video")), "focal": (_number, ("keypoints", "video")),
-    "image_size": (lambda v: parse_image_size(v, "image_size"), ("keypoints", "video")),
-    "checkpoint": (_text, ("keypoints", "video")), "smooth_2d": (_choice(SMOOTHERS[:2]), ("keypoints", "video")),
-    "smooth_3d": (_choice(SMOOTHERS), ("keypoints", "video")), "flip_test": (_flag, ("keypoints", "video")),
-    "refine": (_flag, ("keypoints", "video")), "format": (_choice(WORLD_FORMATS), ("keypoints", "video")),
-    "fps": (_number, ("keypoints", "video")), "layout": (_text, ("keypoints",)),
+    "input": (_text, _BOTH), "name": (_text, _BOTH),
+    "camera": (_text, _BOTH), "camera_height": (_number, _BOTH),
+    "pitch": (_number, _BOTH), "roll": (_number, _BOTH),
+    "hfov": (_number, _BOTH), "focal": (_number, _BOTH),
+    "image_size": (lambda v: parse_image_size(v, "image_size"), _BOTH),
+    "checkpoint": (_text, _BOTH), "smooth_2d": (_choice(SMOOTHERS[:2]), _BOTH),
+    "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
+    "refine": (_flag, _BOTH), "format": (_choice(WORLD_FORMATS), _BOTH),
+    "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)),
     "detector": (_text, ("video",)), "start": (_count, ("video",)), "frames": (_count, ("video",)),
     "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)),
 }

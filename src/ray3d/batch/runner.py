@@ -76,9 +76,9 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     world_file = f"world{o.get('format', '.json')}"
     try:
         if entry.kind == "keypoints":
-            keypoints, world = lift_file(entry.input, entry.camera(), temporary / world_file,
-                                         Lifter.load(o.get("checkpoint", "ray3d")), o.get("layout"), o.get("fps"),
-                                         **lift_options)
+            _, world = lift_file(entry.input, entry.camera(), temporary / world_file,
+                                 Lifter.load(o.get("checkpoint", "ray3d")), o.get("layout"), o.get("fps"),
+                                 **lift_options)
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:
             from ray3d.video import lift_video, make_detector, read_video_info
