@@ -197,3 +197,23 @@ def test_gravity_aligned_model_round_trips_its_targets():
     ncs_model = LiftingNetwork(preset("ray3d", remove_roll=True, **TINY))
     world_from_ncs = ncs_model.to_world(root_ncs[:, None], cams, params)[:, 0]
     torch.testing.assert_close(world, world_from_ncs)
+
+
+def test_dropout_keeps_the_expectation_and_its_gradient_is_the_mask():
+    from ray3d.models.blocks import Dropout
+
+    layer = Dropout(0.25).train()
+    x = torch.ones(200_000, requires_grad=True)
+    torch.manual_seed(3)
+    y = layer(x)
+    keep = 1 - round(0.25 * 65536) / 65536
+    kept = y != 0
+    assert abs(kept.float().mean().item() - keep) < 5e-3  # 0.75 +- 5 standard deviations of 200,000 draws
+    assert torch.allclose(y[kept], torch.full_like(y[kept], 1 / keep))
+    y.sum().backward()
+    assert torch.equal(x.grad, y.detach())  # d y / d x is the scaled mask
+    torch.manual_seed(3)
+    assert torch.equal(layer(x), y)  # drawn from torch's generator: seeded runs repeat
+    assert torch.equal(layer.eval()(x), x) and torch.equal(Dropout(0.0).train()(x), x)
+    with pytest.raises(ValueError):
+        Dropout(1.0)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from ray3d.errors import InputError
 
@@ -129,6 +128,8 @@ def savgol(sequence: np.ndarray, window: int = 9, order: int = 2) -> np.ndarray:
     window = min(window, len(sequence) - (1 - len(sequence) % 2))
     if window <= order:
         return sequence.copy()
+    from scipy.signal import savgol_filter  # imported here: scipy.signal alone takes 0.7 s to import
+
     return savgol_filter(sequence, window, order, axis=0, mode="interp")
 
 

@@ -10,6 +10,7 @@ import json
 import os
 import time
 from pathlib import Path
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,7 @@ import torch
 from tqdm import tqdm
 
 from ray3d.checkpoints import MODEL_PREFIX, TRAINED_PREFIX, prefixed, read_checkpoint, save_checkpoint, unprefixed
-from ray3d.data.motion import load_shipped
+from ray3d.data.motion import MotionSet, load_shipped
 from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
 from ray3d.errors import InputError
@@ -102,9 +103,11 @@ def training_config(path: str | Path | None = None, model_preset: str | None = N
     return dataclasses.replace(config, **{k: v for k, v in overrides.items() if v is not None})
 
 
-def sample_generator(config: TrainConfig, split: str, samples: SampleConfig, seed: int) -> SampleGenerator:
-    """Samples of ``split``'s performers cut and seen the way ``config.model`` reads them."""
-    motion = load_shipped(config.data_dir, split, config.datasets)
+def sample_generator(config: TrainConfig, split: str, samples: SampleConfig, seed: int,
+                     motion: MotionSet | None = None) -> SampleGenerator:
+    """Samples of ``split``'s performers (``motion``, when already loaded) cut and seen the way
+    ``config.model`` reads them."""
+    motion = motion if motion is not None else load_shipped(config.data_dir, split, config.datasets)
     return SampleGenerator(motion, samples, config.model.window, config.model.remove_roll, seed=seed)
 
 
@@ -168,6 +171,40 @@ def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: dict[str, torch.T
     optimizer.load_state_dict({"state": state, "param_groups": groups})
 
 
+def make_optimizer(model: torch.nn.Module, config: TrainConfig) -> torch.optim.Optimizer:
+    """Adam with AMSGrad, as the paper; fused into one kernel per step (fewer passes over the weights)."""
+    return torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True, fused=True)
+
+
+def training_step(trained: torch.nn.Module, model: LiftingNetwork, optimizer: torch.optim.Optimizer,
+                  generator: SampleGenerator, batch_size: int, device: torch.device,
+                  share: slice = slice(None)) -> np.ndarray:
+    """One optimisation step of ``trained`` (``model``, or its data-parallel wrapper) on this process's
+    ``share`` of a batch drawn from ``generator``; returns [loss, pose error (m), root error (relative)]."""
+    batch = _slice(generator.batch(batch_size), share)
+    tensors = batch_tensors(batch, device)
+    target_pose, target_root = model.targets(tensors, torch.from_numpy(batch.pose).to(device),
+                                             torch.from_numpy(batch.root).to(device))
+    pose, root = trained(tensors)
+    loss, pose_error, root_error = lifting_loss(pose, root, target_pose, target_root)
+    optimizer.zero_grad(set_to_none=True)
+    loss.backward()
+    optimizer.step()
+    return np.array([loss.item(), pose_error.item(), root_error.item()])
+
+
+def training_steps(config: TrainConfig, motion: MotionSet | None = None) -> Iterator[np.ndarray]:
+    """``train``'s steps on one process from freshly initialised weights, without end, validation or
+    checkpoints: what ``ray3d bench speed`` times as the training loop's rate. ``motion``: the training
+    performers' mocap, when already loaded."""
+    torch.manual_seed(config.seed)
+    model = LiftingNetwork(config.model).train()
+    optimizer = make_optimizer(model, config)
+    generator = sample_generator(config, "train", config.samples, config.seed, motion)
+    while True:
+        yield training_step(model, model, optimizer, generator, config.batch_size, torch.device("cpu"))
+
+
 def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: bool = True) -> dict[str, Any]:
     """Train, writing ``out/best.*`` (best validation epoch) and ``out/last.*`` (to resume).
 
@@ -186,7 +223,7 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     device = torch.device(f"cuda:{rank % torch.cuda.device_count()}" if torch.cuda.is_available() else "cpu")
     torch.manual_seed(config.seed)
     model = LiftingNetwork(config.model).to(device)
-    optimizer = torch.optim.Adam(model.parameters(), lr=config.learning_rate, amsgrad=True)
+    optimizer = make_optimizer(model, config)
     ema = None if not config.ema_decay else torch.optim.swa_utils.AveragedModel(
         model, avg_fn=_warming_ema(config.ema_decay), use_buffers=True)
     shipped = model if ema is None else ema.module  # the weights validated and written as "model."
@@ -219,18 +256,10 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
         bar = tqdm(range(config.batches_per_epoch), desc=f"epoch {epoch + 1}/{config.epochs}",
                    disable=not progress or rank != 0, leave=False)
         for step in bar:
-            batch = _slice(generator.batch(config.batch_size), slice(rank * local_batch, (rank + 1) * local_batch))
-            tensors = batch_tensors(batch, device)
-            target_pose, target_root = model.targets(tensors, torch.from_numpy(batch.pose).to(device),
-                                                     torch.from_numpy(batch.root).to(device))
-            pose, root = trained(tensors)
-            loss, pose_error, root_error = lifting_loss(pose, root, target_pose, target_root)
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            optimizer.step()
+            totals += training_step(trained, model, optimizer, generator, config.batch_size, device,
+                                    slice(rank * local_batch, (rank + 1) * local_batch))
             if ema is not None:
                 ema.update_parameters(model)
-            totals += [loss.item(), pose_error.item(), root_error.item()]
             rate = (step + 1) * config.batch_size / (time.perf_counter() - started)
             bar.set_postfix(loss=f"{totals[0] / (step + 1):.4f}", samples_s=f"{rate:,.0f}")
         state["train_seconds"] += time.perf_counter() - started

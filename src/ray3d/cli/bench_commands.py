@@ -71,19 +71,38 @@ def real_video(args: argparse.Namespace) -> int:
 def speed(args: argparse.Namespace) -> int:
     from ray3d.bench.speed import measure_all
 
-    result = measure_all(args.models, args.repeats, batch_size=args.batch, sequence_frames=args.sequence_frames,
-                         train_batch=args.train_batch)
+    camera = None
+    if args.video is not None:
+        from ray3d.io.camera_files import read_camera
+
+        if args.camera is None:
+            raise InputError("bench speed: --video needs --camera")
+        camera = read_camera(args.camera)
+    result = measure_all(args.models, args.repeats, args.video, camera, args.video_frames, batch_size=args.batch,
+                         sequence_frames=args.sequence_frames, train_batch=args.train_batch)
     by_path = ", ".join(f"{name.removesuffix('_gflops')} {rate:.0f}"
                         for name, rate in result["matmul_paths_gflops"].items())
-    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s ({by_path}); torch threads "
-          f"{result['torch_threads']}")
+    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s ({by_path}); memory "
+          f"{result['memory_gbps']:.1f} GB/s; BLAS {result['blas']}; torch threads {result['torch_threads']}")
     print(f"{'model':<15}{'backend':<13}{'params':>12}{'MFLOP/f':>9}{'batch f/s':>11}{'seq f/s':>10}"
-          f"{'latency ms':>11}{'stream ms':>10}{'train s/s':>10}{'% peak':>8}")
+          f"{'latency ms':>11}{'stream ms':>10}{'train s/s':>10}{'loop s/s':>10}{'% peak':>8}")
     for r in result["models"]:
-        train_rate = f"{r['train_samples_per_s']:>10,.0f}" if r["train_samples_per_s"] else f"{'-':>10}"
+        train_rate, loop_rate = (f"{r[key]:>10,.0f}" if r.get(key) else f"{'-':>10}"
+                                 for key in ("train_samples_per_s", "train_loop_samples_per_s"))
         print(f"{r['model']:<15}{r['backend']:<13}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}"
               f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}"
-              f"{r['stream_ms_per_frame']:>10.2f}{train_rate}{100 * r['fraction_of_peak']:>8.1f}")
+              f"{r['stream_ms_per_frame']:>10.2f}{train_rate}{loop_rate}{100 * r['fraction_of_peak']:>8.1f}")
+    print("the machine's bounds (at the matmul peak; latency: reading the fp32 weights once):")
+    for r in result["models"]:
+        if r["backend"] == "torch":
+            paths = "; ".join(f"{layer} {'+'.join(ops)}" for layer, ops in r["layer_gemm_paths"].items())
+            print(f"  {r['model']:<15}batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, train <= "
+                  f"{r['bound_train_samples_per_s']:,.0f} s/s, latency >= {r['bound_latency_ms']:.2f} ms; {paths}")
+    if result["video"]:
+        v = result["video"]
+        print(f"ray3d video, {v['frames']} frames of {v['video']} ({v['people']} people): people "
+              f"{v['people_frames_per_s']:.1f} f/s, lifting {v['lifting_frames_per_s']:.1f} f/s, writing "
+              f"{v['writing_frames_per_s']:.1f} f/s, end to end {v['end_to_end_frames_per_s']:.1f} f/s")
     if args.json:
         write_json(args.json, result, args.force)
     return 0
