@@ -217,3 +217,27 @@ def test_dropout_keeps_the_expectation_and_its_gradient_is_the_mask():
     assert torch.equal(layer.eval()(x), x) and torch.equal(Dropout(0.0).train()(x), x)
     with pytest.raises(ValueError):
         Dropout(1.0)
+
+
+@pytest.mark.parametrize("causal", [False, True])
+def test_a_longer_root_context_leaves_the_pose_on_its_own_frames(causal):
+    config = preset("ray3d", root_kernels=(3, 3, 3), causal=causal, channels=16, hidden=32)
+    model = LiftingNetwork(config).eval()
+    assert model.receptive_field == config.frames == 27
+    assert model.trajectory_net.backbone.receptive_field == 27 and model.pose_net.backbone.receptive_field == 9
+    batch = TensorBatch.example(27, 17, 3)
+    outside = slice(0, 18) if causal else slice(0, 9)  # frames the pose branch does not see
+    changed = dataclasses.replace(batch, rays=batch.rays.clone())
+    changed.rays[:, outside] += 0.05
+    with torch.no_grad():
+        pose, root = model(batch)
+        pose_changed, root_changed = model(changed)
+    assert torch.equal(pose, pose_changed)
+    assert not torch.allclose(root, root_changed)
+
+
+def test_root_kernels_are_refused_where_there_are_no_kernels_per_branch():
+    with pytest.raises(ValueError, match="root_kernels"):
+        preset("poseformer", root_kernels=(3, 3, 3))
+    with pytest.raises(ValueError, match="odd"):
+        preset("ray3d", root_kernels=(2, 3))

@@ -162,3 +162,27 @@ def test_averaged_weights_are_validated_shipped_and_resumed(tiny_data_dir, tmp_p
     resumed = train(TrainConfig(**{**config.to_dict(), "epochs": 3}), run, resume=True, progress=False)
     assert resumed["history"][:2] == first["history"] and int(read_checkpoint(run / "last.safetensors")[0]
                                                               ["ema_steps"]) == 18
+
+
+def test_the_weight_average_copies_integer_buffers_and_averages_the_rest():
+    from torch.optim.swa_utils import AveragedModel
+
+    from ray3d.models import PRESETS, LiftingNetwork
+    from ray3d.train import _warming_ema
+
+    model = LiftingNetwork(PRESETS["ray3d"])
+    ema = AveragedModel(model, avg_fn=_warming_ema(0.999), use_buffers=True)
+    start = {k: v.clone() for k, v in model.state_dict().items()}
+    for _ in range(30):  # float(15) * 0.9x + 15 * 0.0x rounds below 15: truncated before the fix
+        ema.update_parameters(model)
+    with torch.no_grad():
+        for parameter in model.parameters():
+            parameter.add_(1.0)
+    ema.update_parameters(model)
+    averaged = dict(ema.module.named_buffers())
+    for name, buffer in model.named_buffers():
+        if not buffer.is_floating_point():
+            assert torch.equal(averaged[name], buffer), name
+    weight = "pose_net.backbone.global_branch.0.weight"
+    moved = ema.module.state_dict()[weight] - start[weight]
+    assert 0 < float(moved.mean()) < 1  # between the old and the new weights

@@ -47,6 +47,13 @@ class Window:
         """How many frames after the predicted one the window still needs (0 when causal)."""
         return self.frames - 1 - self.target
 
+    def around_target(self, frames: int) -> slice:
+        """The ``frames`` (odd) frames of this window that a shorter window predicting the same frame sees."""
+        if frames > self.frames or frames % 2 == 0:
+            raise InputError(f"a window of {frames} frames does not fit around the target of one of {self.frames}")
+        start = self.target - target_frame(frames, self.causal)
+        return slice(start, start + frames)
+
 
 def target_frame(frames: int, causal: bool = False) -> int:
     """Which frame of a window the network predicts: the centre (``frames // 2``), or the last for a causal

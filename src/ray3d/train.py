@@ -149,6 +149,10 @@ def _warming_ema(decay: float):
     """An exponential moving average whose decay grows from 0.1 to ``decay`` over the first steps, so the
     average forgets the random initial weights as fast as the weights leave them."""
     def average(averaged: torch.Tensor, current: torch.Tensor, steps: torch.Tensor) -> torch.Tensor:
+        if not current.is_floating_point():
+            # Integer buffers (the joint groups' index tensors, batch counts) are copied: averaged in floating
+            # point and written back they are truncated (15 became 14), which broke the averaged model.
+            return current
         rate = min(decay, (1 + int(steps)) / (10 + int(steps)))
         return rate * averaged + (1 - rate) * current
 

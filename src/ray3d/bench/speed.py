@@ -210,7 +210,9 @@ def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_
     flops = flops_per_frame(model)
     batch_s, latency_s, sequence_s = _inference_times(model, model, repeats, batch_size, sequence_frames)
     trainer = LiftingNetwork(config).train()
-    optimizer = torch.optim.Adam(trainer.parameters(), lr=1e-4, amsgrad=True)
+    from ray3d.train import TrainConfig, make_optimizer
+
+    optimizer = make_optimizer(trainer, TrainConfig(model=config))  # the optimizer ``ray3d train`` uses
     train_input = _batch(trainer, train_batch)
     target_pose, target_root = torch.randn(train_batch, model.skeleton.num_joints, 3), torch.rand(train_batch, 3) + 2
 

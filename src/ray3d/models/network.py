@@ -50,6 +50,7 @@ class ModelConfig:
     root: str = "ray_depth"
     ground_features: bool = True
     kernels: tuple[int, ...] = (3, 3)   # temporal conv widths; the window is their product (one: a transformer's)
+    root_kernels: tuple[int, ...] | None = None  # the trajectory branch's own, longer context; None: ``kernels``
     channels: int = 128                 # conv channels; for the transformer, each joint's feature size
     layers: int = 2                     # transformer blocks, spatial and temporal each
     hidden: int = 256
@@ -60,6 +61,8 @@ class ModelConfig:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kernels", tuple(self.kernels))
+        if self.root_kernels is not None:
+            object.__setattr__(self, "root_kernels", tuple(self.root_kernels))
         checks = [
             (self.input in INPUTS, f"input must be one of {INPUTS}"),
             (self.backbone in BACKBONES, f"backbone must be one of {BACKBONES}"),
@@ -74,6 +77,10 @@ class ModelConfig:
              "the transformer backbone's window is one number: kernels (F,)"),
             (self.backbone != "transformer" or self.layers >= 1, "the transformer backbone needs layers >= 1"),
             (self.layout in LAYOUTS, f"layout must be one of {tuple(LAYOUTS)}"),
+            (self.root_kernels is None or self.backbone in ("rie", "tcn"),
+             "root_kernels: only the temporal-convolution backbones (rie, tcn) have kernels per branch"),
+            (self.root_kernels is None or receptive_field(self.root_kernels) % 2 == 1,
+             "root_kernels: the trajectory window must have an odd number of frames, as the pose window"),
         ]
         for ok, message in checks:
             if not ok:
@@ -81,7 +88,12 @@ class ModelConfig:
 
     @property
     def frames(self) -> int:
-        return receptive_field(self.kernels)
+        """The window: the longer of the two branches' receptive fields."""
+        return max(receptive_field(self.kernels), receptive_field(self.branch_kernels("root")))
+
+    def branch_kernels(self, outputs: str) -> tuple[int, ...]:
+        """The temporal kernels of the pose branch (``"pose"``) or the trajectory branch (``"root"``)."""
+        return self.root_kernels if outputs == "root" and self.root_kernels is not None else self.kernels
 
     @property
     def window(self) -> Window:
@@ -145,8 +157,10 @@ class _Branch(nn.Module):
         camera = CameraEmbedding.out_features if config.camera_embedding else 0
         extra = skeleton.num_joints if config.ground_features else 0
         c, h = config.channels, config.hidden
+        kernels = config.branch_kernels(outputs)
+        self.frames = receptive_field(kernels)
         if config.backbone == "rie":
-            self.backbone = RIEBackbone(skeleton, config.input_channels, c, h, config.kernels, config.dropout,
+            self.backbone = RIEBackbone(skeleton, config.input_channels, c, h, kernels, config.dropout,
                                         config.fusion, extra, config.causal)
             groups = self.backbone.groups
             if outputs == "pose":
@@ -164,14 +178,19 @@ class _Branch(nn.Module):
                 width, 3 * skeleton.num_joints if outputs == "pose" else root_outputs))
         else:
             features = config.input_channels * skeleton.num_joints + extra
-            self.backbone = (TemporalEncoder(features, c, config.kernels, config.dropout, config.causal)
+            self.backbone = (TemporalEncoder(features, c, kernels, config.dropout, config.causal)
                              if config.backbone == "tcn"
                              else mlp(features, h, c, 2, config.dropout))
             self.head = mlp(c + camera, h, 3 * skeleton.num_joints if outputs == "pose" else root_outputs, 1,
                             config.dropout)
 
     def forward(self, x: torch.Tensor, extra: torch.Tensor | None, camera: torch.Tensor | None) -> torch.Tensor:
+        """``x`` (B, F, J, C) and ``extra`` (B, F, E) over the model's window; a branch whose own window is
+        shorter sees the frames around the target (the last ones when causal)."""
         batch = x.shape[0]
+        if x.shape[1] > self.frames:
+            frames = Window(x.shape[1], self.config.causal).around_target(self.frames)
+            x, extra = x[:, frames], None if extra is None else extra[:, frames]
         tail = [camera] if camera is not None else []
         if self.config.backbone == "rie":
             features, global_feature = self.backbone(x, extra)
