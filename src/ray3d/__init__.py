@@ -16,8 +16,7 @@ _MODULES = ("calibrate", "cameras", "metrics", "skeleton")
 _NAMES = {"Camera": "ray3d.geometry", "InputError": "ray3d.errors", "Lifter": "ray3d.lift",
           "read_camera": "ray3d.io.camera_files", "read_world": "ray3d.io.world"}
 
-__all__ = ["Camera", "InputError", "Lifter", "calibrate", "cameras", "metrics", "read_camera", "read_world", "skeleton",
-           "__version__"]
+__all__ = sorted([*_NAMES, *_MODULES, "__version__"])
 
 
 def __getattr__(name: str):
@@ -29,4 +28,4 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(__all__)
+    return __all__

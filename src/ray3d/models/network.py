@@ -170,7 +170,7 @@ class _Branch(nn.Module):
                 self.head = mlp(c * (len(groups) + 1) + camera, h, root_outputs, 1, config.dropout)
         elif config.backbone == "transformer":
             self.backbone = PoseTransformer(skeleton.num_joints, config.input_channels, c, config.layers,
-                                            config.frames, int(config.ground_features))
+                                            self.frames, int(config.ground_features))
             # PoseFormer's head, a LayerNorm and a Linear: a batch norm after the attention layers learns
             # features so narrow that its running statistics no longer fit any one batch.
             width = self.backbone.out_features + camera
