@@ -1,14 +1,15 @@
 # The two set-up commands of the README: `make demo` (the main job) and `make test` (the whole suite).
-# Each creates the virtual environment .venv on first use and installs what it needs into it.
+# Each creates the virtual environment .venv on first use and installs what it needs into it, at the exact
+# versions of constraints.txt.
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 
 .PHONY: demo test browser clean
 
-$(BIN)/.installed: pyproject.toml
+$(BIN)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[test]'
 	touch $@
 
 demo: $(BIN)/.installed

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from ray3d import cameras
+from ray3d import InputError, cameras
 from ray3d.cli import main
 from ray3d.io.world import read_world
 from ray3d.skeleton import BODY25, COCO17, H36M17, convert
@@ -55,6 +55,23 @@ def _inputs(tmp_path):
         {"image_id": i, "category_id": 1, "score": 0.95,
          "keypoints": np.concatenate([pixels[i], scores[i, :, None]], -1).ravel().tolist()} for i in range(FRAMES)]
         + [{"image_id": 0, "category_id": 1, "score": 0.1, "keypoints": [0.0] * 51}]))  # a weaker second person
+    flat = [np.concatenate([pixels[i], scores[i, :, None]], -1) for i in range(FRAMES)]
+    files["alphapose-coco.json"] = tmp_path / "alphapose-results.json"  # tracked by PoseFlow: idx
+    files["alphapose-coco.json"].write_text(json.dumps([
+        {"image_id": f"{i}.jpg", "category_id": 1, "score": 2.8, "box": [10, 10, 50, 120], "idx": [3.0],
+         "keypoints": flat[i].ravel().tolist()} for i in range(FRAMES)]))
+    files["alphapose-halpe136.json"] = tmp_path / "alphapose-halpe136.json"  # whole body, untracked
+    halpe = np.zeros((FRAMES, 136, 3))
+    halpe[:, :17] = flat
+    halpe[:, 17:26, :2] = pixels[:, [0, 5, 11, 15, 16, 15, 16, 15, 16]]
+    halpe[:, 17:, 2] = 0.5
+    files["alphapose-halpe136.json"].write_text(json.dumps([
+        {"image_id": f"frame_{i:05d}.png", "category_id": 1, "score": 2.5, "keypoints": halpe[i].ravel().tolist()}
+        for i in range(FRAMES)]))
+    files["mmpose-video.json"] = tmp_path / "mmpose-video.json"
+    files["mmpose-video.json"].write_text(json.dumps([
+        {"frame_id": i, "instances": [{"keypoints": pixels[i].tolist(), "keypoint_scores": scores[i].tolist(),
+                                       "bbox": [[0, 0, 99, 99]], "bbox_score": 0.9}]} for i in range(FRAMES)]))
     openpose = tmp_path / "openpose"
     openpose.mkdir()
     body25 = np.zeros((FRAMES, 25, 3))
@@ -224,3 +241,65 @@ def test_a_file_without_a_frame_rate_says_which_it_assumed(tmp_path, tiny_checkp
     assert main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:55011271", "--out", str(tmp_path / "w.json"),
                  "--checkpoint", str(tiny_checkpoint)]) == 0
     assert "states no frame rate: assumed the models' 60 fps" in capsys.readouterr().err
+
+
+def test_detector_results_lists_keep_layout_tracks_and_scores(tmp_path):
+    from ray3d.io.keypoints import read_keypoints
+    pixels = _coco_pixels()
+    halpe = np.concatenate([pixels, pixels[:, [0, 5, 11, 15, 16, 15, 16, 15, 16]]], axis=1)
+    scores = np.linspace(0.2, 0.9, 26)
+    path = tmp_path / "halpe26.json"
+    path.write_text(json.dumps([{"image_id": f"{i}.jpg", "score": 1.0, "idx": i % 2,
+                                 "keypoints": np.concatenate([halpe[i], scores[:, None]], -1).ravel().tolist()}
+                                for i in range(FRAMES)]))
+    read = read_keypoints(path)
+    assert read.layout == "halpe26" and read.pixels.shape == (FRAMES, 26, 2)
+    assert sorted(set(read.tracks.tolist())) == [0, 1]
+    np.testing.assert_allclose(read.confidences[0], scores)
+    np.testing.assert_allclose(convert(read.pixels, "halpe26"), convert(pixels, "coco17"), atol=1e-9)
+    # One image's mmpose instances: every person is a track of frame 0.
+    image = tmp_path / "mmpose-image.json"
+    image.write_text(json.dumps([{"keypoints": pixels[k].tolist(), "keypoint_scores": [0.8] * 17, "bbox_score": 0.9}
+                                 for k in range(3)]))
+    read = read_keypoints(image)
+    assert read.layout == "coco17" and read.tracks.tolist() == [0, 1, 2] and read.frames.tolist() == [0, 0, 0]
+    np.testing.assert_allclose(read.pixels, pixels[:3])
+
+
+@pytest.mark.parametrize("document, problem", [
+    ([{"image_id": 0, "keypoints": [1.0] * 50}], "50 numbers"),
+    ([{"image_id": 0, "idx": 1, "keypoints": [1.0] * 51}, {"image_id": 1, "keypoints": [1.0] * 51}],
+     "some entries have a track id"),
+    ([{"frame_id": 0, "instances": {"keypoints": []}}], "'instances' must be a list"),
+    ([{"frame_id": 0, "instances": []}], "holds no person"),
+    ([{"image_id": None, "keypoints": [1.0] * 51}], "'image_id'"),
+    ([{"image_id": 0, "keypoints": [[1.0, 2.0]] * 17, "keypoint_scores": [0.5] * 16}], "confidences"),
+    ([{"box": [0, 0, 1, 1]}], "'keypoints' in every entry"),
+])
+def test_bad_results_lists_name_the_problem(tmp_path, document, problem):
+    from ray3d.io.keypoints import read_keypoints
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(document))
+    with pytest.raises(InputError, match=problem):
+        read_keypoints(path)
+
+
+def test_camera_frame_output_and_bvh_through_the_cli(tmp_path, tiny_checkpoint, capsys):
+    from ray3d.data.bvh import read_bvh
+    files = _inputs(tmp_path)
+    common = ["lift", "--keypoints", str(files["ours.npz"]), "--camera", "h36m:S9:55011271",
+              "--checkpoint", str(tiny_checkpoint)]
+    assert main([*common, "--out", str(tmp_path / "w.json")]) == 0
+    assert main([*common, "--out", str(tmp_path / "c.csv"), "--frame", "camera"]) == 0
+    assert "camera frame" in capsys.readouterr().out
+    world, seen = read_world(tmp_path / "w.json"), read_world(tmp_path / "c.csv")
+    assert world.frame == "world" and seen.frame == "camera" and "z forward" in seen.axes
+    np.testing.assert_allclose(seen.track().joints, CAMERA.world_to_camera(world.track().joints), atol=2e-5)
+    assert (seen.track().joints[..., 2] > 1.0).all()  # in front of the lens
+    np.testing.assert_allclose(seen.in_frame("world").track().joints, world.track().joints, atol=2e-5)
+    assert main([*common, "--out", str(tmp_path / "c.trc"), "--frame", "camera"]) == 2
+    assert "world frame" in capsys.readouterr().err and not (tmp_path / "c.trc").exists()
+    assert main([*common, "--out", str(tmp_path / "w.bvh")]) == 0
+    motion = read_bvh(tmp_path / "w.bvh")
+    assert len(motion.motion) == FRAMES and motion.fps == pytest.approx(60.0)
+    assert main(["viz", str(tmp_path / "c.csv"), "--html", str(tmp_path / "v.html")]) == 0

@@ -8,6 +8,8 @@ import pytest
 from ray3d import InputError, cameras
 from ray3d.io.world import FORMATS, LiftResult, World, read_world, write_world
 
+CAMERA = cameras.h36m("S9", "54138969")
+
 
 def _world(rng) -> World:
     def track(frames, first):
@@ -15,7 +17,7 @@ def _world(rng) -> World:
         interpolated = rng.random((frames, 17)) < 0.1
         return LiftResult(joints, interpolated, 30.0, np.arange(first, first + frames))
 
-    return World({"7": track(5, 10), "person b": track(3, 0)}, cameras.h36m("S9", "54138969"), "ray3d")
+    return World({"7": track(5, 10), "person b": track(3, 0)}, CAMERA, "ray3d")
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
@@ -83,3 +85,107 @@ def test_trc_export_has_opensims_header_and_markers_in_millimetres_y_up(tmp_path
     assert last[:2] == ["5", "0.16000"] and last[2] == "" and float(last[2 + 17 * 3]) == pytest.approx(2200.0)
     with pytest.raises(InputError, match="unknown world file format .trc"):  # an export, not read back
         read_world(path)
+
+
+def _animated_skeleton(rng, frames=40, stretch=0.0):
+    """(T, 17, 3) H36M-17 joints of a random body turning at every joint while walking, each bone's length
+    changing by up to ``stretch`` metres from frame to frame."""
+    from scipy.spatial.transform import Rotation
+
+    from ray3d.skeleton import H36M17
+    rest = rng.normal(0, 0.2, (17, 3))
+    joints = np.zeros((frames, 17, 3))
+    turns = np.zeros((frames, 17, 3, 3))
+    for j, parent in enumerate(H36M17.parents):
+        local = Rotation.from_rotvec(rng.normal(0, 0.6, (frames, 3)) * np.linspace(0, 1, frames)[:, None]).as_matrix()
+        if parent < 0:
+            turns[:, j] = local
+            joints[:, j] = np.array([0.0, 0.0, 0.9]) + np.linspace(0, 2, frames)[:, None] * [1.0, 0.5, 0.0]
+        else:
+            turns[:, j] = turns[:, parent] @ local
+            bone = (rest[j] - rest[parent]) * (1 + stretch * rng.uniform(-1, 1, (frames, 1)))
+            joints[:, j] = joints[:, parent] + np.einsum("tij,tj->ti", turns[:, parent], bone)
+    return joints
+
+
+def _bvh_joints(path):
+    from ray3d.data.bvh import read_bvh
+    from ray3d.io.bvh_export import Y_UP
+    from ray3d.skeleton import H36M17
+    motion = read_bvh(path)
+    return motion.positions()[:, [motion.tree.names.index(n) for n in H36M17.joint_names]] @ Y_UP, motion
+
+
+@pytest.mark.parametrize("stretch", [0.0, 0.2])
+def test_bvh_export_reads_back_through_our_importer(tmp_path, rng, stretch):
+    from ray3d.io.bvh_export import bvh_text
+    from ray3d.skeleton import H36M17
+    joints = _animated_skeleton(rng, stretch=stretch)
+    world = World({"walker": LiftResult(joints, np.zeros((40, 17), bool), 25.0, np.arange(40))}, CAMERA, "test")
+    back, motion = _bvh_joints(write_world(tmp_path / "walk.bvh", world))
+    np.testing.assert_allclose(back, joints, atol=1e-5)  # every joint's offset travels: exact at any stretch
+    assert motion.fps == pytest.approx(25.0, rel=1e-8) and len(motion.motion) == 40
+    rigid = tmp_path / "rigid.bvh"
+    rigid.write_text(bvh_text(joints, H36M17, 25.0, rigid=True))
+    back, motion = _bvh_joints(rigid)
+    assert sum(len(c) for c in motion.channels) == 6 + 3 * 16  # rotations only below the root
+    error = np.linalg.norm(back - joints, axis=-1).max()
+    assert error < 1e-5 if stretch == 0 else 1e-3 < error  # fixed bones follow rigid motion only
+    np.testing.assert_allclose(back[:, 0], joints[:, 0], atol=1e-6)  # the root's path, in metres
+
+
+def test_bvh_rest_pose_is_a_t_pose_facing_z_with_median_bones(tmp_path, rng):
+    from ray3d.skeleton import H36M17
+    joints = _animated_skeleton(rng, stretch=0.1)
+    world = World({"0": LiftResult(joints, np.zeros((40, 17), bool), 30.0, np.arange(40))}, CAMERA, "test")
+    _, motion = _bvh_joints(write_world(tmp_path / "a.bvh", world))
+    offsets = dict(zip(motion.tree.names, motion.tree.offsets))
+    lengths = np.median(np.linalg.norm(joints[:, 1:] - joints[:, list(H36M17.parents[1:])], axis=-1), axis=0)
+    for name in ("l_knee", "r_ankle"):
+        assert offsets[name][1] < 0 and np.allclose(offsets[name][[0, 2]], 0)  # legs straight down
+    assert offsets["l_elbow"][0] > 0 > offsets["r_elbow"][0]  # left along +x, arms out sideways
+    for name in ("thorax", "head"):  # a chain of one bone each above the spine: straight up
+        assert offsets[name][1] > 0 and np.allclose(offsets[name][[0, 2]], 0)
+    np.testing.assert_allclose([np.linalg.norm(offsets[n]) for n in H36M17.joint_names[1:]], lengths, atol=2e-6)
+
+
+def test_bvh_of_several_tracks_writes_one_file_each_and_refuses_what_it_cannot_hold(tmp_path, rng):
+    from ray3d.io.world import export_paths
+    joints = _animated_skeleton(rng)
+    tracks = {str(t): LiftResult(joints + t, np.zeros((40, 17), bool), 30.0, np.arange(40) + 10 * t) for t in (3, 8)}
+    world = World(tracks, CAMERA, "test")
+    write_world(tmp_path / "people.bvh", world)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["people_3.bvh", "people_8.bvh"]
+    assert export_paths(tmp_path / "people.bvh", world)["8"] == tmp_path / "people_8.bvh"
+    np.testing.assert_allclose(_bvh_joints(tmp_path / "people_8.bvh")[0], joints + 8, atol=1e-5)
+    before = (tmp_path / "people_3.bvh").read_bytes()
+    with pytest.raises(InputError, match="already exists"):
+        write_world(tmp_path / "people.bvh", world)
+    assert (tmp_path / "people_3.bvh").read_bytes() == before
+    gappy = LiftResult(joints[:3], np.zeros((3, 17), bool), 30.0, np.array([0, 1, 5]))
+    with pytest.raises(InputError, match="not consecutive"):
+        write_world(tmp_path / "gappy.bvh", World({"0": gappy}, CAMERA, "test"))
+    assert not (tmp_path / "gappy.bvh").exists()
+
+
+def test_json_world_files_follow_the_shipped_schema(tmp_path, rng):
+    import json
+    from importlib import resources
+
+    import jsonschema
+    schema = json.loads(resources.files("ray3d").joinpath("assets", "world.schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    validator = jsonschema.Draft202012Validator(schema)
+    world = _world(rng)
+    world.tracks["7"].refinement = {"stature_m": 1.7, "body_size_m": 1.4, "median_scale": 1.0,
+                                    "contact_fraction": 0.9, "position_sd_m": 0.05}
+    for frame in ("world", "camera"):
+        document = json.loads(write_world(tmp_path / f"{frame}.json", world.in_frame(frame)).read_text())
+        validator.validate(document)
+    broken = dict(document, fps=0)
+    assert not validator.is_valid(broken)
+    del broken["fps"]
+    assert not validator.is_valid(broken)
+    assert not validator.is_valid(dict(document, surprise=1))  # the schema lists every field written
+    document["tracks"]["7"]["joints"][0][0] = [1.0, 2.0]
+    assert not validator.is_valid(document)

@@ -204,11 +204,13 @@ class Lifter:
 
 def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifter: Lifter | None = None,
               layout: str | None = None, fps: float | None = None, overwrite: bool = False,
-              read_options: dict | None = None, **options) -> tuple[Keypoints, World]:
-    """A keypoint file lifted into the world and written to ``out`` (.json/.csv/.npz/.trc), as ``ray3d lift``
-    does: ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
-    (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), ``options`` as for ``Lifter.lift``.
-    Returns what was read and what was written."""
+              read_options: dict | None = None, frame: str = "world",
+              smooth_3d: str | None = temporal.OUTPUT_SMOOTHING, **options) -> tuple[Keypoints, World]:
+    """A keypoint file lifted into the world and written to ``out`` (.json/.csv/.npz/.trc/.bvh), as ``ray3d
+    lift`` does: ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
+    (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), the joints in ``frame`` ("world" or
+    "camera", see ``World.in_frame``), the output smoothed by ``smooth_3d`` (Savitzky-Golay unless told; None:
+    as lifted), ``options`` as for ``Lifter.lift``. Returns what was read and what was written."""
     from ray3d.io.atomic import check_output
     from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import write_world
@@ -217,7 +219,8 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
     if Path(out).exists() and not overwrite:
         raise InputError(f"{out}: already exists; refusing to overwrite it", arguments=("overwrite",))
     keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
-    world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, **options)
+    world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, smooth_3d=smooth_3d, **options)
+    world = world.in_frame(frame)
     write_world(out, world, overwrite=overwrite)
     return keypoints, world
 

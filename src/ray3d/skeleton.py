@@ -127,7 +127,14 @@ BODY25 = Skeleton(
      "l_small_toe", "l_heel", "r_big_toe", "r_small_toe", "r_heel"),
     (1, 8, 1, 2, 3, 1, 5, 6, -1, 8, 9, 10, 8, 12, 13, 0, 0, 15, 16, 14, 19, 14, 11, 22, 11),
 )
-LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, BLAZEPOSE33, BODY25)}
+# AlphaPose's Halpe-26 (also mmpose's halpe26 models): COCO-17, then head top, neck, mid-hip and six foot points.
+HALPE26 = Skeleton(
+    "halpe26",
+    COCO17.joint_names + ("head_top", "neck", "mid_hip", "l_big_toe", "r_big_toe", "l_small_toe", "r_small_toe",
+                          "l_heel", "r_heel"),
+    (18, 0, 0, 1, 2, 18, 18, 5, 6, 7, 8, 19, 19, 11, 12, 13, 14, 18, 19, -1, 15, 16, 15, 16, 15, 16),
+)
+LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, HALPE26, BLAZEPOSE33, BODY25)}
 
 # How far the head top lies beyond the mid-ears, as a fraction of the thorax -> mid-ears vector.
 HEAD_TOP_EXTENSION = 0.5
@@ -143,6 +150,8 @@ _FACE_TO_H36M: dict[str, dict[str, float]] = {
 # Joints of a target layout not found by name in the source: (source, target) -> {target joint: {source joint: w}}.
 _RECIPES: dict[tuple[str, str], dict[str, dict[str, float]]] = {
     ("coco17", "h36m17"): _FACE_TO_H36M,
+    # Halpe's own head top is not used: every detector layout derives the head from the ears alike, as trained.
+    ("halpe26", "h36m17"): _FACE_TO_H36M,
     ("blazepose33", "h36m17"): _FACE_TO_H36M,
     ("body25", "h36m17"): _FACE_TO_H36M,
     ("3dhp17", "h36m17"): {"neck_nose": {"neck": 1.0}, "head": {"head_top": 1.0}},
@@ -157,6 +166,11 @@ def layout_skeleton(layout: str | Skeleton) -> Skeleton:
         raise InputError(f"unknown joint layout {layout!r}; known: {', '.join(LAYOUTS)} (for an unknown layout, "
                          "convert the keypoints to one of these)")
     return LAYOUTS[layout]
+
+
+def layout_named_by(joint_names) -> Skeleton | None:
+    """The layout whose joints are ``joint_names``, in that order; None if no layout has them."""
+    return next((s for s in LAYOUTS.values() if s.joint_names == tuple(joint_names)), None)
 
 
 def _missing_joints(src: Skeleton, dst: Skeleton) -> list[str]:

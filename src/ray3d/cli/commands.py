@@ -251,6 +251,7 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 
 
 def lift(args: argparse.Namespace) -> int:
+    from ray3d.io.world import export_paths
     from ray3d.lift import Lifter, lift_file
 
     check_output(args.out, (args.camera,))
@@ -258,15 +259,16 @@ def lift(args: argparse.Namespace) -> int:
     keypoints, world = lift_file(
         args.keypoints, camera, args.out, Lifter.load(args.checkpoint), args.layout, args.fps, args.force,
         dict(subject=args.subject, action=args.action, camera_index=args.camera_index),
-        smooth_2d=args.smooth_2d, smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test,
+        frame=args.frame, smooth_2d=args.smooth_2d, smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test,
         refine=not args.no_refine, progress=True)
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
+    written = ", ".join(dict.fromkeys(str(p) for p in export_paths(args.out, world).values()))
     print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
-          f"{args.checkpoint} through camera {camera.name or args.camera} -> {args.out} (metres, z up)")
+          f"{args.checkpoint} through camera {camera.name or args.camera} -> {written} (metres, {world.frame} frame)")
     if filled:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
     _print_refinements(world.tracks)
@@ -300,7 +302,8 @@ def video(args: argparse.Namespace) -> int:
                         Lifter.load(args.checkpoint), fps=args.fps, world_format=args.format,
                         overlay=not args.no_overlay, overwrite=args.force, start=args.start, frames=args.frames,
                         max_gap_s=args.max_gap, min_track_s=args.min_track, smooth_2d=args.smooth_2d,
-                        smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test, refine=not args.no_refine)
+                        smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test, refine=not args.no_refine,
+                        frame=args.frame)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
     print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked ({len(result.dropped)} short or "
@@ -342,7 +345,7 @@ def viz(args: argparse.Namespace) -> int:
     for target in (args.html, args.animation):
         if target is not None:
             check_output(target, (*args.world, args.camera, args.keypoints))
-    worlds = [read_world(path) for path in args.world]
+    worlds = [read_world(path).in_frame("world") for path in args.world]  # a camera-frame file too
     sequences = {}
     for path, world in zip(args.world, worlds):
         chosen = [args.track] if args.track is not None else list(world.tracks)

@@ -8,6 +8,7 @@ from pathlib import Path
 import ray3d
 from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
+from ray3d.temporal import OUTPUT_SMOOTHING
 
 
 def _import_common(parser: argparse.ArgumentParser) -> None:
@@ -35,7 +36,7 @@ def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str 
 
 
 def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "ray3d",
-                           smooth_3d: str = "none") -> None:
+                           smooth_3d: str = OUTPUT_SMOOTHING) -> None:
     parser.add_argument("--checkpoint", default=checkpoint,
                         help=f"shipped model name or checkpoint path (default {checkpoint})")
     parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
@@ -44,6 +45,9 @@ def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "r
     parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
     parser.add_argument("--no-refine", action="store_true",
                         help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
+    parser.add_argument("--frame", choices=["world", "camera"], default="world",
+                        help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
+                             "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -134,8 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
     _add_camera_arguments(lift)
     lift.add_argument("--out", required=True, type=Path,
-                      help="output .json, .csv or .npz (read back by ray3d viz), or .trc (OpenSim / Pose2Sim markers)")
-    lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, blazepose33, body25, ...)")
+                      help="output .json, .csv or .npz (read back by ray3d viz), .trc (OpenSim / Pose2Sim markers) or "
+                           ".bvh (a skeleton with joint rotations: Blender, Maya; one file per track)")
+    lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, halpe26, blazepose33, body25, ...)")
     lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
     _add_lifting_arguments(lift)
     lift.add_argument("--subject", help="VideoPose3D npz: the subject")
@@ -157,13 +162,12 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--max-gap", type=float, default=0.5,
                        help="seconds a person may go undetected and keep their track (default 0.5)")
     video.add_argument("--min-track", type=float, default=1.0, help="drop tracks shorter than this, seconds (default 1)")
-    video.add_argument("--format", choices=[".json", ".csv", ".npz", ".trc"], default=".json",
-                       help="world file format (.trc: OpenSim / Pose2Sim markers)")
+    video.add_argument("--format", choices=[".json", ".csv", ".npz", ".trc", ".bvh"], default=".json",
+                       help="world file format (.trc: OpenSim / Pose2Sim markers; .bvh: one skeleton per track)")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
-    # Detector keypoints of real footage: the model trained for them, and Savitzky-Golay on the output, which
-    # removes the detector's jitter without lag (docs/RESULTS.md, issue 13).
-    _add_lifting_arguments(video, VIDEO_MODEL, smooth_3d="savgol")
+    # Detector keypoints of real footage: the model trained for them.
+    _add_lifting_arguments(video, VIDEO_MODEL)
     video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 

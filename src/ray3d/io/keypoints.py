@@ -1,5 +1,6 @@
-"""2D keypoint files in: ours (npz / JSON / CSV), COCO-style results JSON (mmpose, detectron2), OpenPose
-per-frame JSON folders (BODY_25), and VideoPose3D-style ``positions_2d`` npz. Every reader returns
+"""2D keypoint files in: ours (npz / JSON / CSV), per-person results lists (COCO-style from detectron2 and
+mmpose 0.x, AlphaPose's COCO-17 / Halpe-26 / Halpe-136, mmpose 1.x predictions), OpenPose per-frame JSON folders
+(BODY_25), and VideoPose3D-style ``positions_2d`` npz. Every reader returns
 ``Keypoints``; every error names the file and what is wrong."""
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
-from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_skeleton
+from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_named_by, layout_skeleton
 from ray3d.temporal import check_frame_rate
 
 
@@ -84,7 +85,7 @@ def _layout_for(path: Path, pixels: np.ndarray, layout: str | None) -> str:
             raise InputError(f"{path}: 17 joints per detection, but their geometry fits neither COCO-17 nor H36M-17; "
                              "name the layout", arguments=("layout",))
         return found
-    by_count = {33: "blazepose33", 25: "body25"}
+    by_count = {33: "blazepose33", 25: "body25", 26: "halpe26"}
     if joints not in by_count:
         raise InputError(f"{path}: {joints} joints per detection matches no layout; name the layout "
                          f"({', '.join(f'{n}: {s.num_joints}' for n, s in LAYOUTS.items())})", arguments=("layout",))
@@ -151,20 +152,79 @@ def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
                    document.get("fps") if fps is None else fps, "ray3d json")
 
 
-def read_coco_results(path: Path, document: list, layout, fps) -> Keypoints:
-    if not all(isinstance(d, dict) and "keypoints" in d for d in document):
-        raise InputError(f"{path}: a COCO results list needs 'keypoints' in every entry")
-    joints = layout_skeleton(layout or "coco17").num_joints
-    rows = _numeric(path, "keypoints", [d["keypoints"] for d in document])
-    pixels, scores = _split_scores(path, rows, joints)
-    try:
-        frames = np.array([d.get("frame_index", d.get("image_id")) for d in document], dtype=np.int64)
-    except (TypeError, ValueError):
-        raise InputError(f"{path}: every entry needs an integer 'image_id' or 'frame_index'") from None
-    tracks = np.array([d.get("track_id", -1) for d in document])
-    if (tracks == -1).all():
+# Whole-body layouts whose first joints are a body layout: COCO-WholeBody (133) starts with COCO-17, Halpe-136
+# with Halpe-26. Their face, hand and foot points are not used.
+_BODY_PREFIX = {17: "coco17", 26: "halpe26", 133: "coco17", 136: "halpe26"}
+
+
+def _frame_number(path: Path, image_id, order: dict) -> int:
+    """A frame index from an ``image_id``: an integer, or an image name such as "12.jpg" or "frame_000012.png"
+    (its last digits); other names are numbered in order of first appearance."""
+    if isinstance(image_id, bool) or image_id is None:
+        raise InputError(f"{path}: every entry needs an 'image_id' or 'frame_index'")
+    if isinstance(image_id, (int, float)) and float(image_id).is_integer():
+        return int(image_id)
+    digits = "".join(c if c.isdigit() else " " for c in Path(str(image_id)).stem).split()
+    if digits:
+        return int(digits[-1])
+    return order.setdefault(str(image_id), len(order))
+
+
+def _track_id(value):
+    """AlphaPose's ``idx`` (a number, or a list of them after PoseFlow) or a ``track_id``; None when absent."""
+    if isinstance(value, list):
+        value = value[0] if value else None
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    return None if value in (None, -1) else value
+
+
+def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
+    """Per-person results lists: COCO-style (detectron2, mmpose 0.x: flat ``keypoints`` and ``image_id``),
+    AlphaPose's ``alphapose-results.json`` (``image_id`` an image name, ``idx`` the track with ``--pose_track``;
+    COCO-17, Halpe-26 or Halpe-136), and mmpose 1.x predictions (``keypoints`` as [[x, y], ...] with
+    ``keypoint_scores``): one image's list of instances, or a video's ``[{"frame_id", "instances": [...]}]``."""
+    entries = []  # (frame, track or None, keypoints, scores or None, detection score)
+    order: dict = {}
+    if all(isinstance(d, dict) and "instances" in d for d in document):
+        for k, frame in enumerate(document):
+            if not isinstance(frame["instances"], list):
+                raise InputError(f"{path}: frame {k}: 'instances' must be a list")
+            number = _frame_number(path, frame.get("frame_id", k), order)
+            entries += [(number, _track_id(i.get("track_id")), i.get("keypoints"), i.get("keypoint_scores"),
+                         i.get("bbox_score", i.get("score", 1.0))) for i in frame["instances"] if isinstance(i, dict)]
+    elif all(isinstance(d, dict) and "keypoints" in d for d in document):
+        image_level = not any("image_id" in d or "frame_index" in d for d in document)
+        for d in document:  # one image's mmpose instances carry no frame
+            frame = 0 if image_level else _frame_number(path, d.get("frame_index", d.get("image_id")), order)
+            entries.append((frame, _track_id(d.get("track_id", d.get("idx"))), d["keypoints"],
+                            d.get("keypoint_scores"), d.get("score", d.get("bbox_score", 1.0))))
+        if image_level:  # several people in one image are several tracks
+            entries = [(f, k if t is None else t, kp, sc, score) for k, (f, t, kp, sc, score) in enumerate(entries)]
+    else:
+        raise InputError(f"{path}: a results list needs 'keypoints' in every entry (COCO, AlphaPose) or "
+                         "'instances' in every entry (mmpose)")
+    if not entries:
+        raise InputError(f"{path}: the results list holds no person")
+    rows = _numeric(path, "keypoints", [e[2] for e in entries])
+    flat_joints = None
+    if rows.ndim == 2:  # flat x1 y1 s1 x2 y2 s2 ...
+        flat_joints = layout_skeleton(layout).num_joints if layout else rows.shape[1] // 3
+        if rows.shape[1] != 3 * flat_joints or (layout is None and flat_joints not in _BODY_PREFIX):
+            raise InputError(f"{path}: keypoint lists of {rows.shape[1]} numbers; expected 3 per joint for 17, 26, "
+                             "133 or 136 joints (or name the layout)", arguments=("layout",))
+    pixels, scores = _split_scores(path, rows, flat_joints)
+    if scores is None and all(e[3] is not None for e in entries):
+        scores = _numeric(path, "keypoint_scores", [e[3] for e in entries])
+    if layout is None and pixels.shape[1] in _BODY_PREFIX:
+        layout = _BODY_PREFIX[pixels.shape[1]]
+        keep = layout_skeleton(layout).num_joints
+        pixels, scores = pixels[:, :keep], None if scores is None else scores[:, :keep]
+    frames = np.array([e[0] for e in entries], dtype=np.int64)
+    tracks = [e[1] for e in entries]
+    if all(t is None for t in tracks):
         # One person per frame without tracking: keep each frame's most confident detection.
-        score = np.array([d.get("score", 1.0) for d in document], dtype=np.float64)
+        score = _numeric(path, "score", [e[4] for e in entries])
         best = {}
         for i, frame in enumerate(frames):
             if frame not in best or score[i] > score[best[frame]]:
@@ -172,7 +232,11 @@ def read_coco_results(path: Path, document: list, layout, fps) -> Keypoints:
         keep = np.array(sorted(best.values()))
         pixels, frames, tracks = pixels[keep], frames[keep], np.zeros(len(keep), dtype=np.int64)
         scores = None if scores is None else scores[keep]
-    return _finish(path, pixels, scores, frames, tracks, layout or "coco17", fps, "coco results")
+    elif any(t is None for t in tracks):
+        raise InputError(f"{path}: some entries have a track id and others none")
+    else:
+        tracks = np.array(tracks)
+    return _finish(path, pixels, scores, frames, tracks, layout, fps, "results list")
 
 
 def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
@@ -225,7 +289,8 @@ def read_csv(path: Path, layout, fps) -> Keypoints:
         raise InputError(f"{path}: every (frame, track) must list the same joints in the same order")
     names_are_indices = all(j.isdigit() for j in joint_names)
     if layout is None and not names_are_indices:
-        layout = next((n for n, s in LAYOUTS.items() if list(s.joint_names) == joint_names), None)
+        named = layout_named_by(joint_names)
+        layout = named.name if named else None
     values = np.array([[d[j] for j in joint_names] for d in detections.values()])
     frames = [k[0] for k in detections]
     tracks = [k[1] for k in detections]
@@ -283,7 +348,7 @@ def read_keypoints(path: str | Path, layout: str | None = None, fps: float | Non
     if suffix == ".json":
         document = read_json(path)
         if isinstance(document, list):
-            return read_coco_results(path, document, layout, fps)
+            return read_results_list(path, document, layout, fps)
         if isinstance(document, dict) and "people" in document:
             raise InputError(f"{path}: an OpenPose file: pass the folder holding all frames' files")
         if isinstance(document, dict):

@@ -14,14 +14,17 @@ import numpy as np
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
+from ray3d.io.bvh_export import Y_UP, bvh_text
 from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
-from ray3d.skeleton import H36M17
+from ray3d.skeleton import H36M17, layout_named_by
 
 FORMATS = (".json", ".csv", ".npz")
-EXPORTS = (".trc",)  # written for other tools, not read back
+EXPORTS = (".trc", ".bvh")  # written for other tools, not read back
 UNITS = "metres"
 AXES = "world frame, right-handed: x and y horizontal, z up, floor at z = 0"
+CAMERA_AXES = "camera frame (OpenCV): x right, y down, z forward along the optical axis, origin at the lens"
+FRAME_AXES = {"world": AXES, "camera": CAMERA_AXES}
 CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated")
 
 
@@ -89,6 +92,22 @@ class World:
                 np.concatenate([[t] * len(r.joints) for t, r in self.tracks.items()]),
                 np.concatenate([r.interpolated for r in results]))
 
+    @property
+    def frame(self) -> str:
+        """"world" or "camera": the frame the joints are in (``axes`` says it in words)."""
+        return "camera" if self.axes == CAMERA_AXES else "world"
+
+    def in_frame(self, frame: str) -> World:
+        """The same people with their joints in the ``frame`` "world" (z up, floor z = 0) or "camera" (OpenCV:
+        x right, y down, z forward, metres from the lens)."""
+        if frame not in FRAME_AXES:
+            raise InputError(f"frame must be one of {', '.join(FRAME_AXES)}, got {frame!r}", arguments=("frame",))
+        if frame == self.frame:
+            return self
+        move = self.camera.world_to_camera if frame == "camera" else self.camera.camera_to_world
+        tracks = {t: dataclasses.replace(r, joints=np.asarray(move(r.joints))) for t, r in self.tracks.items()}
+        return dataclasses.replace(self, tracks=tracks, axes=FRAME_AXES[frame])
+
     def refinements(self) -> dict[str, dict | None]:
         return {track: result.refinement for track, result in self.tracks.items()}
 
@@ -104,12 +123,27 @@ def _check_format(path: Path, formats: tuple[str, ...] = FORMATS) -> str:
     return suffix
 
 
+def export_paths(path: str | Path, world: World) -> dict[str, Path]:
+    """{track: file} that ``write_world`` writes for ``path``: one file for every track, except BVH, which holds
+    one skeleton: ``NAME_TRACK.bvh`` for each track when there are several."""
+    path = Path(path)
+    if path.suffix.lower() != ".bvh" or len(world.tracks) == 1:
+        return {track: path for track in world.tracks}
+    return {track: path.with_name(f"{path.stem}_{track}{path.suffix}") for track in world.tracks}
+
+
 def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path:
-    """Write ``world`` to ``path`` by its suffix: .json, .csv or .npz (read back by ``read_world``), or .trc,
-    the marker file of OpenSim and Pose2Sim (every joint a marker, ``TRACK_joint`` when there are several
-    tracks; millimetres, y up as OpenSim expects)."""
+    """Write ``world`` to ``path`` by its suffix: .json, .csv or .npz (read back by ``read_world``); .trc, the
+    marker file of OpenSim and Pose2Sim (every joint a marker, ``TRACK_joint`` when there are several tracks;
+    millimetres, y up as OpenSim expects); or .bvh, a skeleton with joint rotations for Blender, Maya and
+    MotionBuilder (``ray3d.io.bvh_export``; one file per track, see ``export_paths``)."""
     path = Path(path)
     suffix = _check_format(path, FORMATS + EXPORTS)
+    if suffix in EXPORTS and world.frame != "world":
+        raise InputError(f"{path}: {suffix} files are written in the world frame (they need the floor); write the "
+                         "camera frame as .json, .csv or .npz", arguments=("frame",))
+    if suffix == ".bvh":
+        return _write_bvh(path, world, overwrite)
     meta = world.metadata()
     joints, frames, tracks, interpolated = world.rows()
     with atomic_path(path, overwrite) as temporary:
@@ -141,8 +175,21 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
     return path
 
 
-# World (z up) -> OpenSim (y up): a rotation of -90 degrees about x, (x, y, z) -> (x, z, -y).
-_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
+def _write_bvh(path: Path, world: World, overwrite: bool) -> Path:
+    targets = export_paths(path, world)
+    for track, target in targets.items():
+        if target.exists() and not overwrite:
+            raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
+        if np.any(np.diff(world.tracks[track].frames) != 1):
+            raise InputError(f"track {track}: its frames are not consecutive; BVH holds evenly spaced frames only")
+    skeleton = layout_named_by(world.joint_names)
+    if skeleton is None:
+        raise InputError(f"world: joints {', '.join(world.joint_names[:4])}, ... match no known layout")
+    for track, target in targets.items():
+        text = bvh_text(world.tracks[track].joints, skeleton, world.fps)
+        with atomic_path(target, overwrite) as temporary:
+            temporary.write_text(text)
+    return path
 
 
 def _trc_text(world: World, name: str) -> str:
@@ -154,7 +201,7 @@ def _trc_text(world: World, name: str) -> str:
     table = np.full((len(frames), len(markers), 3), np.nan)
     for k, result in enumerate(world.tracks.values()):
         rows = np.searchsorted(frames, result.frames)
-        table[rows, 17 * k:17 * (k + 1)] = 1000.0 * result.joints @ _Y_UP.T
+        table[rows, 17 * k:17 * (k + 1)] = 1000.0 * result.joints @ Y_UP.T
     lines = [f"PathFileType\t4\t(X/Y/Z)\t{name}",
              "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
              f"{world.fps:g}\t{world.fps:g}\t{len(frames)}\t{len(markers)}\tmm\t{world.fps:g}\t1\t{len(frames)}",

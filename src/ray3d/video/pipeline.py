@@ -20,7 +20,7 @@ from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, write_keypoints_json
 from ray3d.io.world import World, write_world
 from ray3d.lift import Lifter
-from ray3d.temporal import check_frame_rate
+from ray3d.temporal import OUTPUT_SMOOTHING, check_frame_rate
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.frames import VideoInfo, read_frames, read_video_info, spread_frames
 from ray3d.video.overlay import write_overlay
@@ -110,7 +110,8 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
                lifter: Lifter | None = None, fps: float | None = None, world_format: str = ".json",
                overlay: bool = True, overwrite: bool = False, progress: bool = True, start: int = 0,
                frames: int | None = None, max_gap_s: float = 0.5, min_track_s: float = 1.0,
-               smooth_3d: str | None = "savgol", **lift_options) -> VideoResult:
+               smooth_3d: str | None = OUTPUT_SMOOTHING, frame: str = "world",
+               **lift_options) -> VideoResult:
     """Detect, track and lift everybody, and write ``out_dir``/{world.json|.csv|.npz, keypoints.json,
     viewer.html, overlay.mp4}.
 
@@ -118,7 +119,8 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
     ``start`` / ``frames`` select part of the video; a person unseen for longer than ``max_gap_s`` starts a
     new track, and tracks shorter than ``min_track_s`` are dropped. The lifted joints are smoothed in time
     (``smooth_3d``, Savitzky-Golay by default: it removes a detector's jitter without lag; None keeps them as
-    lifted). ``lift_options`` go to ``Lifter.lift``.
+    lifted). The world file holds the joints in ``frame`` ("world" or "camera", see ``World.in_frame``); the
+    viewer and overlay draw the world. ``lift_options`` go to ``Lifter.lift``.
     """
     info = read_video_info(path)
     if tuple(camera.image_size) != info.image_size:
@@ -142,7 +144,7 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
     world = World(lifted, camera, lifter.name)
     clock.append(time.perf_counter())
     Path(out_dir).mkdir(parents=True, exist_ok=True)
-    write_world(targets["world"], world, overwrite=overwrite)
+    write_world(targets["world"], world.in_frame(frame), overwrite=overwrite)
     write_keypoints_json(targets["keypoints"], keypoints, overwrite)
     write_viewer(targets["viewer"], world.tracks, keypoints.fps, camera, title=f"ray3d: {info.path.name}",
                  overwrite=overwrite)
