@@ -1,5 +1,5 @@
-"""Fuzz every file reader: valid files of each format (keypoints JSON / CSV / npz, camera JSON / YAML, world
-JSON / CSV / npz, floor points CSV) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
+"""Fuzz every file reader: valid files of each format (keypoints JSON / CSV / npz, AlphaPose and mmpose results,
+camera JSON / YAML, world JSON / CSV / npz, floor points CSV, BVH) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
 A reader may return a result or raise ``InputError``; anything else is a crash and is listed.
 
     python benchmarks/fuzz_readers.py --files 10000 [--seed 0] [--out DIR]
@@ -21,6 +21,7 @@ from ray3d.demo import demo_clip
 from ray3d.io.camera_files import read_camera, save_cameras
 from ray3d.io.floor_points import read_floor_points
 from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
+from ray3d.data.bvh import read_bvh
 from ray3d.io.world import LiftResult, World, read_world, write_world
 
 
@@ -51,6 +52,14 @@ def seeds(folder: Path) -> dict[Path, object]:
         files[folder / f"w{suffix}"] = read_world
     (folder / "f.csv").write_text("x,y,u,v\n0,0,10,10\n1,0,20,10\n1,1,20,20\n0,1,10,20\n")
     files[folder / "f.csv"] = read_floor_points
+    coco = np.concatenate([pixels, np.ones((8, 17, 1))], axis=-1)
+    (folder / "alphapose.json").write_text(json.dumps([{"image_id": f"{t}.jpg", "score": 2.5, "idx": [1.0],
+                                                        "keypoints": coco[t].ravel().tolist()} for t in range(8)]))
+    (folder / "mmpose.json").write_text(json.dumps([{"frame_id": t, "instances": [
+        {"keypoints": pixels[t].tolist(), "keypoint_scores": [0.9] * 17, "bbox_score": 0.8}]} for t in range(8)]))
+    files.update({folder / "alphapose.json": read_keypoints, folder / "mmpose.json": read_keypoints})
+    write_world(folder / "b.bvh", world)
+    files[folder / "b.bvh"] = lambda path: read_bvh(path).positions()
     return files
 
 

@@ -198,7 +198,8 @@ def test_fuzzed_keypoint_files_raise_only_input_errors(tmp_path_factory, data, s
                              lambda inner: st.lists(inner, max_size=4) | st.dictionaries(
                                  st.sampled_from(["fx", "fy", "cx", "cy", "R", "t", "dist", "image_size", "cameras",
                                                   "detections", "keypoints", "frame", "track", "fps", "layout",
-                                                  "tracks", "joints", "camera", "units"]), inner, max_size=6),
+                                                  "tracks", "joints", "camera", "units", "instances", "frame_id",
+                                                  "image_id", "idx", "keypoint_scores", "score"]), inner, max_size=6),
                              max_leaves=20))
 def test_fuzzed_json_documents_raise_only_input_errors(tmp_path_factory, document):
     path = tmp_path_factory.mktemp("fuzz") / "doc.json"

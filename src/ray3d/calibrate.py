@@ -28,7 +28,14 @@ def from_floor_points(floor_xy: np.ndarray, pixels: np.ndarray, intrinsics: Came
         K = np.array([[fx, 0, cx], [0, fy, cy], [0, 0, 1.0]])
         dist = np.zeros(5) if dist is None else np.asarray(dist, dtype=np.float64)
     world = np.column_stack([floor_xy, np.zeros(len(floor_xy))]).astype(np.float64)
-    ok, rvec, tvec = cv2.solvePnP(world, pixels.astype(np.float64), K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
+    spread = np.linalg.svd(floor_xy - floor_xy.mean(axis=0), compute_uv=False)
+    if not np.isfinite(spread).all() or spread[-1] <= 1e-3 * max(spread[0], 1e-9):
+        raise InputError("calibrate: the floor points lie on one line; the camera's pose needs 4 or more points "
+                         "spread over an area of the floor", arguments=("floor_points",))
+    try:
+        ok, rvec, tvec = cv2.solvePnP(world, pixels.astype(np.float64), K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
+    except cv2.error as err:  # degenerate input OpenCV itself refuses
+        raise InputError(f"calibrate: OpenCV solvePnP refused these floor points ({err.err})") from None
     if not ok:
         raise InputError("calibrate: OpenCV solvePnP found no pose for these floor points")
     rotation, _ = cv2.Rodrigues(rvec)

@@ -12,6 +12,7 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 import torch
 
 from ray3d import metrics
@@ -92,7 +93,8 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
              frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
-             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool = False) -> dict:
+             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool = False,
+             progress: bool = False) -> dict:
     """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
 
     ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
@@ -100,7 +102,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose);
     ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_windows``; ``seed`` fixes it);
     ``refine`` lifts each (camera, clip) as one track with the track-level refinement (``ray3d.refine``), at the
-    clip's rate over ``frame_stride``.
+    clip's rate over ``frame_stride``. ``progress`` shows a bar over the cameras.
     """
     if refine and model == RFRH:
         raise ValueError("refine needs a model that predicts every joint; RFRH predicts only the root")
@@ -120,7 +122,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     given_cameras = given_cameras or cameras
     windows = [sequence_windows(clip, window)[::frame_stride] for clip in clips]
     skipped = 0
-    for camera, given in zip(cameras, given_cameras):
+    for camera, given in tqdm(list(zip(cameras, given_cameras)), desc="evaluating", unit="camera", disable=not progress,
+                              leave=False):
         # All clips this camera sees go through the network together; errors are split back per clip.
         seen = [i for i, clip in enumerate(clips) if camera.sees(clip)]
         skipped += len(clips) - len(seen)

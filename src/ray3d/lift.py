@@ -45,6 +45,30 @@ def _check_in_image(keypoints: np.ndarray, camera: Camera) -> None:
                          f"{width}x{height} image (by more than a quarter of it): the wrong camera or image size?")
 
 
+# Feet seen above the horizon (rays rising by more than ~2 degrees) from a camera higher than this cannot be
+# feet on the floor: the camera's pitch or orientation is wrong (e.g. a sign error: up instead of down).
+_HIGHEST_FEET_CAMERA_M = 0.3
+_FEET_RISE = 0.035
+
+
+def _check_feet_below_horizon(pixels: np.ndarray, found: np.ndarray, camera: Camera) -> None:
+    """Refuse a camera that would see the person's feet, most of the time, on rays rising above the horizon:
+    (T, 17, 2) H36M-17 pixels, (T, 17) which were detected."""
+    if camera.center[2] <= _HIGHEST_FEET_CAMERA_M:
+        return
+    ankles = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
+    seen = pixels[:, ankles][found[:, ankles]]
+    if not len(seen):
+        return
+    directions = camera.pixels_to_world_directions(seen)
+    rising = np.mean(directions[:, 2] / np.linalg.norm(directions, axis=-1) > _FEET_RISE)
+    if rising > 0.5:
+        raise InputError(f"keypoints: through camera {camera.name or ''} ({camera.center[2]:.1f} m above the floor) "
+                         f"the feet lie above the horizon in {100 * rising:.0f}% of "
+                         "detections, where no one standing on the floor can be: check the camera's pitch "
+                         "(positive looks down) or its rotation", arguments=("camera",))
+
+
 class Lifter:
     """A trained network ready to lift. ``Lifter.load()`` gives the shipped Ray3D weights."""
 
@@ -115,6 +139,7 @@ class Lifter:
                 raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {confidences.shape}")
         _check_in_image(keypoints, camera)
         pixels, found = convert_keypoints(keypoints, skeleton, confidences)
+        _check_feet_below_horizon(pixels, found, camera)
         missing = ~found
         never_seen = [H36M17.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
         if never_seen:

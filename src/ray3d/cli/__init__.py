@@ -13,7 +13,8 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "fps": "--fps", "track": "--track", "focal_px": "--focal", "hfov_deg": "--hfov", "start": "--start",
          "frames": "--frames", "detector": "--detector", "people": "--people", "max_gap_s": "--max-gap",
          "min_track_s": "--min-track", "height_m": "--camera-height", "pitch_deg": "--pitch", "roll_deg": "--roll",
-         "checkpoint": "--checkpoint", "stride": "--stride"}
+         "checkpoint": "--checkpoint", "stride": "--stride", "frame": "--frame", "floor_points": "--floor-points",
+         "manifest": "MANIFEST", "animation": "--animation", "camera": "--camera"}
 
 
 def main(argv: list[str] | None = None) -> int:

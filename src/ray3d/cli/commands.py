@@ -116,10 +116,14 @@ def train(args: argparse.Namespace) -> int:
 def evaluate(args: argparse.Namespace) -> int:
     from ray3d.evaluate import METRICS, evaluate as run, evaluation_cameras, evaluation_motion
 
+    if args.json is not None:  # refused before any work, not after it
+        check_output(args.json)
+        if args.json.exists() and not args.force:
+            raise InputError(f"{args.json}: already exists; refusing to overwrite it", arguments=("overwrite",))
     datasets = tuple(args.datasets.split(",")) if args.datasets else None
     clips, source = evaluation_motion(args.mocap, args.split, datasets, args.data_dir)
     result = run(args.checkpoint, clips, evaluation_cameras(args.cameras), args.flip_test, args.frame_stride,
-                 joints=args.joints, noise_px=args.noise_px, refine=args.refine)
+                 joints=args.joints, noise_px=args.noise_px, refine=args.refine, progress=True)
     result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, **result}
     print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
           f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
@@ -337,7 +341,9 @@ def viz(args: argparse.Namespace) -> int:
     from ray3d.io.camera_files import read_camera
     from ray3d.temporal import check_frame_rate
     from ray3d.io.world import read_world
-    from ray3d.viz.animation import GIF_MAX_FRAMES, frame_span, render_frames, save_animation
+    from tqdm import tqdm
+
+    from ray3d.viz.animation import check_animation_path, frame_span, render_frames, save_animation
     from ray3d.viz.html_viewer import write_viewer
 
     if not args.html and not args.animation:
@@ -345,6 +351,8 @@ def viz(args: argparse.Namespace) -> int:
     for target in (args.html, args.animation):
         if target is not None:
             check_output(target, (*args.world, args.camera, args.keypoints))
+    if args.animation is not None:
+        check_animation_path(args.animation)
     worlds = [read_world(path).in_frame("world") for path in args.world]  # a camera-frame file too
     sequences = {}
     for path, world in zip(args.world, worlds):
@@ -360,11 +368,6 @@ def viz(args: argparse.Namespace) -> int:
     if args.animation:
         if args.stride < 1:
             raise InputError(f"viz: stride must be 1 or more, got {args.stride}", arguments=("stride",))
-        first, last = frame_span(sequences)
-        if args.animation.suffix.lower() == ".gif" and (last - first) // args.stride + 1 > GIF_MAX_FRAMES:
-            raise InputError(f"{args.animation}: {(last - first) // args.stride + 1} frames; a GIF holds every frame "
-                             f"in memory, so at most {GIF_MAX_FRAMES}: take every n-th frame or write .mp4",
-                             arguments=("stride",))
         inputs = None
         if args.keypoints is not None:
             from ray3d.io.keypoints import read_keypoints
@@ -372,7 +375,9 @@ def viz(args: argparse.Namespace) -> int:
             keypoints = read_keypoints(args.keypoints)
             inputs = {name: keypoints.h36m_pixels(name.split(":")[-1], result.frames)
                       for name, result in sequences.items()}
-        images = render_frames(sequences, camera, inputs, stride=args.stride)
+        first, last = frame_span(sequences)
+        images = tqdm(render_frames(sequences, camera, inputs, stride=args.stride), desc="rendering", unit="frame",
+                      total=(last - first) // args.stride + 1, leave=False)
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")
     return 0

@@ -35,6 +35,13 @@ def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str 
     _add_lens_arguments(parser, "with --pitch", image_size_note)
 
 
+class OneLineErrors(argparse.ArgumentParser):
+    """A parser whose errors are one line (not the usage block): bad input is one line and exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "ray3d",
                            smooth_3d: str = OUTPUT_SMOOTHING) -> None:
     parser.add_argument("--checkpoint", default=checkpoint,
@@ -54,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     from ray3d.checkpoints import VIDEO_MODEL
     from ray3d.data.virtual_cameras import SET_NAMES
 
-    parser = argparse.ArgumentParser(
+    parser = OneLineErrors(
         prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
     parser.add_argument("--version", action="version", version=f"ray3d {ray3d.__version__}")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an internal error")

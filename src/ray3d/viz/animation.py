@@ -15,7 +15,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from PIL import Image  # noqa: E402
+from PIL import GifImagePlugin, Image  # noqa: E402
 
 from ray3d.errors import InputError  # noqa: E402
 from ray3d.geometry import Camera  # noqa: E402
@@ -24,7 +24,6 @@ from ray3d.io.world import LiftResult  # noqa: E402
 from ray3d.skeleton import H36M17  # noqa: E402
 
 LEFT, RIGHT, CENTRE = "#1f5fd6", "#d62f2f", "#444444"
-GIF_MAX_FRAMES = 1000  # about 0.8 GB of 1080 x 720 paletted frames
 PALETTE = ("#d62f2f", "#1f5fd6", "#2a9d3c", "#9c27b0", "#ef8a00", "#00a0a0", "#7a4a00", "#c800c8")
 
 
@@ -135,29 +134,48 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
                              fontsize=9)
         plan_axes.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
         plan_axes.set_title("floor plan: paths, camera (square)", fontsize=9)
-        fig.tight_layout()
+        if t == first:  # the panels' layout once: it is the same for every frame, and costs more than drawing
+            fig.tight_layout()
         fig.canvas.draw()
         yield Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3].copy())
     plt.close(fig)
 
 
-def save_animation(images: Iterable[Image.Image], path: str | Path, fps: float, overwrite: bool = False) -> Path:
-    """Write the images as a GIF (Pillow; it holds every frame, so at most ``GIF_MAX_FRAMES``) or an MP4
-    (OpenCV, written frame by frame: any length in bounded memory)."""
-    path = Path(path)
-    suffix = path.suffix.lower()
+def _write_gif(images: Iterable[Image.Image], handle, fps: float) -> None:
+    """A looping GIF written as the images come (Pillow's frame encoder; ``Image.save(save_all=True)`` would hold
+    every frame): the first frame's palette is the file's, every frame also carries its own."""
+    duration = int(round(1000 / fps))
+    count = 0
+    for image in images:
+        frame = image.convert("P", palette=Image.Palette.ADAPTIVE)
+        if count == 0:
+            header, _ = GifImagePlugin.getheader(frame, info={"loop": 0, "duration": duration})
+            handle.write(b"".join(header))
+        for chunk in GifImagePlugin.getdata(frame, duration=duration, include_color_table=True):
+            handle.write(chunk)
+        count += 1
+    if count == 0:
+        raise InputError("animation: no frames to write")
+    handle.write(b";")  # the GIF trailer
+
+
+def check_animation_path(path: str | Path) -> str:
+    """The animation format ``path`` names by its suffix, ".gif" or ".mp4"; anything else is refused."""
+    suffix = Path(path).suffix.lower()
     if suffix not in (".gif", ".mp4"):
-        raise InputError(f"{path}: animations are .gif or .mp4")
+        raise InputError(f"{path}: animations are .gif or .mp4", arguments=("animation",))
+    return suffix
+
+
+def save_animation(images: Iterable[Image.Image], path: str | Path, fps: float, overwrite: bool = False) -> Path:
+    """Write the images as a GIF (Pillow) or an MP4 (OpenCV), frame by frame as they come: any length in
+    bounded memory."""
+    path = Path(path)
+    suffix = check_animation_path(path)
     with atomic_path(path, overwrite) as temporary:
         if suffix == ".gif":
-            frames = []
-            for image in images:
-                if len(frames) == GIF_MAX_FRAMES:
-                    raise InputError(f"{path}: a GIF holds every frame in memory: at most {GIF_MAX_FRAMES} frames; "
-                                     "take every n-th frame or write .mp4", arguments=("stride",))
-                frames.append(image.convert("P", palette=Image.Palette.ADAPTIVE))  # a third of the memory of RGB
-            frames[0].save(temporary, format="GIF", save_all=True, append_images=frames[1:],
-                           duration=int(1000 / fps), loop=0)
+            with temporary.open("wb") as handle:
+                _write_gif(images, handle, fps)
             return path
         writer = None
         try:

@@ -1,6 +1,9 @@
 """A self-contained, offline HTML viewer of 3D sequences: orbit (drag), zoom (wheel), play/pause, a frame
-slider, several people or methods at once (each in its own colour, labelled, over a shared ground grid with a
-metre scale), a floor plan with everybody's path, and a "follow" choice that keeps one person in the middle.
+slider with the time, several people or methods at once (each in its own colour, labelled, over a shared ground
+grid with axes and a metre scale), a floor plan with everybody's path, a "follow" choice that keeps one person
+in the middle, and four views: orbit, top, side and through the camera itself. The camera stays in view: where
+it lies outside the picture, a marker on the edge points to it. ``viewer.html#view=top`` (or side, camera)
+opens in that view.
 
 A sequence is either world joints (T, 17, 3) from frame 0 or a ``LiftResult`` (a track of a world file: it
 starts at its own frame, and frames it filled in rather than detected are drawn thin and grey)."""
@@ -31,6 +34,7 @@ _TEMPLATE = """<!doctype html>
  <button id="play">pause</button>
  <input id="slider" type="range" min="0" value="0" style="width: 30%">
  <span id="label"></span>
+ <label>view <select id="viewmode"><option>orbit</option><option>top</option><option>side</option><option>camera</option></select></label>
  <label>follow <select id="follow"><option value="">everybody</option></select></label>
  <span id="legend"></span>
  <span style="color: #777">drag to orbit, wheel to zoom; metres, z up; grey: filled in, not detected</span>
@@ -40,7 +44,7 @@ _TEMPLATE = """<!doctype html>
 const DATA = __DATA__;
 const canvas = document.getElementById("view"), ctx = canvas.getContext("2d");
 const slider = document.getElementById("slider"), label = document.getElementById("label");
-const follow = document.getElementById("follow");
+const follow = document.getElementById("follow"), viewmode = document.getElementById("viewmode");
 const names = Object.keys(DATA.sequences), first = DATA.first, frames = DATA.last - DATA.first + 1;
 slider.max = frames - 1;
 let frame = 0, playing = true, yaw = -0.6, elevation = 0.35, zoom = 1.0, centre = DATA.centre.slice();
@@ -51,18 +55,52 @@ function resize() {  // the whole window below the bar (which grows with the leg
   canvas.width = Math.max(320, window.innerWidth);
   canvas.height = Math.max(240, window.innerHeight - document.getElementById("bar").offsetHeight - 6); draw(); }
 function pose(seq, absolute) { const row = absolute - seq.start; return row >= 0 && row < seq.joints.length ? row : -1; }
-function project(p) {
+function metre() { return zoom * canvas.height / (2.2 * DATA.extent); }  // pixels per metre (not the camera view)
+function imageFit() {  // the camera's image inside the canvas: scale and offset
+  const c = DATA.camera, s = zoom * Math.min(canvas.width / c.width, canvas.height / c.height);
+  return [s, (canvas.width - s * c.width) / 2, (canvas.height - s * c.height) / 2];
+}
+function project(p) {  // [x, y, depth] on the canvas, or null behind the camera
+  if (viewmode.value === "camera") {
+    const c = DATA.camera, R = c.R, q = [0, 1, 2].map(i => R[i][0] * p[0] + R[i][1] * p[1] + R[i][2] * p[2] + c.t[i]);
+    if (q[2] < 0.05) return null;
+    const [s, ox, oy] = imageFit();
+    return [ox + s * (c.fx * q[0] / q[2] + c.cx), oy + s * (c.fy * q[1] / q[2] + c.cy), q[2]];
+  }
   const x = p[0] - centre[0], y = p[1] - centre[1], z = p[2];
   const cx = Math.cos(yaw) * x - Math.sin(yaw) * y, cy = Math.sin(yaw) * x + Math.cos(yaw) * y;
-  const depth = Math.cos(elevation) * cy + Math.sin(elevation) * z;
-  const up = -Math.sin(elevation) * cy + Math.cos(elevation) * z;
-  const scale = zoom * canvas.height / (2.2 * DATA.extent);
-  return [canvas.width / 2 + scale * cx, canvas.height * 0.7 - scale * up, depth];
+  // Seen from the -y side, raised by the elevation: +x to the right, +y away (from above: a map, y up).
+  const depth = Math.cos(elevation) * cy - Math.sin(elevation) * z;
+  const up = Math.sin(elevation) * cy + Math.cos(elevation) * z;
+  const anchor = 0.7 - 0.2 * Math.max(0, elevation) / (Math.PI / 2);  // the ground in the middle from above
+  return [canvas.width / 2 + metre() * cx, canvas.height * anchor - metre() * up, depth];
 }
 function line(a, b, colour, width) {
   const p = project(a), q = project(b);
+  if (!p || !q) return;
   ctx.strokeStyle = colour; ctx.lineWidth = width;
   ctx.beginPath(); ctx.moveTo(p[0], p[1]); ctx.lineTo(q[0], q[1]); ctx.stroke();
+}
+function cameraMarker() {  // the camera on the canvas, or an arrow on the edge pointing to it
+  if (!DATA.camera || viewmode.value === "camera") return;
+  const p = project(DATA.camera.centre), w = canvas.width, h = canvas.height, m = 14;
+  ctx.fillStyle = "#000"; ctx.font = "12px sans-serif";
+  if (p[0] > m && p[0] < w - m && p[1] > m && p[1] < h - m) { ctx.fillRect(p[0] - 4, p[1] - 4, 8, 8);
+    ctx.fillText("camera", p[0] + 7, p[1] + 4); return; }
+  const dx = p[0] - w / 2, dy = p[1] - h / 2, k = Math.min((w / 2 - m) / Math.abs(dx || 1e-9), (h / 2 - m) / Math.abs(dy || 1e-9));
+  const e = [w / 2 + dx * k, h / 2 + dy * k], a = Math.atan2(dy, dx);
+  ctx.beginPath(); ctx.moveTo(e[0] + 10 * Math.cos(a), e[1] + 10 * Math.sin(a));
+  ctx.lineTo(e[0] + 8 * Math.cos(a + 2.5), e[1] + 8 * Math.sin(a + 2.5));
+  ctx.lineTo(e[0] + 8 * Math.cos(a - 2.5), e[1] + 8 * Math.sin(a - 2.5)); ctx.fill();
+  const text = "camera " + Math.hypot(DATA.camera.centre[0] - centre[0], DATA.camera.centre[1] - centre[1]).toFixed(0) + " m";
+  ctx.fillText(text, Math.min(w - 90, Math.max(4, e[0] - 30 * Math.cos(a) - 20)), Math.min(h - 6, Math.max(14, e[1] - 22 * Math.sin(a))));
+}
+function scaleBar() {
+  if (viewmode.value === "camera") return;
+  const s = metre(), x0 = 14, y0 = canvas.height - 14;
+  ctx.strokeStyle = "#333"; ctx.lineWidth = 2; ctx.beginPath();
+  ctx.moveTo(x0, y0 - 5); ctx.lineTo(x0, y0); ctx.lineTo(x0 + s, y0); ctx.lineTo(x0 + s, y0 - 5); ctx.stroke();
+  ctx.fillStyle = "#333"; ctx.font = "12px sans-serif"; ctx.fillText("1 m", x0 + s / 2 - 9, y0 - 7);
 }
 function floorPlan(absolute) {
   const size = Math.min(220, canvas.width / 4), x0 = canvas.width - size - 10, y0 = 10, b = DATA.bounds;
@@ -71,7 +109,7 @@ function floorPlan(absolute) {
   ctx.fillStyle = "rgba(255,255,255,0.92)"; ctx.fillRect(x0, y0, size, size);
   ctx.strokeStyle = "#bbb"; ctx.lineWidth = 1; ctx.strokeRect(x0, y0, size, size);
   ctx.fillStyle = "#555"; ctx.font = "11px sans-serif";
-  ctx.fillText(`floor plan, ${span.toFixed(1)} m across`, x0 + 6, y0 + 14);
+  ctx.fillText(`floor plan, ${span.toFixed(1)} m across`, x0 + 6, y0 + size - 5);
   names.forEach((name, i) => {
     const seq = DATA.sequences[name];
     ctx.strokeStyle = DATA.colours[i]; ctx.globalAlpha = 0.45; ctx.beginPath();
@@ -89,17 +127,22 @@ function draw() {
   if (follow.value) { const seq = DATA.sequences[follow.value], row = pose(seq, absolute);
     if (row >= 0) centre = [seq.joints[row][0][0], seq.joints[row][0][1]]; }
   ctx.fillStyle = "#ffffff"; ctx.fillRect(0, 0, canvas.width, canvas.height);
+  const through = viewmode.value === "camera";
+  if (through) { const [s, ox, oy] = imageFit(); ctx.fillStyle = "#f4f4f4";
+    ctx.fillRect(ox, oy, s * DATA.camera.width, s * DATA.camera.height); ctx.strokeStyle = "#999";
+    ctx.strokeRect(ox, oy, s * DATA.camera.width, s * DATA.camera.height); }
   const g = DATA.extent, c = [Math.round(centre[0] * 2) / 2, Math.round(centre[1] * 2) / 2];
-  for (let k = -g; k <= g + 1e-9; k += 0.5) {
-    line([c[0] + k, c[1] - g, 0], [c[0] + k, c[1] + g, 0], "#e3e3e3", 1);
-    line([c[0] - g, c[1] + k, 0], [c[0] + g, c[1] + k, 0], "#e3e3e3", 1);
-  }
+  for (let k = -g; k <= g + 1e-9; k += 0.5)  // in short pieces: through the camera a piece may lie behind it
+    for (let m = -g; m < g - 1e-9; m += 0.5) {
+      line([c[0] + k, c[1] + m, 0], [c[0] + k, c[1] + m + 0.5, 0], "#e3e3e3", 1);
+      line([c[0] + m, c[1] + k, 0], [c[0] + m + 0.5, c[1] + k, 0], "#e3e3e3", 1);
+    }
   line([c[0], c[1], 0], [c[0] + 1, c[1], 0], "#d62f2f", 2); line([c[0], c[1], 0], [c[0], c[1] + 1, 0], "#2a9d3c", 2);
   line([c[0], c[1], 0], [c[0], c[1], 1], "#1f5fd6", 2);
-  const tip = project([c[0] + 1.05, c[1], 0]); ctx.fillStyle = "#555"; ctx.font = "12px sans-serif";
-  ctx.fillText("x, 1 m", tip[0], tip[1]); const ty = project([c[0], c[1] + 1.05, 0]); ctx.fillText("y", ty[0], ty[1]);
-  const tz = project([c[0], c[1], 1.05]); ctx.fillText("z", tz[0], tz[1]);
-  DATA.camera_lines.forEach(s => line(s[0], s[1], "#999999", 1));
+  ctx.fillStyle = "#555"; ctx.font = "12px sans-serif";
+  [["x, 1 m", [c[0] + 1.05, c[1], 0]], ["y", [c[0], c[1] + 1.05, 0]], ["z", [c[0], c[1], 1.05]]].forEach(([t, p]) => {
+    const q = project(p); if (q) ctx.fillText(t, q[0], q[1]); });
+  if (!through) DATA.camera_lines.forEach(s => line(s[0], s[1], "#999999", 1));
   names.forEach((name, i) => {
     const seq = DATA.sequences[name], row = pose(seq, absolute);
     if (row < 0) return;
@@ -108,24 +151,33 @@ function draw() {
     const p = seq.joints[row], filled = seq.filled[row], colour = filled ? "#aaaaaa" : DATA.colours[i];
     DATA.parents.forEach((q, j) => { if (q >= 0) line(p[j], p[q], colour, filled ? 1 : (DATA.sides[j] ? 3 : 2)); });
     const head = project(p[10]); ctx.fillStyle = colour; ctx.font = "13px sans-serif";
-    ctx.fillText(name, head[0] + 6, head[1] - 6);
+    if (head) ctx.fillText(name, head[0] + 6, head[1] - 6);
   });
-  floorPlan(absolute);
-  label.textContent = `frame ${absolute} (${frame + 1} / ${frames})`;
+  scaleBar(); floorPlan(absolute); cameraMarker();
+  label.textContent = `frame ${absolute} (${frame + 1} / ${frames}), ${(absolute / DATA.fps).toFixed(2)} s`;
   slider.value = frame;
 }
 document.getElementById("play").onclick = e => { playing = !playing; e.target.textContent = playing ? "pause" : "play"; };
 slider.oninput = () => { frame = +slider.value; draw(); };
 follow.onchange = () => { if (!follow.value) centre = DATA.centre.slice(); draw(); };
+const PRESETS = {orbit: [-0.6, 0.35], top: [0.0, Math.PI / 2], side: [0.0, 0.0], camera: [yaw, elevation]};
+function setView(mode) { viewmode.value = mode; [yaw, elevation] = PRESETS[mode]; zoom = 1.0; draw(); }
+viewmode.onchange = () => setView(viewmode.value);
+if (!DATA.camera) viewmode.querySelector("option:last-child").disabled = true;
 let drag = null;
 canvas.onmousedown = e => { drag = [e.clientX, e.clientY, yaw, elevation]; };
 window.onmouseup = () => { drag = null; };
 window.onmousemove = e => { if (!drag) return;
   yaw = drag[2] - (e.clientX - drag[0]) * 0.01;
-  elevation = Math.max(-0.2, Math.min(1.5, drag[3] + (e.clientY - drag[1]) * 0.01)); draw(); };
+  elevation = Math.max(-0.2, Math.min(Math.PI / 2, drag[3] + (e.clientY - drag[1]) * 0.01));
+  if (viewmode.value === "camera") viewmode.value = "orbit";
+  draw(); };
 canvas.onwheel = e => { e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 0.9; draw(); };
 window.onresize = resize;
 setInterval(() => { if (playing) { frame = (frame + 1) % frames; draw(); } }, 1000 / DATA.fps);
+const asked = (location.hash.match(/view=([a-z]+)/) || [])[1];
+if (asked in PRESETS && (asked !== "camera" || DATA.camera)) viewmode.value = asked;
+[yaw, elevation] = viewmode.value === "camera" ? [yaw, elevation] : PRESETS[viewmode.value];
 resize();
 </script></body></html>
 """
@@ -152,6 +204,11 @@ def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult]
         "extent": float(max(1.5, np.percentile(np.abs(stacked[:, :2] - centre[:2]), 98) + 0.5)),
         "bounds": [*plan.min(axis=0).round(3).tolist(), *plan.max(axis=0).round(3).tolist()],
         "camera_lines": camera_lines,
+        "camera": None if camera is None else {
+            "R": np.asarray(camera.R).round(6).tolist(), "t": np.asarray(camera.t).round(6).tolist(),
+            **dict(zip(("fx", "fy", "cx", "cy"), camera.K[[0, 1, 0, 1], [0, 1, 2, 2]].astype(float).tolist())),
+            "width": int(camera.image_size[0]), "height": int(camera.image_size[1]),
+            "centre": np.asarray(camera.center).round(4).tolist()},
     }
     html = _TEMPLATE.replace("__TITLE__", title).replace("__DATA__", json.dumps(data))
     path = Path(path)
