@@ -27,11 +27,13 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=["ray3d", "ray3d-real"])
     parser.add_argument("--out", type=Path, default=Path(tempfile.mkdtemp()))
     args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
     camera = cameras.h36m(*DEMO_CAMERA)
     pixels = camera.project(demo_clip())
     for model in args.models:
         lifted = Lifter.load(model).lift(pixels, camera)
         world = World({"0": lifted}, camera, model)
+        np.save(args.out / f"{model}.npy", lifted.joints)  # for an independent reader (bvh_bvhio_check.py)
         rigid = args.out / f"{model}-rigid.bvh"
         rigid.write_text(bvh_text(lifted.joints, H36M17, lifted.fps, rigid=True))
         bones = np.linalg.norm(lifted.joints[:, 1:] - lifted.joints[:, list(H36M17.parents[1:])], axis=-1)

@@ -97,10 +97,11 @@ function cameraMarker() {  // the camera on the canvas, or an arrow on the edge 
 }
 function scaleBar() {
   if (viewmode.value === "camera") return;
-  const s = metre(), x0 = 14, y0 = canvas.height - 14;
+  const metres = [0.5, 1, 2, 5, 10, 20, 50, 100].find(m => m * metre() >= 60) || 100;  // a round length, 60 px or more
+  const s = metres * metre(), x0 = 14, y0 = canvas.height - 14;
   ctx.strokeStyle = "#333"; ctx.lineWidth = 2; ctx.beginPath();
   ctx.moveTo(x0, y0 - 5); ctx.lineTo(x0, y0); ctx.lineTo(x0 + s, y0); ctx.lineTo(x0 + s, y0 - 5); ctx.stroke();
-  ctx.fillStyle = "#333"; ctx.font = "12px sans-serif"; ctx.fillText("1 m", x0 + s / 2 - 9, y0 - 7);
+  ctx.fillStyle = "#333"; ctx.font = "12px sans-serif"; ctx.fillText(`${metres} m`, x0 + s / 2 - 12, y0 - 7);
 }
 function floorPlan(absolute) {
   const size = Math.min(220, canvas.width / 4), x0 = canvas.width - size - 10, y0 = 10, b = DATA.bounds;
@@ -109,7 +110,8 @@ function floorPlan(absolute) {
   ctx.fillStyle = "rgba(255,255,255,0.92)"; ctx.fillRect(x0, y0, size, size);
   ctx.strokeStyle = "#bbb"; ctx.lineWidth = 1; ctx.strokeRect(x0, y0, size, size);
   ctx.fillStyle = "#555"; ctx.font = "11px sans-serif";
-  ctx.fillText(`floor plan, ${span.toFixed(1)} m across`, x0 + 6, y0 + size - 5);
+  ctx.textAlign = "right"; ctx.fillText(`floor plan, ${span.toFixed(1)} m across`, x0 + size - 6, y0 + size - 5);
+  ctx.textAlign = "left";
   names.forEach((name, i) => {
     const seq = DATA.sequences[name];
     ctx.strokeStyle = DATA.colours[i]; ctx.globalAlpha = 0.45; ctx.beginPath();
@@ -128,9 +130,11 @@ function draw() {
     if (row >= 0) centre = [seq.joints[row][0][0], seq.joints[row][0][1]]; }
   ctx.fillStyle = "#ffffff"; ctx.fillRect(0, 0, canvas.width, canvas.height);
   const through = viewmode.value === "camera";
+  ctx.save();
   if (through) { const [s, ox, oy] = imageFit(); ctx.fillStyle = "#f4f4f4";
     ctx.fillRect(ox, oy, s * DATA.camera.width, s * DATA.camera.height); ctx.strokeStyle = "#999";
-    ctx.strokeRect(ox, oy, s * DATA.camera.width, s * DATA.camera.height); }
+    ctx.strokeRect(ox, oy, s * DATA.camera.width, s * DATA.camera.height);
+    ctx.beginPath(); ctx.rect(ox, oy, s * DATA.camera.width, s * DATA.camera.height); ctx.clip(); }
   const g = DATA.extent, c = [Math.round(centre[0] * 2) / 2, Math.round(centre[1] * 2) / 2];
   for (let k = -g; k <= g + 1e-9; k += 0.5)  // in short pieces: through the camera a piece may lie behind it
     for (let m = -g; m < g - 1e-9; m += 0.5) {
@@ -153,13 +157,15 @@ function draw() {
     const head = project(p[10]); ctx.fillStyle = colour; ctx.font = "13px sans-serif";
     if (head) ctx.fillText(name, head[0] + 6, head[1] - 6);
   });
-  scaleBar(); floorPlan(absolute); cameraMarker();
+  ctx.restore(); scaleBar(); floorPlan(absolute); cameraMarker();
   label.textContent = `frame ${absolute} (${frame + 1} / ${frames}), ${(absolute / DATA.fps).toFixed(2)} s`;
   slider.value = frame;
 }
 document.getElementById("play").onclick = e => { playing = !playing; e.target.textContent = playing ? "pause" : "play"; };
 slider.oninput = () => { frame = +slider.value; draw(); };
-follow.onchange = () => { if (!follow.value) centre = DATA.centre.slice(); draw(); };
+// Following one person zooms in on them (about 8 m across); everybody again shows the whole scene.
+follow.onchange = () => { if (!follow.value) centre = DATA.centre.slice();
+  zoom = follow.value ? Math.max(1, DATA.extent / 4) : 1.0; draw(); };
 const PRESETS = {orbit: [-0.6, 0.35], top: [0.0, Math.PI / 2], side: [0.0, 0.0], camera: [yaw, elevation]};
 function setView(mode) { viewmode.value = mode; [yaw, elevation] = PRESETS[mode]; zoom = 1.0; draw(); }
 viewmode.onchange = () => setView(viewmode.value);
