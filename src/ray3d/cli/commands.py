@@ -376,8 +376,8 @@ def viz(args: argparse.Namespace) -> int:
             inputs = {name: keypoints.h36m_pixels(name.split(":")[-1], result.frames)
                       for name, result in sequences.items()}
         first, last = frame_span(sequences)
-        images = tqdm(render_frames(sequences, camera, inputs, stride=args.stride), desc="rendering", unit="frame",
-                      total=(last - first) // args.stride + 1, leave=False)
+        images = tqdm(render_frames(sequences, camera, inputs, stride=args.stride, fps=fps), desc="rendering",
+                      unit="frame", total=(last - first) // args.stride + 1, leave=False)
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")
     return 0

@@ -14,6 +14,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 import numpy as np  # noqa: E402
 from PIL import GifImagePlugin, Image  # noqa: E402
 
@@ -56,7 +57,8 @@ def frame_span(sequences: dict[str, np.ndarray | LiftResult]) -> tuple[int, int]
 
 
 def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera, pixels: dict | None = None,
-                  target: np.ndarray | None = None, stride: int = 1, size_px: int = 720) -> Iterator[Image.Image]:
+                  target: np.ndarray | None = None, stride: int = 1, size_px: int = 720,
+                  fps: float | None = None) -> Iterator[Image.Image]:
     """One image per ``stride``-th frame, made as it is asked for (a long clip is never all in memory): the
     camera's view, the world, and the floor plan with everybody's path.
 
@@ -64,7 +66,7 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     own frame)}; one sequence is drawn left blue / right red, several each in its own colour with its name.
     The camera's view shows the world joints projected back through ``camera`` (thick) over the 2D input
     ``pixels`` ({name: (T, 17, 2)} H36M-17 pixels, one row per row of the sequence; thin, dotted; optional);
-    ``target`` (T, 17, 3) is ground truth, dashed, for the first sequence.
+    ``target`` (T, 17, 3) is ground truth, dashed, for the first sequence; ``fps`` puts the time in the title.
     """
     tracks = {str(name): as_track(s) for name, s in sequences.items()}
     first, last = frame_span(sequences)
@@ -84,12 +86,16 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     grid_y = np.arange(np.floor(centre[1] - reach), np.ceil(centre[1] + reach) + 0.01, 0.5)
     top = max(2.0, float(np.percentile(everything[:, 2], 99)) + 0.3)
     width, height = camera.image_size
+    legend = [Line2D([], [], color="#444444", lw=1.5, label="lifted joints, projected")]
+    if inputs:
+        legend.append(Line2D([], [], color="#444444", lw=1, ls=":", label="input keypoints"))
     for t in range(first, last + 1, stride):
         for axes in (image_axes, world_axes, plan_axes):
             axes.cla()
         image_axes.set(xlim=(0, width), ylim=(height, 0), aspect="equal", xlabel="u (px)", ylabel="v (px)")
-        image_axes.set_title(f"camera view (frame {t}): lifted joints projected" +
-                             (", input dotted" if inputs else ""), fontsize=9)
+        image_axes.set_title(f"camera view (frame {t}, {t / fps:.2f} s)" if fps else f"camera view (frame {t})",
+                             fontsize=9)
+        image_axes.legend(handles=legend, loc="lower right", fontsize=7, frameon=False)
         for x in grid:
             world_axes.plot([x, x], [grid_y[0], grid_y[-1]], [0, 0], color="#dddddd", lw=0.5)
         for y in grid_y:
