@@ -238,9 +238,10 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
     as lifted), ``options`` as for ``Lifter.lift``. Returns what was read and what was written."""
     from ray3d.io.atomic import check_output
     from ray3d.io.keypoints import read_keypoints
-    from ray3d.io.world import write_world
+    from ray3d.io.world import check_world_output, write_world
 
     check_output(out, (keypoints_path,))
+    check_world_output(out, frame)
     if Path(out).exists() and not overwrite:
         raise InputError(f"{out}: already exists; refusing to overwrite it", arguments=("overwrite",))
     keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))

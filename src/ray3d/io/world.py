@@ -28,6 +28,11 @@ FRAME_AXES = {"world": AXES, "camera": CAMERA_AXES}
 CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated")
 
 
+def _check_frame(frame: str) -> None:
+    if frame not in FRAME_AXES:
+        raise InputError(f"frame must be one of {', '.join(FRAME_AXES)}, got {frame!r}", arguments=("frame",))
+
+
 @dataclasses.dataclass
 class LiftResult:
     """One person's world joints (T, 17, 3) in metres (z up, floor z = 0, H36M-17 order) at ``fps``, the frame
@@ -100,8 +105,7 @@ class World:
     def in_frame(self, frame: str) -> World:
         """The same people with their joints in the ``frame`` "world" (z up, floor z = 0) or "camera" (OpenCV:
         x right, y down, z forward, metres from the lens)."""
-        if frame not in FRAME_AXES:
-            raise InputError(f"frame must be one of {', '.join(FRAME_AXES)}, got {frame!r}", arguments=("frame",))
+        _check_frame(frame)
         if frame == self.frame:
             return self
         move = self.camera.world_to_camera if frame == "camera" else self.camera.camera_to_world
@@ -123,6 +127,18 @@ def _check_format(path: Path, formats: tuple[str, ...] = FORMATS) -> str:
     return suffix
 
 
+def check_world_output(path: str | Path, frame: str = "world") -> str:
+    """The format of the world file ``path`` (its suffix), refused when unknown or when it cannot hold the
+    joints in ``frame``: TRC and BVH are defined with the floor, in the world frame only."""
+    path = Path(path)
+    suffix = _check_format(path, FORMATS + EXPORTS)
+    _check_frame(frame)
+    if suffix in EXPORTS and frame != "world":
+        raise InputError(f"{path}: {suffix} files are written in the world frame (they need the floor); write the "
+                         "camera frame as .json, .csv or .npz", arguments=("frame",))
+    return suffix
+
+
 def export_paths(path: str | Path, world: World) -> dict[str, Path]:
     """{track: file} that ``write_world`` writes for ``path``: one file for every track, except BVH, which holds
     one skeleton: ``NAME_TRACK.bvh`` for each track when there are several."""
@@ -138,10 +154,7 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
     millimetres, y up as OpenSim expects); or .bvh, a skeleton with joint rotations for Blender, Maya and
     MotionBuilder (``ray3d.io.bvh_export``; one file per track, see ``export_paths``)."""
     path = Path(path)
-    suffix = _check_format(path, FORMATS + EXPORTS)
-    if suffix in EXPORTS and world.frame != "world":
-        raise InputError(f"{path}: {suffix} files are written in the world frame (they need the floor); write the "
-                         "camera frame as .json, .csv or .npz", arguments=("frame",))
+    suffix = check_world_output(path, world.frame)
     if suffix == ".bvh":
         return _write_bvh(path, world, overwrite)
     meta = world.metadata()

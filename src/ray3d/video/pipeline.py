@@ -18,7 +18,7 @@ from ray3d.checkpoints import VIDEO_MODEL
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, write_keypoints_json
-from ray3d.io.world import World, write_world
+from ray3d.io.world import World, check_world_output, write_world
 from ray3d.lift import Lifter
 from ray3d.temporal import OUTPUT_SMOOTHING, check_frame_rate
 from ray3d.video.detectors import PoseDetector
@@ -127,6 +127,7 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
         raise InputError(f"camera {camera.name or ''}: image size {tuple(camera.image_size)} but {info.path} is "
                          f"{info.image_size[0]}x{info.image_size[1]}")
     targets = _targets(Path(out_dir), world_format, overlay, overwrite)
+    check_world_output(targets["world"], frame)
     clock = [time.perf_counter()]
     keypoints, read, dropped = track_video(info.path, camera, detector, fps, start, frames, max_gap_s, min_track_s,
                                            progress)
