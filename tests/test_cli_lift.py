@@ -303,3 +303,13 @@ def test_camera_frame_output_and_bvh_through_the_cli(tmp_path, tiny_checkpoint, 
     motion = read_bvh(tmp_path / "w.bvh")
     assert len(motion.motion) == FRAMES and motion.fps == pytest.approx(60.0)
     assert main(["viz", str(tmp_path / "c.csv"), "--html", str(tmp_path / "v.html")]) == 0
+
+
+def test_people_left_out_of_an_untracked_results_list_are_reported(tmp_path, tiny_checkpoint, capsys):
+    from ray3d.io.keypoints import read_keypoints
+    files = _inputs(tmp_path)
+    assert read_keypoints(files["coco.json"]).untracked_dropped == 1  # the weaker second person of frame 0
+    assert read_keypoints(files["alphapose-coco.json"]).untracked_dropped == 0  # tracked: everybody kept
+    assert main(["lift", "--keypoints", str(files["coco.json"]), "--camera", "h36m:S9:55011271",
+                 "--out", str(tmp_path / "w.json"), "--checkpoint", str(tiny_checkpoint)]) == 0
+    assert "1 other detection(s) left out" in capsys.readouterr().err

@@ -268,6 +268,10 @@ def lift(args: argparse.Namespace) -> int:
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
+    if keypoints.untracked_dropped:
+        print(f"note: {args.keypoints} has several people in some frames but no track ids: lifted each frame's "
+              f"most confident person, {keypoints.untracked_dropped} other detection(s) left out (give track ids, "
+              "e.g. AlphaPose --pose_track, to lift everybody)", file=sys.stderr)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
     written = ", ".join(dict.fromkeys(str(p) for p in export_paths(args.out, world).values()))

@@ -33,6 +33,7 @@ class Keypoints:
     fps: float | None
     source: str
     path: Path | None = None
+    untracked_dropped: int = 0  # detections left out: several people in a frame of a file without track ids
 
     def by_track(self) -> dict:
         """{track: (frames, pixels, confidences)} for ``Lifter.lift_tracks``."""
@@ -230,13 +231,15 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
             if frame not in best or score[i] > score[best[frame]]:
                 best[frame] = i
         keep = np.array(sorted(best.values()))
+        dropped = len(frames) - len(keep)
         pixels, frames, tracks = pixels[keep], frames[keep], np.zeros(len(keep), dtype=np.int64)
         scores = None if scores is None else scores[keep]
     elif any(t is None for t in tracks):
         raise InputError(f"{path}: some entries have a track id and others none")
     else:
-        tracks = np.array(tracks)
-    return _finish(path, pixels, scores, frames, tracks, layout, fps, "results list")
+        tracks, dropped = np.array(tracks), 0
+    read = _finish(path, pixels, scores, frames, tracks, layout, fps, "results list")
+    return dataclasses.replace(read, untracked_dropped=dropped)
 
 
 def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
