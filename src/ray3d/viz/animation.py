@@ -67,6 +67,7 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     The camera's view shows the world joints projected back through ``camera`` (thick) over the 2D input
     ``pixels`` ({name: (T, 17, 2)} H36M-17 pixels, one row per row of the sequence; thin, dotted; optional);
     ``target`` (T, 17, 3) is ground truth, dashed, for the first sequence; ``fps`` puts the time in the title.
+    The figure and its lines are made once and moved frame by frame (making them anew cost most of the time).
     """
     tracks = {str(name): as_track(s) for name, s in sequences.items()}
     first, last = frame_span(sequences)
@@ -79,67 +80,94 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
     centre = np.median(people, axis=0)
     reach = max(1.5, np.percentile(np.abs(people - centre), 98) + 0.8)
     colours = {name: PALETTE[i % len(PALETTE)] for i, name in enumerate(tracks)}
+    bones = [(child, parent) for child, parent in enumerate(H36M17.parents) if parent >= 0]
+    single = len(tracks) == 1
     fig = plt.figure(figsize=(size_px * 3 / 200, size_px / 200), dpi=100)  # three square-ish panels in a row
     image_axes, world_axes = fig.add_subplot(1, 3, 1), fig.add_subplot(1, 3, 2, projection="3d")
     plan_axes = fig.add_subplot(1, 3, 3)
-    grid = np.arange(np.floor(centre[0] - reach), np.ceil(centre[0] + reach) + 0.01, 0.5)
-    grid_y = np.arange(np.floor(centre[1] - reach), np.ceil(centre[1] + reach) + 0.01, 0.5)
     top = max(2.0, float(np.percentile(everything[:, 2], 99)) + 0.3)
     width, height = camera.image_size
+
+    # What every frame shares: the ground grid, the camera, everybody's whole path on the floor plan.
+    grid = np.arange(np.floor(centre[0] - reach), np.ceil(centre[0] + reach) + 0.01, 0.5)
+    grid_y = np.arange(np.floor(centre[1] - reach), np.ceil(centre[1] + reach) + 0.01, 0.5)
+    for x in grid:
+        world_axes.plot([x, x], [grid_y[0], grid_y[-1]], [0, 0], color="#dddddd", lw=0.5)
+    for y in grid_y:
+        world_axes.plot([grid[0], grid[-1]], [y, y], [0, 0], color="#dddddd", lw=0.5)
+    for line in frustum_lines(camera):
+        world_axes.plot(*line.T, color="#888888", lw=0.8)
+    plan_axes.plot(*camera.center[:2], "ks", ms=5)
+    lines = {}  # name -> the artists that move with that sequence
+    for name, (_, joints, _) in tracks.items():
+        colour = colours[name]
+        plan_axes.plot(*joints[:, 0, :2].T, color=colour, lw=0.8, alpha=0.4)
+        drawn = {"image": [image_axes.plot([], [], lw=1.5)[0] for _ in bones],
+                 "world": [world_axes.plot([], [], [], "-", lw=2)[0] for _ in bones],
+                 "path": world_axes.plot([], [], [], color="#2a9d3c" if single else colour, lw=1)[0],
+                 "plan": plan_axes.plot([], [], "o", color=colour, ms=5)[0]}
+        if name in inputs:
+            drawn["input"] = [image_axes.plot([], [], ":", lw=1)[0] for _ in bones]
+        if target is not None and name == next(iter(tracks)):
+            drawn["truth"] = [world_axes.plot([], [], [], "--", lw=2)[0] for _ in bones]
+        if not single:
+            drawn["labels"] = [world_axes.text(0, 0, 0, name, color=colour, fontsize=7),
+                               plan_axes.annotate(name, (0, 0), xytext=(4, 4), textcoords="offset points",
+                                                  color=colour, fontsize=7),
+                               image_axes.annotate(name, (0, 0), xytext=(3, 6), textcoords="offset points",
+                                                   color=colour, fontsize=7)]
+        lines[name] = drawn
+    image_axes.set(xlim=(0, width), ylim=(height, 0), aspect="equal", xlabel="u (px)", ylabel="v (px)")
     legend = [Line2D([], [], color="#444444", lw=1.5, label="lifted joints, projected")]
     if inputs:
         legend.append(Line2D([], [], color="#444444", lw=1, ls=":", label="input keypoints"))
+    image_axes.legend(handles=legend, loc="lower right", fontsize=7, frameon=False)
+    world_axes.set(xlim=(centre[0] - reach, centre[0] + reach), ylim=(centre[1] - reach, centre[1] + reach),
+                   zlim=(0, top), xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
+    world_axes.set_box_aspect((1, 1, max(0.3, top / (2 * reach))))  # a wide scene keeps some height
+    world_axes.set_zticks(np.arange(0.0, top + 1e-9, 1.0))
+    world_axes.set_title("world (m)" + (": prediction solid, truth dashed" if target is not None else ""),
+                         fontsize=9)
+    plan_axes.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    plan_axes.set_title("floor plan: paths, camera (square)", fontsize=9)
+    title = image_axes.set_title("", fontsize=9)
+
     for t in range(first, last + 1, stride):
-        for axes in (image_axes, world_axes, plan_axes):
-            axes.cla()
-        image_axes.set(xlim=(0, width), ylim=(height, 0), aspect="equal", xlabel="u (px)", ylabel="v (px)")
-        image_axes.set_title(f"camera view (frame {t}, {t / fps:.2f} s)" if fps else f"camera view (frame {t})",
-                             fontsize=9)
-        image_axes.legend(handles=legend, loc="lower right", fontsize=7, frameon=False)
-        for x in grid:
-            world_axes.plot([x, x], [grid_y[0], grid_y[-1]], [0, 0], color="#dddddd", lw=0.5)
-        for y in grid_y:
-            world_axes.plot([grid[0], grid[-1]], [y, y], [0, 0], color="#dddddd", lw=0.5)
-        for line in frustum_lines(camera):
-            world_axes.plot(*line.T, color="#888888", lw=0.8)
-        plan_axes.plot(*camera.center[:2], "ks", ms=5)
+        title.set_text(f"camera view (frame {t}, {t / fps:.2f} s)" if fps else f"camera view (frame {t})")
         for name, (start, joints, filled) in tracks.items():
-            row = t - start
-            single = len(tracks) == 1
-            plan_axes.plot(*joints[:, 0, :2].T, color=colours[name], lw=0.8, alpha=0.4)
-            if not 0 <= row < len(joints):
+            row, drawn = t - start, lines[name]
+            visible = 0 <= row < len(joints)
+            for artist in [a for group in drawn.values() for a in (group if isinstance(group, list) else [group])]:
+                artist.set_visible(visible)
+            if not visible:
                 continue
             grey = filled[row]
-            colour_of = (lambda child: bone_colour(child)) if single and not grey else \
-                (lambda child: "#aaaaaa" if grey else colours[name])
-            world_axes.plot(*joints[: row + 1, 0, :2].T, np.zeros(row + 1), color=colours[name] if not single
-                            else "#2a9d3c", lw=1)  # the path on the floor so far
-            two_d, given = shown[name], inputs.get(name)
-            poses = [(joints, "-")] + ([(target, "--")] if target is not None and name == next(iter(tracks)) else [])
-            for child, parent in enumerate(H36M17.parents):
-                if parent < 0:
-                    continue
-                if given is not None and row < len(given):
-                    image_axes.plot(*given[row, [child, parent]].T, ":", color=colour_of(child), lw=1)
-                image_axes.plot(*two_d[row, [child, parent]].T, color=colour_of(child), lw=1.5)
-                for pose, style in poses:
-                    world_axes.plot(*pose[row, [child, parent]].T, style, color=colour_of(child), lw=2)
-            plan_axes.plot(*joints[row, 0, :2], "o", color=colours[name], ms=5)
-            if not single:
-                world_axes.text(*joints[row, 10] + [0, 0, 0.15], name, color=colours[name], fontsize=7)
-                plan_axes.annotate(name, joints[row, 0, :2], xytext=(4, 4), textcoords="offset points",
-                                   color=colours[name], fontsize=7)
-                if np.isfinite(two_d[row, 10]).all():
-                    image_axes.annotate(name, two_d[row, 10], xytext=(3, 6), textcoords="offset points",
-                                        color=colours[name], fontsize=7)
-        world_axes.set(xlim=(centre[0] - reach, centre[0] + reach), ylim=(centre[1] - reach, centre[1] + reach),
-                       zlim=(0, top), xlabel="x (m)", ylabel="y (m)", zlabel="z (m)")
-        world_axes.set_box_aspect((1, 1, max(0.3, top / (2 * reach))))  # a wide scene keeps some height
-        world_axes.set_zticks(np.arange(0.0, top + 1e-9, 1.0))
-        world_axes.set_title("world (m)" + (": prediction solid, truth dashed" if target is not None else ""),
-                             fontsize=9)
-        plan_axes.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
-        plan_axes.set_title("floor plan: paths, camera (square)", fontsize=9)
+            for k, (child, parent) in enumerate(bones):
+                colour = "#aaaaaa" if grey else bone_colour(child) if single else colours[name]
+                ends = [child, parent]
+                drawn["image"][k].set_data(*shown[name][row, ends].T)
+                drawn["image"][k].set_color(colour)
+                drawn["world"][k].set_data_3d(*joints[row, ends].T)
+                drawn["world"][k].set_color(colour)
+                if "input" in drawn:
+                    given = inputs[name]
+                    drawn["input"][k].set_visible(row < len(given))
+                    if row < len(given):
+                        drawn["input"][k].set_data(*given[row, ends].T)
+                        drawn["input"][k].set_color(colour)
+                if "truth" in drawn:
+                    drawn["truth"][k].set_data_3d(*target[row, ends].T)
+                    drawn["truth"][k].set_color(colour)
+            drawn["path"].set_data_3d(joints[: row + 1, 0, 0], joints[: row + 1, 0, 1], np.zeros(row + 1))
+            drawn["plan"].set_data([joints[row, 0, 0]], [joints[row, 0, 1]])
+            if "labels" in drawn:
+                in_world, on_plan, in_image = drawn["labels"]
+                in_world.set_position_3d(joints[row, 10] + [0, 0, 0.15])
+                on_plan.xy = tuple(joints[row, 0, :2])
+                head = shown[name][row, 10]
+                in_image.set_visible(bool(np.isfinite(head).all()))
+                if np.isfinite(head).all():
+                    in_image.xy = tuple(head)
         if t == first:  # the panels' layout once: it is the same for every frame, and costs more than drawing
             fig.tight_layout()
         fig.canvas.draw()
