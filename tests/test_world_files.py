@@ -157,6 +157,8 @@ def test_bvh_of_several_tracks_writes_one_file_each_and_refuses_what_it_cannot_h
     write_world(tmp_path / "people.bvh", world)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["people_3.bvh", "people_8.bvh"]
     assert export_paths(tmp_path / "people.bvh", world)["8"] == tmp_path / "people_8.bvh"
+    odd = World({"../up": tracks["3"], "a b": tracks["8"]}, CAMERA, "test")
+    assert [p.name for p in export_paths(tmp_path / "p.bvh", odd).values()] == ["p_.._up.bvh", "p_a_b.bvh"]
     np.testing.assert_allclose(_bvh_joints(tmp_path / "people_8.bvh")[0], joints + 8, atol=1e-5)
     before = (tmp_path / "people_3.bvh").read_bytes()
     with pytest.raises(InputError, match="already exists"):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -145,7 +146,11 @@ def export_paths(path: str | Path, world: World) -> dict[str, Path]:
     path = Path(path)
     if path.suffix.lower() != ".bvh" or len(world.tracks) == 1:
         return {track: path for track in world.tracks}
-    return {track: path.with_name(f"{path.stem}_{track}{path.suffix}") for track in world.tracks}
+    # A track id becomes part of a file name: anything but letters, digits, dot, dash and underscore is replaced.
+    safe = {track: re.sub(r"[^A-Za-z0-9._-]", "_", track) for track in world.tracks}
+    if len(set(safe.values())) < len(safe):
+        safe = {track: f"{i}_{name}" for i, (track, name) in enumerate(safe.items())}
+    return {track: path.with_name(f"{path.stem}_{safe[track]}{path.suffix}") for track in world.tracks}
 
 
 def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path:
