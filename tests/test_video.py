@@ -266,6 +266,13 @@ def test_video_cli_tracks_everybody_with_a_registered_detector(scene, tmp_path, 
     assert "not empty" in capsys.readouterr().err
     assert main(["video", str(path), *common, "--out", str(tmp_path / "y"), "--min-track", "nan"]) == 2
     assert "(--min-track)" in capsys.readouterr().err
+    assert main(["video", str(path), *common, "--format", ".bvh", "--no-overlay", "--out", str(tmp_path / "b"),
+                 "--start", "4", "--frames", "30"]) == 0
+    listed = [line.split()[-1] for line in capsys.readouterr().out.splitlines() if line.strip().startswith("world ")]
+    assert len(listed) == 3 and sorted(listed) == sorted(str(p) for p in (tmp_path / "b").glob("world_*.bvh"))
+    assert main(["video", str(path), *common, "--format", ".trc", "--frame", "camera", "--out",
+                 str(tmp_path / "c")]) == 2 and not (tmp_path / "c").exists()
+    assert "world frame" in capsys.readouterr().err
 
 
 def test_landmark_network_on_crops():

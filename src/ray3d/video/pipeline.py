@@ -18,7 +18,7 @@ from ray3d.checkpoints import VIDEO_MODEL
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, write_keypoints_json
-from ray3d.io.world import World, check_world_output, write_world
+from ray3d.io.world import World, check_world_output, export_paths, write_world
 from ray3d.lift import Lifter
 from ray3d.temporal import OUTPUT_SMOOTHING, check_frame_rate
 from ray3d.video.detectors import PoseDetector
@@ -30,8 +30,9 @@ from ray3d.viz.html_viewer import write_viewer
 @dataclasses.dataclass
 class VideoResult:
     """The tracked detections (every track, in the detector's layout), the lifted world, the frames read, the
-    tracks dropped (too short, or not liftable: {track id: why}), the files written and the seconds each stage
-    took (people: reading, detecting and tracking; lifting; writing)."""
+    tracks dropped (too short, or not liftable: {track id: why}), the files written ({"world", "keypoints",
+    "viewer", "overlay"}; a BVH world of several tracks is one file each: "world TRACK") and the seconds each
+    stage took (people: reading, detecting and tracking; lifting; writing)."""
 
     keypoints: Keypoints
     world: World
@@ -153,4 +154,8 @@ def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: 
         write_overlay(info.path, targets["overlay"], keypoints, world, start, read, overwrite, progress)
     clock.append(time.perf_counter())
     seconds = dict(zip(("people", "lifting", "writing"), np.diff(clock).tolist()))
-    return VideoResult(keypoints, world, read, dropped, targets, seconds)
+    worlds = dict.fromkeys(export_paths(targets["world"], world).values())  # BVH: one file per track
+    files = {**targets, "world": next(iter(worlds))} if len(worlds) == 1 else \
+        {**{f"world {p.stem.removeprefix('world_')}": p for p in worlds},
+         **{k: v for k, v in targets.items() if k != "world"}}
+    return VideoResult(keypoints, world, read, dropped, files, seconds)
