@@ -182,7 +182,7 @@ canvas.onwheel = e => { e.preventDefault(); zoom *= e.deltaY < 0 ? 1.1 : 0.9; dr
 window.onresize = resize;
 setInterval(() => { if (playing) { frame = (frame + 1) % frames; draw(); } }, 1000 / DATA.fps);
 const asked = (location.hash.match(/view=([a-z]+)/) || [])[1];
-if (asked in PRESETS && (asked !== "camera" || DATA.camera)) viewmode.value = asked;
+if (Object.keys(PRESETS).includes(asked) && (asked !== "camera" || DATA.camera)) viewmode.value = asked;
 [yaw, elevation] = viewmode.value === "camera" ? [yaw, elevation] : PRESETS[viewmode.value];
 resize();
 </script></body></html>
