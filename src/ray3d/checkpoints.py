@@ -13,7 +13,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 from ray3d.errors import InputError, reads_file
-from ray3d.io.atomic import atomic_path
+from ray3d.io.atomic import atomic_path, refuse_existing
 from ray3d.models.network import LiftingNetwork, ModelConfig
 
 SHIPPED_DIR = "assets/models"
@@ -121,9 +121,7 @@ def export(source: str | Path, target: str | Path, overwrite: bool = False, aver
     if not weights:
         raise InputError(f"{source}: holds no {'averaged' if averaged else 'last trained'} weights")
     model_from_checkpoint(weights, document)  # refuse to export something that does not load
-    target = Path(target).with_suffix(".safetensors")
-    if target.exists() and not overwrite:
-        raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
+    target = refuse_existing(Path(target).with_suffix(".safetensors"), overwrite)
     keep = ("model", "trained_on", "epoch", "validation", "train_config")
     save_checkpoint(target, weights, {**{k: document[k] for k in keep if k in document}, **provenance})
     return target

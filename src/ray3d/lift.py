@@ -236,14 +236,13 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
     (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), the joints in ``frame`` ("world" or
     "camera", see ``World.in_frame``), the output smoothed by ``smooth_3d`` (Savitzky-Golay unless told; None:
     as lifted), ``options`` as for ``Lifter.lift``. Returns what was read and what was written."""
-    from ray3d.io.atomic import check_output
+    from ray3d.io.atomic import check_output, refuse_existing
     from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import check_world_output, write_world
 
     check_output(out, (keypoints_path,))
     check_world_output(out, frame)
-    if Path(out).exists() and not overwrite:
-        raise InputError(f"{out}: already exists; refusing to overwrite it", arguments=("overwrite",))
+    refuse_existing(out, overwrite)
     keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
     world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, smooth_3d=smooth_3d, **options)
     world = world.in_frame(frame)

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from ray3d.errors import InputError
-from ray3d.io.atomic import check_output
+from ray3d.io.atomic import check_output, refuse_existing
 
 
 def write_json(path: Path, document: dict, overwrite: bool) -> None:
@@ -117,9 +117,7 @@ def evaluate(args: argparse.Namespace) -> int:
     from ray3d.evaluate import METRICS, evaluate as run, evaluation_cameras, evaluation_motion
 
     if args.json is not None:  # refused before any work, not after it
-        check_output(args.json)
-        if args.json.exists() and not args.force:
-            raise InputError(f"{args.json}: already exists; refusing to overwrite it", arguments=("overwrite",))
+        refuse_existing(check_output(args.json), args.force)
     datasets = tuple(args.datasets.split(",")) if args.datasets else None
     clips, source = evaluation_motion(args.mocap, args.split, datasets, args.data_dir)
     result = run(args.checkpoint, clips, evaluation_cameras(args.cameras), args.flip_test, args.frame_stride,

@@ -37,6 +37,14 @@ def check_output(target: str | Path, inputs: tuple = (), argument: str = "out") 
     return target
 
 
+def refuse_existing(target: str | Path, overwrite: bool) -> Path:
+    """Refuse ``target`` if it exists and ``overwrite`` is False (before any work is done for it)."""
+    target = Path(target)
+    if target.exists() and not overwrite:
+        raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
+    return target
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     """Yield a temporary path in ``target``'s folder; on success it is renamed to ``target``.
@@ -44,9 +52,7 @@ def atomic_path(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     Raises:
         InputError: if ``target`` exists and ``overwrite`` is False.
     """
-    target = Path(target)
-    if target.exists() and not overwrite:
-        raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
+    target = refuse_existing(target, overwrite)
     target.parent.mkdir(parents=True, exist_ok=True)
     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp" + target.suffix, dir=target.parent)
     os.close(handle)

@@ -52,11 +52,10 @@ def _smallest_turns(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return Rotation.from_rotvec(axis * np.arctan2(sine, cosine)[:, None]).as_matrix()
 
 
-def rest_offsets(joints: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+def rest_offsets(joints: np.ndarray, skeleton: Skeleton, children: list[list[int]]) -> np.ndarray:
     """(J, 3) each joint's offset from its parent in the rest pose, BVH axes, metres, from (T, J, 3) Y-up
     joints: the median bone length along the limb's rest direction for arms and legs; the median of the body
     (bones expressed in the parent's own frame) for a joint whose parent has several children."""
-    children = _children(skeleton)
     offsets = np.zeros((skeleton.num_joints, 3))
     for parent, kids in enumerate(children):
         if not kids:
@@ -97,10 +96,10 @@ def _local_frames(joints: np.ndarray, skeleton: Skeleton, joint: int, kids: list
     return np.stack([x, y, np.cross(x, y)], axis=-1)
 
 
-def joint_rotations(joints: np.ndarray, skeleton: Skeleton, offsets: np.ndarray) -> np.ndarray:
+def joint_rotations(joints: np.ndarray, skeleton: Skeleton, offsets: np.ndarray,
+                    children: list[list[int]]) -> np.ndarray:
     """(T, J, 3, 3) global rotations turning the rest bones (``offsets``) onto the lifted ones; a joint with no
     child keeps its parent's."""
-    children = _children(skeleton)
     rotations = np.zeros((len(joints), skeleton.num_joints, 3, 3))
     for joint in range(skeleton.num_joints):  # parents come before children in every layout
         parent = skeleton.parents[joint]
@@ -124,12 +123,14 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float, rigid: bool = F
     if list(skeleton.parents).count(-1) != 1 or any(p >= j for j, p in enumerate(skeleton.parents) if p >= 0):
         raise InputError(f"layout {skeleton.name}: BVH export needs one root and parents before children")
     y_up = joints @ Y_UP.T
-    offsets = rest_offsets(y_up, skeleton)
-    rotations = joint_rotations(y_up, skeleton, offsets)
     children = _children(skeleton)
+    offsets = rest_offsets(y_up, skeleton, children)
+    rotations = joint_rotations(y_up, skeleton, offsets, children)
     lines = ["HIERARCHY"]
+    order = []  # joints in the order their channels appear: depth first, as written
 
     def node(joint: int, depth: int) -> None:
+        order.append(joint)
         pad = "  " * depth
         is_root = skeleton.parents[joint] < 0
         lines.append(f"{pad}{'ROOT' if is_root else 'JOINT'} {skeleton.joint_names[joint]}")
@@ -146,16 +147,7 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float, rigid: bool = F
                           f"{pad}    OFFSET {' '.join(f'{v:.6f}' for v in stub)}", f"{pad}  }}"])
         lines.append(pad + "}")
 
-    root = skeleton.parents.index(-1)
-    node(root, 0)
-    order = []  # joints in the order their channels appear: depth first, as written
-
-    def visit(joint: int) -> None:
-        order.append(joint)
-        for kid in children[joint]:
-            visit(kid)
-
-    visit(root)
+    node(skeleton.parents.index(-1), 0)
     local = rotations.copy()
     for joint, parent in enumerate(skeleton.parents):
         if parent >= 0:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
-from ray3d.io.atomic import atomic_path
+from ray3d.io.atomic import atomic_path, refuse_existing
 from ray3d.io.bvh_export import Y_UP, bvh_text
 from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
@@ -196,8 +196,7 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
 def _write_bvh(path: Path, world: World, overwrite: bool) -> Path:
     targets = export_paths(path, world)
     for track, target in targets.items():
-        if target.exists() and not overwrite:
-            raise InputError(f"{target}: already exists; refusing to overwrite it", arguments=("overwrite",))
+        refuse_existing(target, overwrite)
         if np.any(np.diff(world.tracks[track].frames) != 1):
             raise InputError(f"track {track}: its frames are not consecutive; BVH holds evenly spaced frames only")
     skeleton = layout_named_by(world.joint_names)

@@ -116,6 +116,7 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
                                                   color=colour, fontsize=7),
                                image_axes.annotate(name, (0, 0), xytext=(3, 6), textcoords="offset points",
                                                    color=colour, fontsize=7)]
+        drawn["every"] = [a for group in drawn.values() for a in (group if isinstance(group, list) else [group])]
         lines[name] = drawn
     image_axes.set(xlim=(0, width), ylim=(height, 0), aspect="equal", xlabel="u (px)", ylabel="v (px)")
     legend = [Line2D([], [], color="#444444", lw=1.5, label="lifted joints, projected")]
@@ -137,7 +138,7 @@ def render_frames(sequences: dict[str, np.ndarray | LiftResult], camera: Camera,
         for name, (start, joints, filled) in tracks.items():
             row, drawn = t - start, lines[name]
             visible = 0 <= row < len(joints)
-            for artist in [a for group in drawn.values() for a in (group if isinstance(group, list) else [group])]:
+            for artist in drawn["every"]:
                 artist.set_visible(visible)
             if not visible:
                 continue
