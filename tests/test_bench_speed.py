@@ -10,8 +10,8 @@ from ray3d.cli import main
 
 KEYS = {"model", "preset", "backend", "params", "mflops_per_frame", "batch_frames_per_s", "sequence_frames_per_s",
         "latency_ms", "stream_ms_per_frame", "train_samples_per_s", "gemm_path"}
-TORCH_KEYS = {"train_loop_samples_per_s", "layer_gemm_paths", "bound_batch_frames_per_s", "bound_train_samples_per_s",
-              "bound_latency_ms"}
+TORCH_KEYS = {"train_loop_samples_per_s", "layer_gemm_paths", "training_form", "bound_batch_frames_per_s",
+              "bound_train_samples_per_s", "bound_latency_ms"}
 
 
 def test_bench_speed_writes_the_documented_json(tmp_path, capsys):
@@ -31,6 +31,7 @@ def test_bench_speed_writes_the_documented_json(tmp_path, capsys):
             assert TORCH_KEYS <= set(record)
             assert record["train_loop_samples_per_s"] > 0  # the shipped mocap is there (../shared)
             assert record["bound_batch_frames_per_s"] > 0 and record["layer_gemm_paths"]
+            assert record["training_form"]["latency_ms"] > 0 and record["training_form"]["batch_frames_per_s"] > 0
     assert result["memory_gbps"] > 0 and result["blas"] and result["video"] is None
     out_text = capsys.readouterr().out
     assert "GFLOP/s" in out_text and "bounds" in out_text
@@ -57,3 +58,17 @@ def test_bounds_follow_from_the_peak_and_the_bandwidth():
     assert limits["bound_train_samples_per_s"] == pytest.approx(50_000 / 3)
     assert limits["bound_latency_ms"] == pytest.approx(0.4)  # 4 MB of fp32 weights at 10 GB/s
     assert 0.1 < memory_gbps(megabytes=64, repeats=3) < 1000
+
+
+def test_an_existing_json_is_refused_before_any_measuring(tmp_path, capsys, monkeypatch):
+    import ray3d.bench.speed as speed
+
+    def measured(*args, **kwargs):
+        raise AssertionError("measured before refusing the output")
+
+    monkeypatch.setattr(speed, "measure_all", measured)
+    out = tmp_path / "speed.json"
+    out.write_text("earlier results")
+    assert main(["bench", "speed", "--models", "poselifter", "--json", str(out)]) == 2
+    assert out.read_text() == "earlier results"
+    assert "already exists" in capsys.readouterr().err

@@ -86,10 +86,12 @@ def test_batches_and_tracks_share_one_world(lifter, camera):
     assert len(gappy.joints) == 7 and gappy.interpolated[3:5].all()
 
 
-def test_chunks_give_identical_results(lifter, camera):
+def test_chunks_give_the_same_results(lifter, camera):
     pixels = camera.project(_walk(500))
     whole = lifter.lift(pixels, camera, chunk=10_000).joints
-    np.testing.assert_array_equal(lifter.lift(pixels, camera, chunk=64).joints, whole)
+    # Chunks under models.inference.BATCH_PER_GROUP windows take the stacked path, which rounds differently.
+    np.testing.assert_allclose(lifter.lift(pixels, camera, chunk=64).joints, whole, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(lifter.lift(pixels, camera, chunk=256).joints, whole)
 
 
 def test_smoothing_reduces_jitter(lifter, camera):

@@ -25,6 +25,7 @@ from ray3d.data.virtual_cameras import SET_NAMES, centre_clip, grid
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.camera_files import load_cameras
+from ray3d.models.inference import inference_network
 from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
 from ray3d.refine import refine_track
 from ray3d.skeleton import H36M17, layout_skeleton
@@ -112,6 +113,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     scored = [H36M17.index(name) for name in layout_skeleton(joints).joint_names]
     if isinstance(model, str) and model != RFRH:
         model = load_model(model)[0]
+    if isinstance(model, LiftingNetwork):
+        model = inference_network(model)
     window = _window(model)
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)

@@ -22,6 +22,7 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import LiftResult, World
+from ray3d.models.inference import inference_network
 from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
 from ray3d.refine import RefineConfig, refine_track
 from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
@@ -77,7 +78,7 @@ class Lifter:
         self.name = name or model.config.name  # how world files name the model that lifted them
         if isinstance(model, LiftingNetwork):
             self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
-            self.model = model.eval().to(self.device)
+            self.model = inference_network(model).to(self.device)
         else:  # the TorchScript and ONNX Runtime backends run on the CPU
             self.device, self.model = torch.device("cpu"), model
 
@@ -257,8 +258,8 @@ class LiftStream:
     pushed. A centred model needs ``delay`` (half its window) future frames, so it answers for the frame pushed
     ``delay`` calls earlier (None until then) and ``flush()`` gives the last frames when the stream ends. The
     window starts by repeating the first frame and ends by repeating the last, as offline lifting does, so the
-    outputs equal ``Lifter.lift`` on the whole sequence (frames at the model's 60 fps, no smoothing, and no
-    refinement, which needs the whole track).
+    outputs equal ``Lifter.lift`` on the whole sequence to float rounding (frames at the model's 60 fps, no
+    smoothing, no refinement, which needs the whole track).
 
     A joint missing from a frame (NaN or confidence 0) keeps its last seen position; one not seen yet takes
     its parent's, as a detector's miss is simulated in training.

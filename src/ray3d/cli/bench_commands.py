@@ -70,7 +70,10 @@ def real_video(args: argparse.Namespace) -> int:
 
 def speed(args: argparse.Namespace) -> int:
     from ray3d.bench.speed import measure_all
+    from ray3d.io.atomic import check_output, refuse_existing
 
+    if args.json is not None:  # refused before the minutes of measuring, not after them
+        refuse_existing(check_output(args.json, argument="json"), args.force)
     camera = None
     if args.video is not None:
         from ray3d.io.camera_files import read_camera
@@ -92,6 +95,12 @@ def speed(args: argparse.Namespace) -> int:
         print(f"{r['model']:<15}{r['backend']:<13}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}"
               f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}"
               f"{r['stream_ms_per_frame']:>10.2f}{train_rate}{loop_rate}{100 * r['fraction_of_peak']:>8.1f}")
+    print("torch, the inference form (models.inference) against the network as trained, same run:")
+    for r in result["models"]:
+        if r["backend"] == "torch":
+            trained = r["training_form"]
+            print(f"  {r['model']:<15}batch {r['batch_frames_per_s']:,.0f} / {trained['batch_frames_per_s']:,.0f} "
+                  f"f/s, latency {r['latency_ms']:.2f} / {trained['latency_ms']:.2f} ms")
     print("the machine's bounds (at the matmul peak; latency: reading the fp32 weights once):")
     for r in result["models"]:
         if r["backend"] == "torch":

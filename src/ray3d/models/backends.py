@@ -1,6 +1,7 @@
 """Inference backends with the ``LiftingNetwork`` interface (``predict``, ``to_world``, ``config``): a frozen
-TorchScript trace (batch-norm folded, no Python per layer: the low-latency path with torch alone), and ONNX
-export with an ONNX Runtime backend (optional extra: ``pip install ray3d[onnx]``)."""
+TorchScript trace (no Python per layer: the low-latency path with torch alone), and ONNX export with an ONNX
+Runtime backend (optional extra: ``pip install ray3d[onnx]``). Both run the network's inference form
+(``models.inference``: batch norms folded, joint groups stacked)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import torch
 
 from ray3d.errors import InputError
 from ray3d.geometry import CameraBatch
+from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world, predict_with_flip
 
 INPUT_NAMES = ("pixels", "rays", "camera_params", "intrinsics", "roll")
@@ -32,8 +34,8 @@ class _TensorInputs(torch.nn.Module):
         return self.model(TensorBatch(pixels, rays, camera_params, intrinsics, roll, self.image_width))
 
 
-def _example_inputs(model: LiftingNetwork, image_width: float) -> tuple[torch.Tensor, ...]:
-    example = TensorBatch.example(model.receptive_field, model.skeleton.num_joints, 2, image_width=image_width)
+def _example_inputs(model: LiftingNetwork, image_width: float, batch: int = 2) -> tuple[torch.Tensor, ...]:
+    example = TensorBatch.example(model.receptive_field, model.skeleton.num_joints, batch, image_width=image_width)
     return tuple(getattr(example, name) for name in INPUT_NAMES)
 
 
@@ -57,39 +59,45 @@ class _Backend:
 
 
 class TorchScriptLiftingModel(_Backend):
-    """A ``LiftingNetwork`` traced and frozen by TorchScript (CPU)."""
+    """A ``LiftingNetwork``'s inference form traced and frozen by TorchScript (CPU). A trace keeps the path its
+    example took, so the form is traced twice: at a small batch (the stacked groups: latency) and at a large
+    one (per-group layers: throughput); each call runs the trace for its batch size."""
 
     def __init__(self, model: LiftingNetwork, image_width: float = 1000.0):
         super().__init__(model, image_width)
+        network = _TensorInputs(inference_network(model.cpu()), image_width).eval()
         with torch.no_grad(), warnings.catch_warnings():
             warnings.simplefilter("ignore", category=torch.jit.TracerWarning)
             warnings.simplefilter("ignore", category=DeprecationWarning)
-            traced = torch.jit.trace(_TensorInputs(model.eval().cpu(), image_width).eval(),
-                                     _example_inputs(model, image_width), check_trace=False)
-            self.module = torch.jit.freeze(traced)
+            self.modules = {batch: torch.jit.freeze(torch.jit.trace(
+                network, _example_inputs(model, image_width, batch), check_trace=False))
+                for batch in (2, BATCH_PER_GROUP)}
 
     def __call__(self, batch: TensorBatch) -> tuple[torch.Tensor, torch.Tensor]:
         self._check_width(batch)
+        module = self.modules[BATCH_PER_GROUP if len(batch.rays) >= BATCH_PER_GROUP else 2]
         with torch.no_grad():
-            return self.module(*(getattr(batch, n).cpu() for n in INPUT_NAMES))
+            return module(*(getattr(batch, n).cpu() for n in INPUT_NAMES))
 
 
 def export_onnx(model: LiftingNetwork, target: str | Path | io.BytesIO, image_width: float = 1000.0) -> None:
     """Write ``model`` as ONNX (batch axis dynamic). Pixel-input models bake in ``image_width``."""
     if importlib.util.find_spec("onnx") is None:
         raise InputError("ONNX export needs the onnx extra: pip install 'ray3d[onnx]'")
-    model = model.eval().cpu()
+    model = inference_network(model.cpu())  # traced at a small batch: the stacked groups, for latency
     example = _example_inputs(model, image_width)
     # The trace warns about the window-length checks (the receptive field is fixed by design) and about the
     # TorchScript exporter, chosen because the torch.export one needs onnxscript as well. Transformer layers
     # are exported as their parts: ONNX has no operator for torch's fused inference kernel.
+    # It also says it cannot constant-fold the residuals' strided slices, which are not constants anyway.
     fastpath = torch.backends.mha.get_fastpath_enabled()
     torch.backends.mha.set_fastpath_enabled(False)
     try:
         with torch.no_grad(), warnings.catch_warnings():
             warnings.simplefilter("ignore", category=torch.jit.TracerWarning)
             warnings.simplefilter("ignore", category=DeprecationWarning)
-            torch.onnx.export(_TensorInputs(model, image_width), example, target, input_names=list(INPUT_NAMES),
+            warnings.filterwarnings("ignore", message="Constant folding - Only steps=1")
+            torch.onnx.export(_TensorInputs(model, image_width).eval(), example, target, input_names=list(INPUT_NAMES),
                               output_names=list(OUTPUT_NAMES),
                               dynamic_axes={n: {0: "batch"} for n in INPUT_NAMES + OUTPUT_NAMES},
                               opset_version=17, dynamo=False)

@@ -148,6 +148,15 @@ class TensorBatch:
                                    rays=flip(self.rays, skeleton))
 
 
+def branch_window(x: torch.Tensor, extra: torch.Tensor | None, frames: int, causal: bool):
+    """A branch's own window of the model's: the ``frames`` around the target frame (the last ones when causal)
+    of ``x`` (B, F, ...) and ``extra`` (B, F, E), when that branch sees fewer frames than the model."""
+    if x.shape[1] == frames:
+        return x, extra
+    window = Window(x.shape[1], causal).around_target(frames)
+    return x[:, window], None if extra is None else extra[:, window]
+
+
 class _Branch(nn.Module):
     """A backbone and its decoder(s): outputs (B, out_per_joint * J) for the pose or (B, k) for the root."""
 
@@ -188,9 +197,7 @@ class _Branch(nn.Module):
         """``x`` (B, F, J, C) and ``extra`` (B, F, E) over the model's window; a branch whose own window is
         shorter sees the frames around the target (the last ones when causal)."""
         batch = x.shape[0]
-        if x.shape[1] > self.frames:
-            frames = Window(x.shape[1], self.config.causal).around_target(self.frames)
-            x, extra = x[:, frames], None if extra is None else extra[:, frames]
+        x, extra = branch_window(x, extra, self.frames, self.config.causal)
         tail = [camera] if camera is not None else []
         if self.config.backbone == "rie":
             features, global_feature = self.backbone(x, extra)

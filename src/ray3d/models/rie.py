@@ -13,6 +13,15 @@ from ray3d.skeleton import GROUP_NAMES, Skeleton
 from ray3d.temporal import target_frame
 
 
+def rie_encodings(x: torch.Tensor, causal: bool = False) -> torch.Tensor:
+    """(B, F, J, C) -> (B, F, J, 3C): the input with its positional (minus the root) and temporal (minus the
+    target frame) encodings."""
+    target = target_frame(x.shape[1], causal)
+    positional = x - x[:, :, :1]
+    temporal = x - x[:, target:target + 1]
+    return torch.cat([x, positional, temporal], dim=-1)
+
+
 class RIEBackbone(nn.Module):
     """(B, F, J, C) per-joint inputs -> per-group features {group: (B, channels)} and a global feature.
 
@@ -43,18 +52,10 @@ class RIEBackbone(nn.Module):
         """The joints of ``group`` as an index tensor (on the module's device)."""
         return getattr(self, f"_joints_{group}")
 
-    def encodings(self, x: torch.Tensor) -> torch.Tensor:
-        """(B, F, J, C) -> (B, F, J, 3C): the input with its positional and temporal (minus the target frame)
-        encodings."""
-        target = target_frame(x.shape[1], self.causal)
-        positional = x - x[:, :, :1]
-        temporal = x - x[:, target:target + 1]
-        return torch.cat([x, positional, temporal], dim=-1)
-
     def forward(self, x: torch.Tensor, extra: torch.Tensor | None = None) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
         """``extra``: optional (B, F, E) per-frame features given to every group and the global branch."""
         batch, frames = x.shape[:2]
-        encoded = self.encodings(x)
+        encoded = rie_encodings(x, self.causal)
         features = {}
         for g in self.groups:
             group_input = encoded.index_select(2, self.group_index(g)).reshape(batch, frames, -1)
