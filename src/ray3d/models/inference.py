@@ -44,7 +44,7 @@ def inference_network(model: LiftingNetwork) -> LiftingNetwork:
             setattr(fused, name, StackedRIEBranch(branch))
     fold_batch_norms(fused)
     fused.inference_form = True
-    return fused
+    return fused.to(next(model.parameters()).device)  # the index buffers were made on the CPU
 
 
 def _folded(weight: torch.Tensor, bias: torch.Tensor | None, norm: nn.BatchNorm1d) -> tuple[torch.Tensor, torch.Tensor]:
@@ -85,11 +85,11 @@ class StackedLinear(nn.Module):
         groups = len(weights)
         in_features = in_features or weights[0].shape[1]
         out_features = out_features or weights[0].shape[0]
-        weight = torch.zeros(groups, in_features, out_features)
-        bias = torch.zeros(groups, 1, out_features)
+        weight = weights[0].new_zeros(groups, in_features, out_features)
+        bias = weights[0].new_zeros(groups, 1, out_features)
         for g, (w, b) in enumerate(zip(weights, biases)):
             rows = slice(None) if out_rows is None else out_rows[g]
-            block = torch.zeros(in_features, w.shape[0])
+            block = w.new_zeros(in_features, w.shape[0])
             block[slice(None) if in_columns is None else in_columns[g]] = w.T
             weight[g][:, rows] = block
             bias[g, 0, rows] = b
