@@ -69,6 +69,7 @@ def undistort(xy_distorted: Array, dist: Array, initial: Array | None = None,
     k1, k2, p1, p2, k3 = _split(dist)
     xd, yd = xy_distorted[..., 0], xy_distorted[..., 1]
     x, y = (xd, yd) if initial is None else (initial[..., 0], initial[..., 1])
+    tolerance = _step_tolerance(x)
     for _ in range(iterations):
         r2 = x * x + y * y
         radial, slope = _radial_and_slope(r2, k1, k2, k3)
@@ -82,7 +83,7 @@ def undistort(xy_distorted: Array, dist: Array, initial: Array | None = None,
         x, y = x - step_x, y - step_y
         # Newton converges quadratically: once no step exceeds a few ulps more iterations change nothing (a
         # live stream's 17 points took 20 iterations of ~40 operations each). NaN steps count as done.
-        if not bool((abs(step_x) + abs(step_y) > _step_tolerance(x)).any()):
+        if not bool((abs(step_x) + abs(step_y) > tolerance).any()):
             break
     residual = distort(stack_last([x, y]), dist) - xy_distorted
     # Beyond the fold the Jacobian's determinant turns negative: such a root is not the physical ray.

@@ -7,6 +7,8 @@ import math
 import torch
 from torch import nn
 
+from ray3d.temporal import target_frame
+
 
 def receptive_field(kernels: tuple[int, ...]) -> int:
     """Frames seen by a stack of stride-equals-kernel convolutions: the product of the kernel widths."""
@@ -118,7 +120,7 @@ class TemporalEncoder(nn.Module):
             raise ValueError(f"TemporalEncoder: expected {self.receptive_field} frames, got {x.shape[1]}")
         x = self.expand(x)
         for k, block in zip(self.kernels[1:], self.blocks):
-            x = x[:, (k - 1 if self.causal else k // 2)::k] + block(x)
+            x = x[:, target_frame(k, self.causal)::k] + block(x)
         return x[:, 0]
 
 

@@ -22,7 +22,7 @@ from torch import nn
 
 from ray3d.models.blocks import BatchNorm, Dropout, TemporalEncoder
 from ray3d.models.network import LiftingNetwork, _Branch, branch_window
-from ray3d.models.rie import RIEBackbone, rie_encodings
+from ray3d.models.rie import RIEBackbone, rie_encodings, rie_global_input
 from ray3d.temporal import target_frame
 
 _SLOPE = 0.2  # the LeakyReLU of every unit (blocks._conv_unit, blocks.mlp)
@@ -100,7 +100,7 @@ class StackedLinear(nn.Module):
         return torch.baddbmm(self.bias, x, self.weight)
 
 
-def _unit(sequential: nn.Sequential) -> tuple[torch.Tensor, torch.Tensor]:
+def _folded_unit(sequential: nn.Sequential) -> tuple[torch.Tensor, torch.Tensor]:
     """(out, in) weight and (out,) bias of a Linear-BatchNorm pair, the norm folded in."""
     return _folded(sequential[0].weight, sequential[0].bias, sequential[1])
 
@@ -133,10 +133,10 @@ class StackedRIEBranch(nn.Module):
         k0 = self.kernels[0]
         columns = [_padded_columns(k0, per_joint * len(j) + extra, width, per_joint * len(j),
                                    per_joint * self.padded_joints) for j in groups]
-        self.expand = StackedLinear(*zip(*(_unit(e.expand) for e in encoders)), in_columns=columns,
+        self.expand = StackedLinear(*zip(*(_folded_unit(e.expand) for e in encoders)), in_columns=columns,
                                     in_features=k0 * width)
         self.blocks = nn.ModuleList(
-            nn.ModuleList(StackedLinear(*zip(*(_unit(e.blocks[b][u]) for e in encoders))) for u in range(2))
+            nn.ModuleList(StackedLinear(*zip(*(_folded_unit(e.blocks[b][u]) for e in encoders))) for u in range(2))
             for b in range(len(self.kernels) - 1))
         self.per_group = branch  # folded by ``inference_network``, as the modules shared with it below
         self.batch_per_group = BATCH_PER_GROUP
@@ -147,7 +147,7 @@ class StackedRIEBranch(nn.Module):
         self.register_buffer("others", torch.tensor([[o for o in range(count) if o != g] for g in range(count)]))
         if self.outputs == "pose":
             decoders = list(branch.decoders.values())
-            self.decode_hidden = StackedLinear(*zip(*(_unit(d) for d in decoders)))
+            self.decode_hidden = StackedLinear(*zip(*(_folded_unit(d) for d in decoders)))
             rows = [torch.arange(3 * len(j)) for j in groups]
             self.decode_out = StackedLinear([d[-1].weight for d in decoders], [d[-1].bias for d in decoders],
                                             out_rows=rows, out_features=3 * self.padded_joints)
@@ -175,13 +175,9 @@ class StackedRIEBranch(nn.Module):
             h = torch.cat([h, extra.expand(groups, -1, -1, -1)], dim=-1)
         h = self._unit(self.expand, h, self.kernels[0])
         for k, (wide, narrow) in zip(self.kernels[1:], self.blocks):
-            h = h[:, :, (k - 1 if self.causal else k // 2)::k] + self._unit(narrow, self._unit(wide, h, k), 1)
+            h = h[:, :, target_frame(k, self.causal)::k] + self._unit(narrow, self._unit(wide, h, k), 1)
         features = h[:, :, 0]  # (G, B, C)
-        target = target_frame(frames, self.causal)
-        global_input = x[:, target].reshape(batch, -1)
-        if extra is not None:
-            global_input = torch.cat([global_input, extra[:, target]], dim=-1)
-        global_feature = self.global_branch(global_input)
+        global_feature = self.global_branch(rie_global_input(x, extra, self.causal))
         if self.fusion is not None:
             others = features[self.others].permute(0, 2, 1, 3).reshape(groups, batch, -1)
             features = features + F.leaky_relu(self.fusion(others), _SLOPE)

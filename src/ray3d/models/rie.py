@@ -22,6 +22,14 @@ def rie_encodings(x: torch.Tensor, causal: bool = False) -> torch.Tensor:
     return torch.cat([x, positional, temporal], dim=-1)
 
 
+def rie_global_input(x: torch.Tensor, extra: torch.Tensor | None, causal: bool = False) -> torch.Tensor:
+    """(B, F, J, C) inputs and optional (B, F, E) extra features -> (B, J * C + E): the target frame's, which
+    the global branch sees."""
+    target = target_frame(x.shape[1], causal)
+    global_input = x[:, target].reshape(x.shape[0], -1)
+    return global_input if extra is None else torch.cat([global_input, extra[:, target]], dim=-1)
+
+
 class RIEBackbone(nn.Module):
     """(B, F, J, C) per-joint inputs -> per-group features {group: (B, channels)} and a global feature.
 
@@ -62,11 +70,7 @@ class RIEBackbone(nn.Module):
             if extra is not None:
                 group_input = torch.cat([group_input, extra], dim=-1)
             features[g] = self.encoders[g](group_input)
-        target = target_frame(frames, self.causal)
-        global_input = x[:, target].reshape(batch, -1)
-        if extra is not None:
-            global_input = torch.cat([global_input, extra[:, target]], dim=-1)
-        global_feature = self.global_branch(global_input)
+        global_feature = self.global_branch(rie_global_input(x, extra, self.causal))
         if self.fusion is not None:
             features = {g: f + self.fusion[g](torch.cat([features[o] for o in self.groups if o != g], dim=-1))
                         for g, f in features.items()}
