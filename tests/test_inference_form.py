@@ -21,6 +21,8 @@ from ray3d.models.inference import BATCH_PER_GROUP, StackedRIEBranch, inference_
 CONFIGS = {**PRESETS,
            "root27": preset("ray3d", name="root27", root_kernels=(3, 3, 3)),
            "humaneva15": preset("ray3d", name="humaneva15", layout="humaneva15"),
+           "detector18": preset("ray3d", name="detector18", layout="detector18", output_layout="h36m17",
+                                confidence_input=True),
            "paper-small": preset("ray3d-paper", name="paper-small", channels=16, hidden=32)}
 CONFIGS.pop("ray3d-paper")  # its 46 M parameters: the small copy has the same structure (fusion)
 

@@ -137,7 +137,7 @@ def test_joint_offsets_are_mirrored_and_move_with_the_body(rng):
 
     windows = rng.normal(0, 0.2, (4, 9, 17, 3)) + [0, 0, 1.0]
     offsets = rng.normal(0, 0.03, (4, 17, 3))
-    moved = offset_joints(windows, offsets)
+    moved = offset_joints(windows, body_frames(windows), offsets, H36M17)
     local = np.einsum("bfji,bfkj->bfki", body_frames(windows), moved - windows)  # back in the body frame
     np.testing.assert_allclose(local, np.broadcast_to(local[:, :1], local.shape), atol=1e-12)  # same every frame
     l_hip, r_hip, spine = (H36M17.index(n) for n in ("l_hip", "r_hip", "spine"))
@@ -146,13 +146,13 @@ def test_joint_offsets_are_mirrored_and_move_with_the_body(rng):
 
 
 def test_detector_noise_grows_with_the_person_and_legs_swap(rng):
-    from ray3d.data.samples import LEG_SWAP
+    from ray3d.data.samples import leg_swap
 
     config = SampleConfig(flip_probability=0.0, noise_height_fraction=(0.02, 0.02), swap_probability=1.0)
     batch = SampleGenerator(_motion(rng), config, NINE, seed=9).batch(256)
     cams = batch.cameras
     clean = tf.camera_to_pixels(tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None]),
-                                cams.intrinsics[:, None])[:, LEG_SWAP]
+                                cams.intrinsics[:, None])[:, leg_swap(H36M17)]
     span = np.ptp(clean, axis=1).max(-1)
     residual = (batch.pixels[:, 4] - clean) / span[:, None, None]
     assert np.std(residual) == pytest.approx(0.02, rel=0.1)

@@ -26,8 +26,9 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.camera_files import load_cameras
 from ray3d.models.inference import inference_network
-from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
-from ray3d.refine import refine_track
+from ray3d.models.network import LiftingNetwork, predict_world
+from ray3d.models.tensor_batch import TensorBatch
+from ray3d.refine import joint_directions, refine_track
 from ray3d.skeleton import H36M17, layout_skeleton
 from ray3d.temporal import Window, sequence_windows
 
@@ -55,11 +56,12 @@ def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Ca
     if noise_px > 0 and rng is None:
         rng = np.random.default_rng(0)
     window, remove_roll = _window(model), model != RFRH and model.config.remove_roll
+    layout = "h36m17" if model == RFRH else model.config.layout
     out, target_pixels = [], []
     for start in range(0, len(windows), chunk):
         part = windows[start:start + chunk]
         batch = observe(part, CameraBatch.repeated(camera, len(part)), window, remove_roll,
-                        rng if noise_px > 0 else None, SampleConfig(noise_px=noise_px))
+                        rng if noise_px > 0 else None, SampleConfig(noise_px=noise_px), layout)
         told, rays = batch.cameras, batch.rays
         if given is not camera:  # the pixels stay the true camera's; everything else is the given camera's
             told = CameraBatch.repeated(given, len(part))
@@ -140,8 +142,9 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
             predicted, pixels = predicted
             for k, i in enumerate(seen):
                 track = slice(bounds[k], bounds[k + 1])
+                rays = joint_directions(given, pixels[track], model.config.input_skeleton, predicted[track])
                 predicted[track] = refine_track(predicted[track], given, float(motion.clips["fps"][i]) / frame_stride,
-                                                given.pixels_to_world_directions(pixels[track]))[0]
+                                                rays)[0]
         errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored])
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}

@@ -23,9 +23,11 @@ from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import LiftResult, World
 from ray3d.models.inference import inference_network
-from ray3d.models.network import LiftingNetwork, TensorBatch, predict_world
-from ray3d.refine import RefineConfig, refine_track
-from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
+from ray3d.models.network import LiftingNetwork, predict_world
+from ray3d.models.tensor_batch import TensorBatch
+from ray3d.refine import RefineConfig, joint_directions, refine_track
+from ray3d.skeleton import (H36M17, Skeleton, conversion_matrix, convert_confidences, convert_keypoints,
+                            layout_skeleton)
 
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
 
@@ -54,7 +56,7 @@ _FEET_RISE = 0.035
 
 def _check_feet_below_horizon(pixels: np.ndarray, found: np.ndarray, camera: Camera) -> None:
     """Refuse a camera that would see the person's feet, most of the time, on rays rising above the horizon:
-    (T, 17, 2) H36M-17 pixels, (T, 17) which were detected."""
+    (T, 17, 2) H36M-17 pixels, (T, 17) which were detected (the ankles are the detector's own)."""
     if camera.center[2] <= _HIGHEST_FEET_CAMERA_M:
         return
     ankles = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
@@ -68,6 +70,16 @@ def _check_feet_below_horizon(pixels: np.ndarray, found: np.ndarray, camera: Cam
                          f"the feet lie above the horizon in {100 * rising:.0f}% of "
                          "detections, where no one standing on the floor can be: check the camera's pitch "
                          "(positive looks down) or its rotation", arguments=("camera",))
+
+
+def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np.ndarray | None,
+                      inputs: Skeleton) -> np.ndarray:
+    """The (T, J_inputs) confidences a model reads: the detector's (clipped to [0, 1]; 1 where it gave none),
+    0 where a joint is missing, converted to the model's input layout (a derived joint as sure as its least
+    sure source)."""
+    seen = np.isfinite(keypoints).all(-1)
+    scores = np.ones(seen.shape) if confidences is None else np.clip(np.nan_to_num(confidences), 0.0, 1.0)
+    return convert_confidences(np.where(seen, scores, 0.0), skeleton, inputs)
 
 
 class Lifter:
@@ -85,7 +97,7 @@ class Lifter:
     @classmethod
     def load(cls, name_or_path: str = "ray3d", device: str | None = None, backend: str = "torch",
              image_width: float = 1000.0) -> Lifter:
-        """A shipped model by name (``ray3d``, ``videopose3d``, ``rie``, ...) or a checkpoint path.
+        """A shipped model by name (``ray3d``, ``ray3d-detector``, ``videopose3d``, ...) or a checkpoint path.
 
         ``backend="torchscript"`` runs a frozen TorchScript trace on the CPU (lowest latency with torch alone:
         live use); ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``). Pixel-input
@@ -139,27 +151,41 @@ class Lifter:
             if confidences.shape != keypoints.shape[:2]:
                 raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {confidences.shape}")
         _check_in_image(keypoints, camera)
-        pixels, found = convert_keypoints(keypoints, skeleton, confidences)
-        _check_feet_below_horizon(pixels, found, camera)
-        missing = ~found
-        never_seen = [H36M17.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
+        h36m_pixels, h36m_found = convert_keypoints(keypoints, skeleton, confidences)
+        _check_feet_below_horizon(h36m_pixels, h36m_found, camera)
+        inputs = self._input_skeleton(skeleton)
+        pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
+        scores = model_confidences(keypoints, skeleton, confidences, inputs)
+        never_seen = [inputs.joint_names[j] for j in np.flatnonzero(~found.any(axis=0))]
         if never_seen:
             raise InputError(f"keypoints: joint(s) {', '.join(never_seen)} missing in every frame (NaN or confidence 0)")
         input_fps = fps or MODEL_FPS
-        pixels = temporal.smooth(temporal.fill_missing(pixels, missing), smooth_2d, input_fps)
+        pixels = temporal.smooth(temporal.fill_missing(pixels, ~found), smooth_2d, input_fps)
         resampled = temporal.needs_resampling(input_fps, MODEL_FPS)
-        model_pixels = temporal.resample(pixels, input_fps, MODEL_FPS) if resampled else pixels
-        joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress)
+        model_pixels, model_scores = ((temporal.resample(pixels, input_fps, MODEL_FPS),
+                                       temporal.resample(scores, input_fps, MODEL_FPS)) if resampled else (pixels, scores))
+        joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress, model_scores)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
         refinement = None
         if refine:
-            joints, found = refine_track(joints, camera, input_fps, camera.pixels_to_world_directions(pixels),
-                                         temporal.seen_frames(missing),
+            joints, found = refine_track(joints, camera, input_fps, joint_directions(camera, pixels, inputs, joints),
+                                         temporal.seen_frames(~h36m_found),
                                          refine if isinstance(refine, RefineConfig) else RefineConfig())
             refinement = found.summary()
         joints = temporal.smooth(joints, smooth_3d, input_fps)
-        return LiftResult(joints, missing, input_fps, np.arange(len(joints)), refinement=refinement)
+        return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement)
+
+    def _input_skeleton(self, skeleton: Skeleton) -> Skeleton:
+        """The model's input layout, after checking that keypoints of ``skeleton`` give its joints."""
+        inputs = self.model.config.input_skeleton
+        try:
+            conversion_matrix(skeleton.name, inputs.name)
+        except InputError:
+            raise InputError(f"keypoints: model {self.name} reads {inputs.name} joints, which {skeleton.name} keypoints "
+                             "do not have; lift them with a model of H36M-17 input such as ray3d",
+                             arguments=("checkpoint",)) from None
+        return inputs
 
     def lift_tracks(self, tracks: dict, camera: Camera, layout: str = "h36m17", fps: float | None = None,
                     **options) -> dict:
@@ -195,7 +221,9 @@ class Lifter:
 
     @torch.no_grad()
     def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int,
-                     progress: bool | str = False) -> np.ndarray:
+                     progress: bool | str = False, confidences: np.ndarray | None = None) -> np.ndarray:
+        """(T, J, 2) pixels of the model's input layout (gaps filled) and their (T, J) confidences -> (T, 17, 3)
+        world joints."""
         rays = camera.pixels_to_rays(pixels, remove_roll=self.model.config.remove_roll)
         if not np.isfinite(rays).all():
             raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
@@ -209,18 +237,19 @@ class Lifter:
                    disable=not progress or count <= chunk)
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
-            out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], cameras, flip_test)
+            out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], cameras, flip_test,
+                                                              None if confidences is None else confidences[part])
             bar.update(len(part))
         bar.close()
         return out
 
     @torch.no_grad()
     def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, one_camera: CameraBatch,
-                      flip_test: bool) -> np.ndarray:
-        """(N, F, 17, 2) pixel and (N, F, 17, 3) ray windows seen by ``one_camera`` (a batch of one) -> (N, 17, 3)
-        world joints."""
+                      flip_test: bool, confidences: np.ndarray | None = None) -> np.ndarray:
+        """(N, F, J, 2) pixel, (N, F, J, 3) ray and optional (N, F, J) confidence windows of the model's input
+        layout seen by ``one_camera`` (a batch of one) -> (N, 17, 3) world joints."""
         cameras = one_camera.take(np.zeros(len(pixels), dtype=int))
-        batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device)
+        batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device, confidences)
         return predict_world(self.model, batch, cameras, flip_test).cpu().numpy()
 
     def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False) -> LiftStream:
@@ -261,8 +290,8 @@ class LiftStream:
     outputs equal ``Lifter.lift`` on the whole sequence to float rounding (frames at the model's 60 fps, no
     smoothing, no refinement, which needs the whole track).
 
-    A joint missing from a frame (NaN or confidence 0) keeps its last seen position; one not seen yet takes
-    its parent's, as a detector's miss is simulated in training.
+    A joint missing from a frame (NaN or confidence 0) keeps its last seen position (with confidence 0); one
+    not seen yet takes its parent's, as a detector's miss is simulated in training.
     """
 
     def __init__(self, lifter: Lifter, camera: Camera, layout: str = "h36m17", flip_test: bool = False):
@@ -272,16 +301,18 @@ class LiftStream:
         self.delay = config.window.delay
         self.remove_roll = config.remove_roll
         self._cameras = CameraBatch.from_cameras([camera])
-        self._pixels: np.ndarray | None = None   # (F, 17, 2) the current window
-        self._rays: np.ndarray | None = None     # (F, 17, 3)
-        self._last_seen = np.full((17, 2), np.nan)
+        self.inputs = lifter._input_skeleton(self.skeleton)  # the joints the model reads
+        self._pixels: np.ndarray | None = None   # (F, J, 2) the current window, of the model's input layout
+        self._rays: np.ndarray | None = None     # (F, J, 3)
+        self._scores: np.ndarray | None = None   # (F, J) confidences
+        self._last_seen = np.full((self.inputs.num_joints, 2), np.nan)
         self.pushed = 0       # frames pushed so far
         self.answered = 0     # frames answered so far
 
     def push(self, keypoints, confidences=None) -> np.ndarray | None:
         """One frame's pixels (J, 2) in the stream's layout -> world joints (17, 3) of frame ``answered``
         (the frame just pushed for a causal model), or None while a centred model waits for future frames."""
-        self._append(self._prepare(keypoints, confidences))
+        self._append(*self._prepare(keypoints, confidences))
         self.pushed += 1
         return self._answer() if self.pushed > self.delay else None
 
@@ -290,12 +321,12 @@ class LiftStream:
         answers, window_end = [], self.pushed - 1  # the frame index the window ends at
         while self.answered < self.pushed:
             while window_end < self.answered + self.delay:
-                self._append(self._pixels[-1])
+                self._append(self._pixels[-1], self._scores[-1])
                 window_end += 1
             answers.append(self._answer())
         return answers
 
-    def _prepare(self, keypoints, confidences) -> np.ndarray:
+    def _prepare(self, keypoints, confidences) -> tuple[np.ndarray, np.ndarray]:
         keypoints = np.asarray(keypoints, dtype=np.float64)
         if keypoints.shape != (self.skeleton.num_joints, 2):
             raise InputError(f"keypoints: expected ({self.skeleton.num_joints}, 2) for layout {self.skeleton.name}, "
@@ -304,17 +335,19 @@ class LiftStream:
             confidences = np.asarray(confidences, dtype=np.float64)
             if confidences.shape != keypoints.shape[:1]:
                 raise InputError(f"confidences: expected shape {keypoints.shape[:1]}, got {confidences.shape}")
-        pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences)
+        pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences, self.inputs)
+        scores = model_confidences(keypoints[None], self.skeleton, None if confidences is None else confidences[None],
+                                   self.inputs)[0]
         self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
         filled = self._last_seen.copy()
         if np.isnan(filled[0]).any():
             raise InputError("keypoints: the root (pelvis, or both hips) has not been seen yet")
-        for joint, parent in enumerate(H36M17.parents):  # parents come before their children
+        for joint, parent in enumerate(self.inputs.parents):  # parents come before their children
             if parent >= 0 and np.isnan(filled[joint]).any():
                 filled[joint] = filled[parent]
-        return filled
+        return filled, scores
 
-    def _append(self, pixels: np.ndarray) -> None:
+    def _append(self, pixels: np.ndarray, scores: np.ndarray) -> None:
         rays = self.camera.pixels_to_rays(pixels, remove_roll=self.remove_roll)
         if not np.isfinite(rays).all():
             raise InputError(f"keypoints: some lie where camera {self.camera.name or ''}'s lens model cannot be "
@@ -322,10 +355,13 @@ class LiftStream:
         if self._pixels is None:
             self._pixels = np.repeat(pixels[None], self.frames, axis=0)
             self._rays = np.repeat(rays[None], self.frames, axis=0)
+            self._scores = np.repeat(scores[None], self.frames, axis=0)
         else:
             self._pixels = np.concatenate([self._pixels[1:], pixels[None]])
             self._rays = np.concatenate([self._rays[1:], rays[None]])
+            self._scores = np.concatenate([self._scores[1:], scores[None]])
 
     def _answer(self) -> np.ndarray:
         self.answered += 1
-        return self.lifter._lift_windows(self._pixels[None], self._rays[None], self._cameras, self.flip_test)[0]
+        return self.lifter._lift_windows(self._pixels[None], self._rays[None], self._cameras, self.flip_test,
+                                         self._scores[None])[0]

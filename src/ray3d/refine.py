@@ -31,7 +31,7 @@ from scipy.sparse.linalg import splu
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.skeleton import H36M17
+from ray3d.skeleton import H36M17, Skeleton
 
 _I = H36M17.index
 ANKLES = (_I("l_ankle"), _I("r_ankle"))
@@ -86,6 +86,17 @@ def body_sizes(joints: np.ndarray) -> np.ndarray:
         return np.linalg.norm(np.diff(points, axis=-2), axis=-1).sum(-1)
 
     return chain(TRUNK_CHAIN) + (chain(LEGS[0]) + chain(LEGS[1])) / 2
+
+
+def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton, joints: np.ndarray) -> np.ndarray:
+    """(T, 17, 3) world directions of the H36M-17 joints' observed rays: the ray of the (T, J, 2) pixel of the
+    same joint of ``skeleton`` where it has one, else the direction from the camera towards where the network
+    put the joint (``joints``, (T, 17, 3) world), which no detector measured."""
+    directions = np.asarray(joints, dtype=np.float64) - camera.center
+    pairs = [(H36M17.index(name), j) for j, name in enumerate(skeleton.joint_names) if name in H36M17.joint_names]
+    lifted, seen = (list(index) for index in zip(*pairs))
+    directions[:, lifted] = camera.pixels_to_world_directions(np.asarray(pixels, dtype=np.float64)[:, seen])
+    return directions
 
 
 def scale_about(joints: np.ndarray, centre: np.ndarray, scale: np.ndarray) -> np.ndarray:

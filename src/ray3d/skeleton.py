@@ -134,7 +134,19 @@ HALPE26 = Skeleton(
                           "l_heel", "r_heel"),
     (18, 0, 0, 1, 2, 18, 18, 5, 6, 7, 8, 19, 19, 11, 12, 13, 14, 18, 19, -1, 15, 16, 15, 16, 15, 16),
 )
-LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, HALPE26, BLAZEPOSE33, BODY25)}
+# The input of detector-native models: the joints every detector layout above measures (COCO-17's) and the
+# pelvis, the mid-hips, first: the root that ray models need. The mocap's pelvis is the mid-hips too, so nothing
+# in it is synthesised. Parents come before their children (a missed joint collapses onto its parent).
+DETECTOR18 = Skeleton(
+    "detector18",
+    ("pelvis", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle", "l_shoulder", "r_shoulder", "l_elbow",
+     "r_elbow", "l_wrist", "r_wrist", "nose", "l_eye", "r_eye", "l_ear", "r_ear"),
+    (-1, 0, 0, 1, 2, 3, 4, 1, 2, 7, 8, 9, 10, 0, 13, 13, 14, 15),
+)
+LAYOUTS = {s.name: s for s in (H36M17, H36M14, HUMANEVA15, MPI_INF_3DHP17, COCO17, HALPE26, BLAZEPOSE33, BODY25,
+                               DETECTOR18)}
+# Layouts that detectors produce, which convert to the detector-native models' input by name alone.
+DETECTOR_LAYOUTS = ("coco17", "halpe26", "blazepose33", "body25")
 
 # How far the head top lies beyond the mid-ears, as a fraction of the thorax -> mid-ears vector.
 HEAD_TOP_EXTENSION = 0.5
@@ -155,6 +167,7 @@ _RECIPES: dict[tuple[str, str], dict[str, dict[str, float]]] = {
     ("blazepose33", "h36m17"): _FACE_TO_H36M,
     ("body25", "h36m17"): _FACE_TO_H36M,
     ("3dhp17", "h36m17"): {"neck_nose": {"neck": 1.0}, "head": {"head_top": 1.0}},
+    **{(layout, "detector18"): {"pelvis": _FACE_TO_H36M["pelvis"]} for layout in DETECTOR_LAYOUTS},
 }
 
 
@@ -222,16 +235,17 @@ def convert_confidences(confidences: Array, source: str | Skeleton, target: str 
     return xp.amin(xp.where(used, confidences[..., None, :], inf), -1)
 
 
-def convert_keypoints(keypoints: np.ndarray, source: str | Skeleton,
-                      confidences: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def convert_keypoints(keypoints: np.ndarray, source: str | Skeleton, confidences: np.ndarray | None = None,
+                      target: str | Skeleton = "h36m17") -> tuple[np.ndarray, np.ndarray]:
     """A detector's (..., J_source, 2) pixels (NaN where missing; optional (..., J_source) confidences, 0 =
-    missing) -> (..., 17, 2) H36M-17 pixels, NaN where missing, and (..., 17) whether each joint was seen. A
-    derived joint (e.g. the pelvis from two hips) is missing when any of its sources is."""
+    missing) -> (..., J_target, 2) pixels of ``target`` (H36M-17 unless told), NaN where missing, and
+    (..., J_target) whether each joint was seen. A derived joint (e.g. the pelvis from two hips) is missing when
+    any of its sources is."""
     seen = np.isfinite(keypoints).all(-1)
     if confidences is not None:
         seen &= np.asarray(confidences) > 0
-    found = convert_confidences(seen.astype(np.float64), source, "h36m17") > 0
-    pixels = convert(np.where(seen[..., None], keypoints, 0.0), source, "h36m17")
+    found = convert_confidences(seen.astype(np.float64), source, target) > 0
+    pixels = convert(np.where(seen[..., None], keypoints, 0.0), source, target)
     return np.where(found[..., None], pixels, np.nan), found
 
 

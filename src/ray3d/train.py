@@ -22,7 +22,8 @@ from ray3d.data.motion import MotionSet, load_shipped
 from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
 from ray3d.errors import InputError
-from ray3d.models.network import LiftingNetwork, ModelConfig, TensorBatch, lifting_loss, predict_world
+from ray3d.models.network import LiftingNetwork, ModelConfig, lifting_loss, predict_world
+from ray3d.models.tensor_batch import TensorBatch
 from ray3d.models.presets import preset
 
 DATA_PROVENANCE = ("CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu; free for research and commercial "
@@ -62,6 +63,9 @@ class TrainConfig:
                 samples["cameras"] = CameraRanges(**{k: tuple(v) if isinstance(v, list) else v
                                                      for k, v in samples["cameras"].items()})
             self.samples = SampleConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in samples.items()})
+        if self.model.output_skeleton.name != "h36m17":
+            raise InputError(f"model {self.model.name}: the mocap trains H36M-17 outputs, not "
+                             f"{self.model.output_skeleton.name} (set output_layout to h36m17)")
 
     @classmethod
     def from_dict(cls, document: dict[str, Any]) -> TrainConfig:
@@ -108,7 +112,8 @@ def sample_generator(config: TrainConfig, split: str, samples: SampleConfig, see
     """Samples of ``split``'s performers (``motion``, when already loaded) cut and seen the way
     ``config.model`` reads them."""
     motion = motion if motion is not None else load_shipped(config.data_dir, split, config.datasets)
-    return SampleGenerator(motion, samples, config.model.window, config.model.remove_roll, seed=seed)
+    return SampleGenerator(motion, samples, config.model.window, config.model.remove_roll, seed=seed,
+                           layout=config.model.layout)
 
 
 def validation_batch(config: TrainConfig) -> Batch:
@@ -120,7 +125,7 @@ def validation_batch(config: TrainConfig) -> Batch:
 
 def batch_tensors(batch: Batch, device: str | torch.device = "cpu") -> TensorBatch:
     """A training batch as the network's input."""
-    return TensorBatch.from_arrays(batch.pixels, batch.rays, batch.cameras, device)
+    return TensorBatch.from_arrays(batch.pixels, batch.rays, batch.cameras, device, batch.confidences)
 
 
 @torch.no_grad()
@@ -131,7 +136,7 @@ def world_errors_mm(model: LiftingNetwork, batch: Batch, device: torch.device, c
     model.eval()
     predictions = []
     for start in range(0, len(batch.root), chunk):
-        part = _slice(batch, slice(start, start + chunk))
+        part = batch.take(slice(start, start + chunk))
         predictions.append(predict_world(model, batch_tensors(part, device), part.cameras).cpu().numpy())
     predicted = np.concatenate(predictions)
     target = batch.world.astype(np.float64)
@@ -139,10 +144,6 @@ def world_errors_mm(model: LiftingNetwork, batch: Batch, device: torch.device, c
             "mpjpe_mm": 1e3 * float(metrics.mpjpe(predicted, target)),
             "mrpe_mm": 1e3 * float(metrics.mrpe(predicted, target))}
 
-
-def _slice(batch: Batch, index: slice) -> Batch:
-    return Batch(batch.pixels[index], batch.rays[index], batch.camera_params[index], batch.pose[index],
-                 batch.root[index], batch.visible[index], batch.cameras.take(index), batch.world[index])
 
 
 def _warming_ema(decay: float):
@@ -185,7 +186,7 @@ def training_step(trained: torch.nn.Module, model: LiftingNetwork, optimizer: to
                   share: slice = slice(None)) -> np.ndarray:
     """One optimisation step of ``trained`` (``model``, or its data-parallel wrapper) on this process's
     ``share`` of a batch drawn from ``generator``; returns [loss, pose error (m), root error (relative)]."""
-    batch = _slice(generator.batch(batch_size), share)
+    batch = generator.batch(batch_size).take(share)
     tensors = batch_tensors(batch, device)
     target_pose, target_root = model.targets(tensors, torch.from_numpy(batch.pose).to(device),
                                              torch.from_numpy(batch.root).to(device))

@@ -3,7 +3,8 @@ with its calibration, where there is no ground truth, and from a detector-emulat
 where the errors against the truth are measured as well; each with the track-level refinement off and on.
 
 The emulation: each test clip seen by a random camera mounted as users mount them (2.5-10 m high, 6-35 m away),
-2D with a detector's jitter (0.5 px plus 1.5 % of the person's height in the image) and 2 % of joints missed.
+2D with a detector's jitter (0.5 px plus 1.5 % of the person's height in the image) and 2 % of joints missed, in
+the layout the model reads: H36M-17, or COCO-17 (face points placed as in training) for a detector-native model.
 """
 
 from __future__ import annotations
@@ -16,10 +17,12 @@ import numpy as np
 from ray3d import metrics
 from ray3d.bench.physical import CHECKS, summarise, track_checks
 from ray3d.data.motion import MotionSet
+from ray3d.data.samples import detector_points
 from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.lift import Lifter
+from ray3d.skeleton import COCO17, H36M17, Skeleton, layout_skeleton
 
 EMULATED_CAMERAS = CameraRanges(height_m=(2.5, 10.0), distance_m=(6.0, 35.0), pitch_deg=(0.0, 40.0), roll_deg=3.0,
                                 hfov_deg=(30.0, 70.0), image_size=(1280, 720), principal_offset_px=20.0,
@@ -30,14 +33,23 @@ EMULATED_FPS = 30.0            # the clips (60 fps) are seen at a surveillance c
 REFINE = (False, True)
 
 
-def emulated_detections(clip: np.ndarray, camera: Camera, rng: np.random.Generator) -> np.ndarray:
-    """(T, 17, 2) pixels of a (T, 17, 3) clip as a detector would report them (NaN where missed)."""
-    pixels = camera.project(clip)
+def emulated_detections(clip: np.ndarray, camera: Camera, rng: np.random.Generator,
+                        layout: Skeleton = H36M17) -> np.ndarray:
+    """(T, J, 2) pixels of ``layout`` of a (T, 17, 3) H36M-17 clip as a detector would report them (NaN where
+    missed)."""
+    pixels = camera.project(detector_points(clip, layout))
     height = np.ptp(pixels[..., 1], axis=1)
     noisy = pixels + rng.normal(0.0, 1.0, pixels.shape) * (EMULATED_NOISE[0] + EMULATED_NOISE[1] * height)[:, None, None]
     missed = rng.random(pixels.shape[:2]) < EMULATED_MISSES
-    missed[:, 0] = False  # the pelvis comes from both hips; keep it so every frame has a root
+    # The pelvis, or the hips it comes from, is kept, so that every frame has a root.
+    root = ["pelvis"] if "pelvis" in layout.joint_names else ["l_hip", "r_hip"]
+    missed[:, [layout.index(name) for name in root]] = False
     return np.where(missed[..., None], np.nan, noisy)
+
+
+def emulated_layout(lifter: Lifter) -> Skeleton:
+    """What the emulated detector reports for ``lifter``: H36M-17 for a model that reads it, else COCO-17."""
+    return H36M17 if lifter.model.config.input_skeleton.name == H36M17.name else COCO17
 
 
 def _camera_seeing(clip: np.ndarray, rng: np.random.Generator, attempts: int = 50) -> Camera | None:
@@ -49,9 +61,9 @@ def _camera_seeing(clip: np.ndarray, rng: np.random.Generator, attempts: int = 5
 
 
 def run_emulated(lifter: Lifter, motion: MotionSet, pairs: int = 12, seed: int = 0,
-                 max_frames: int = 600, smooth_3d: str | None = None) -> list[dict]:
+                 max_frames: int = 600, smooth_3d: str | None = None, layout: str | None = None) -> list[dict]:
     """One row per (clip, camera, refinement): the errors against the truth and the physical checks
-    (``smooth_3d`` as for ``Lifter.lift``)."""
+    (``smooth_3d`` as for ``Lifter.lift``); the detector reports ``layout`` (default: ``emulated_layout``)."""
     rng = np.random.default_rng(seed)
     step = int(round(60.0 / EMULATED_FPS))
     rows = []
@@ -60,10 +72,12 @@ def run_emulated(lifter: Lifter, motion: MotionSet, pairs: int = 12, seed: int =
         camera = _camera_seeing(clip, rng)
         if camera is None:
             continue
-        pixels = emulated_detections(clip, camera, rng)
+        seen = layout_skeleton(layout) if layout else emulated_layout(lifter)
+        pixels = emulated_detections(clip, camera, rng, seen)
         distance = float(np.median(np.linalg.norm(clip[:, 0] - camera.center, axis=-1)))
         for refine in REFINE:
-            result = lifter.lift(pixels, camera, fps=EMULATED_FPS, refine=refine, smooth_3d=smooth_3d)
+            result = lifter.lift(pixels, camera, fps=EMULATED_FPS, layout=seen.name, refine=refine,
+                                 smooth_3d=smooth_3d)
             rows.append({"pair": pair, "clip": str(motion.clips["clip_id"][pair % motion.num_clips]),
                          "refine": refine, "camera_height_m": camera.camera_height, "distance_m": distance,
                          "mrpe_mm": 1e3 * float(metrics.mrpe(result.joints, clip)),

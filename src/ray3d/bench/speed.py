@@ -18,7 +18,8 @@ import torch
 
 from ray3d.models import PRESETS, LiftingNetwork
 from ray3d.models.inference import inference_network
-from ray3d.models.network import TensorBatch, count_parameters, flops_per_frame, lifting_loss
+from ray3d.models.network import count_parameters, flops_per_frame, lifting_loss
+from ray3d.models.tensor_batch import TensorBatch
 
 
 # Where each backend's matrix products run: every layer of our networks, the temporal convolutions included

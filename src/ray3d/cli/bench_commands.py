@@ -61,7 +61,7 @@ def real_video(args: argparse.Namespace) -> int:
             name = args.video.name
         video_rows = run_video(lifter, keypoints, read_camera(args.camera), args.smooth_3d)
     emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed,
-                            smooth_3d=args.smooth_3d)
+                            smooth_3d=args.smooth_3d, layout=args.emulated_layout)
     files = write(args.out, emulated, video_rows, name)
     print(files[1].read_text())
     print(f"-> {', '.join(map(str, files))}")

@@ -149,7 +149,8 @@ def export(args: argparse.Namespace) -> int:
 
         with atomic_path(args.out, overwrite=args.force) as temporary:
             export_onnx(load_model(args.checkpoint)[0], str(temporary), args.image_width)
-        print(f"wrote {args.out} (ONNX, opset 17, inputs pixels/rays/camera_params/intrinsics/roll, batch axis dynamic)")
+        print(f"wrote {args.out} (ONNX, opset 17, inputs pixels/rays/camera_params/intrinsics/roll, and confidences "
+              "for models that read them; batch axis dynamic)")
         return 0
     provenance = {"training": {"command": args.command_line, "time_s": args.time_s, "machine": args.machine}} \
         if args.command_line else {}
@@ -274,7 +275,7 @@ def lift(args: argparse.Namespace) -> int:
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
     written = ", ".join(dict.fromkeys(str(p) for p in export_paths(args.out, world).values()))
     print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
-          f"{args.checkpoint} through camera {camera.name or args.camera} -> {written} (metres, {world.frame} frame)")
+          f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {world.frame} frame)")
     if filled:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
     _print_refinements(world.tracks)

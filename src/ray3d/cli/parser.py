@@ -245,6 +245,8 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the lifted joints in time")
     real.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
     real.add_argument("--pairs", type=int, default=12, help="emulated (test clip, camera) pairs (default 12)")
+    real.add_argument("--emulated-layout", choices=["h36m17", "coco17"],
+                      help="what the emulated detector reports (default: what the model reads, H36M-17 or COCO-17)")
     real.add_argument("--seed", type=int, default=0)
     real.add_argument("--data-dir", help=data_dir_help)
     real.set_defaults(handler=bench_handlers.real_video)

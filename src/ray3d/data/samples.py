@@ -16,12 +16,23 @@ from ray3d.data.virtual_cameras import CameraRanges, sample_cameras
 from ray3d.errors import InputError
 from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
-from ray3d.skeleton import H36M17, Skeleton, flip, mirror_pixels
+from ray3d.skeleton import H36M17, LEG_PARTS, Skeleton, flip, layout_skeleton, mirror_pixels
 from ray3d.temporal import Window, window_indices
 
-# The joint order with the two legs swapped (a detector's commonest left/right error).
-LEG_SWAP = [H36M17.flip_permutation[j] if any(p in name for p in ("hip", "knee", "ankle")) else j
-            for j, name in enumerate(H36M17.joint_names)]
+# Face points detectors measure and the mocap lacks, placed from the upper neck (the mocap's neck/nose joint):
+# metres up the neck -> head axis, forward, and to the person's left, for an adult head.
+FACE_POINTS = {
+    "nose": (0.035, 0.105, 0.0),
+    "l_eye": (0.065, 0.085, 0.032), "r_eye": (0.065, 0.085, -0.032),
+    "l_ear": (0.03, 0.01, 0.075), "r_ear": (0.03, 0.01, -0.075),
+}
+# How fast a joint's confidence falls with its 2D noise (a fraction of the person's height in the image).
+CONFIDENCE_NOISE_SCALE = 0.05
+
+
+def leg_swap(skeleton: Skeleton) -> list[int]:
+    """The joint order with the two legs swapped (a detector's commonest left/right error)."""
+    return [skeleton.flip_permutation[j] if name[2:] in LEG_PARTS else j for j, name in enumerate(skeleton.joint_names)]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,10 +47,15 @@ class SampleConfig:
     # Detector noise grows with the person's size in the image: a standard deviation of this fraction (drawn
     # per sample) of the person's height in pixels, on top of noise_px.
     noise_height_fraction: tuple[float, float] = (0.0, 0.0)
+    # Each joint's noise differs from the sample's level by a log-normal factor of this spread per frame; its
+    # confidence falls as its noise grows (``CONFIDENCE_NOISE_SCALE``), to a power drawn per sample, since
+    # detectors' scores are calibrated differently.
+    noise_spread: float = 0.0
     drop_probability: float = 0.0                  # a dropped joint collapses onto its parent (a detector miss)
     swap_probability: float = 0.0                  # per frame: the detector swaps the left and right leg
     # Where a detector puts a joint differs from the mocap's joint (hips higher and wider, ankle or heel):
-    # each joint moves by this standard deviation in metres, in the body's frame, the same over a window.
+    # each seen joint moves by this standard deviation in metres, in the body's frame, the same over a window
+    # (the targets stay the mocap's joints).
     joint_offset_m: float = 0.0
     cameras: CameraRanges = CameraRanges()
 
@@ -48,9 +64,11 @@ class SampleConfig:
 class Batch:
     """One batch (B samples, F frames, J joints), float32 numpy arrays.
 
-    pixels (B, F, J, 2); rays (B, F, J, 3) in the NCS; camera_params (B, 2) = (height m, pitch rad);
-    pose (B, J, 3) root-relative NCS pose of the window's target frame (row 0 is zero); root (B, 3) NCS root; visible (B, F, J) False where a joint was dropped; cameras and
-    world (B, J, 3): the cameras and the target frame's world joints, to go back to the world (they describe the scene before any flip).
+    pixels (B, F, J, 2) and rays (B, F, J, 3) in the NCS of the J joints the model sees; camera_params (B, 2)
+    = (height m, pitch rad); pose (B, K, 3) root-relative NCS pose of the window's target frame (row 0 is zero)
+    and root (B, 3) NCS root, of the K H36M-17 joints; visible (B, F, J) False where a joint was dropped;
+    confidences (B, F, J) in [0, 1]; cameras and world (B, K, 3): the cameras and the target frame's world
+    joints, to go back to the world (they describe the scene before any flip).
     """
 
     pixels: np.ndarray
@@ -59,8 +77,15 @@ class Batch:
     pose: np.ndarray
     root: np.ndarray
     visible: np.ndarray
+    confidences: np.ndarray
     cameras: CameraBatch
     world: np.ndarray
+
+    def take(self, index) -> Batch:
+        """The samples at ``index`` (a slice or indices)."""
+        return Batch(self.pixels[index], self.rays[index], self.camera_params[index], self.pose[index],
+                     self.root[index], self.visible[index], self.confidences[index], self.cameras.take(index),
+                     self.world[index])
 
 
 def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton = H36M17) -> np.ndarray:
@@ -79,28 +104,56 @@ def scale_bones(positions: np.ndarray, factors: np.ndarray, skeleton: Skeleton =
 
 
 def body_frames(positions: np.ndarray) -> np.ndarray:
-    """(..., 3, 3) rotations whose columns are each pose's body axes in the world: x from the right hip to the
-    left hip (made horizontal), y forward, z up."""
+    """(..., 3, 3) axes of each (..., 17, 3) H36M-17 pose in the world, as columns: x to the person's left
+    (from the right hip to the left hip, made horizontal), y forward, z up (a mirror image of a rotation)."""
     across = positions[..., H36M17.index("l_hip"), :] - positions[..., H36M17.index("r_hip"), :]
     across = across * np.array([1.0, 1.0, 0.0])
     across /= np.maximum(np.linalg.norm(across, axis=-1, keepdims=True), 1e-9)
     up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), across.shape)
-    return np.stack([across, np.cross(up, across), up], -1)
+    return np.stack([across, np.cross(across, up), up], -1)
 
 
-def offset_joints(windows: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """(B, F, J, 3) world windows with each joint moved by (B, J, 3) ``offsets`` given in the body frame
-    (``body_frames``), mirrored between left and right joints (x negated), the same in every frame."""
+def detector_points(positions: np.ndarray, layout: str | Skeleton = "h36m17") -> np.ndarray:
+    """(..., 17, 3) H36M-17 mocap joints -> (..., J, 3) the joints of ``layout`` as a detector defines them:
+    joints of the same name as they are, face points (``FACE_POINTS``) from the upper neck, the neck -> head
+    axis and the body's forward direction."""
+    skeleton = layout_skeleton(layout)
+    if skeleton.name == H36M17.name:
+        return positions
+    unknown = [n for n in skeleton.joint_names if n not in H36M17.joint_names and n not in FACE_POINTS]
+    if unknown:
+        raise ValueError(f"detector_points: the mocap gives no joint {unknown[0]!r} of layout {skeleton.name}")
+    neck = positions[..., H36M17.index("neck_nose"), :]
+    up = positions[..., H36M17.index("head"), :] - neck
+    up /= np.maximum(np.linalg.norm(up, axis=-1, keepdims=True), 1e-9)
+    axes = body_frames(positions)
+    forward = axes[..., 1] - np.sum(axes[..., 1] * up, -1, keepdims=True) * up
+    forward /= np.maximum(np.linalg.norm(forward, axis=-1, keepdims=True), 1e-9)
+    left = np.cross(up, forward)
+    points = []
+    for name in skeleton.joint_names:
+        if name in FACE_POINTS:
+            along, ahead, side = FACE_POINTS[name]
+            points.append(neck + along * up + ahead * forward + side * left)
+        else:
+            points.append(positions[..., H36M17.index(name), :])
+    return np.stack(points, axis=-2)
+
+
+def offset_joints(points: np.ndarray, axes: np.ndarray, offsets: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(B, F, J, 3) world points of ``skeleton`` moved by (B, J, 3) ``offsets`` given in the body frame (``axes``
+    (B, F, 3, 3), see ``body_frames``), mirrored between left and right joints, the same in every frame."""
     offsets = offsets.copy()
-    left = list(H36M17.left)
-    offsets[:, left] = offsets[:, [H36M17.flip_permutation[i] for i in left]] * np.array([-1.0, 1.0, 1.0])
-    offsets[:, [i for i in range(H36M17.num_joints) if i not in H36M17.left + H36M17.right], 0] = 0.0
-    return windows + np.einsum("bfij,bkj->bfki", body_frames(windows), offsets)
+    left = list(skeleton.left)
+    offsets[:, left] = offsets[:, [skeleton.flip_permutation[i] for i in left]] * np.array([-1.0, 1.0, 1.0])
+    offsets[:, [i for i in range(skeleton.num_joints) if i not in skeleton.left + skeleton.right], 0] = 0.0
+    return points + np.einsum("bfij,bkj->bfki", axes, offsets)
 
 
 def flip_batch(batch: Batch, mask: np.ndarray, skeleton: Skeleton = H36M17) -> Batch:
     """Mirror the samples where (B,) ``mask`` is True: the scene mirrored in the NCS (rays and targets) and its
-    image about the principal point; (height, pitch) are unchanged. Flipping twice is the identity."""
+    image about the principal point; (height, pitch) are unchanged. ``skeleton``: the seen joints' layout (the
+    targets are H36M-17). Flipping twice is the identity."""
     def where_masked(flipped: np.ndarray, original: np.ndarray) -> np.ndarray:
         out = original.copy()
         out[mask] = flipped
@@ -110,64 +163,85 @@ def flip_batch(batch: Batch, mask: np.ndarray, skeleton: Skeleton = H36M17) -> B
     return dataclasses.replace(
         batch, pixels=where_masked(mirror_pixels(batch.pixels[mask], cx[:, None, None], skeleton), batch.pixels),
         rays=where_masked(flip(batch.rays[mask], skeleton), batch.rays),
-        pose=where_masked(flip(batch.pose[mask], skeleton), batch.pose),
+        pose=where_masked(flip(batch.pose[mask], H36M17), batch.pose),
         root=where_masked(batch.root[mask] * np.array([-1.0, 1.0, 1.0], dtype=np.float32), batch.root),
-        visible=where_masked(batch.visible[mask][..., list(skeleton.flip_permutation)], batch.visible))
+        visible=where_masked(batch.visible[mask][..., list(skeleton.flip_permutation)], batch.visible),
+        confidences=where_masked(batch.confidences[mask][..., list(skeleton.flip_permutation)], batch.confidences))
 
 
 def observe(windows: np.ndarray, cameras: CameraBatch, window: Window, remove_roll: bool = False,
-            rng: np.random.Generator | None = None, config: SampleConfig = SampleConfig()) -> Batch:
-    """See (B, F, J, 3) world windows (F = ``window.frames``) through one camera each and build the network's
-    inputs and the targets of the window's target frame.
+            rng: np.random.Generator | None = None, config: SampleConfig = SampleConfig(),
+            layout: str | Skeleton = "h36m17") -> Batch:
+    """See (B, F, 17, 3) H36M-17 world windows (F = ``window.frames``) through one camera each and build the
+    network's inputs, the joints of ``layout`` as a detector sees them (``detector_points``), and the targets
+    of the window's target frame.
 
-    With ``rng`` None nothing random happens (evaluation); otherwise the 2D noise and dropped joints of
-    ``config`` are applied (flip and bone scaling are the generator's). ``remove_roll`` selects the
-    gravity-aligned NCS for the rays and targets.
+    With ``rng`` None nothing random happens (evaluation); otherwise the joint offsets, 2D noise, confidences,
+    dropped joints and leg swaps of ``config`` are applied (flip and bone scaling are the generator's).
+    ``remove_roll`` selects the gravity-aligned NCS for the rays and targets.
     """
-    count, frames, joints, _ = windows.shape
+    count, frames, _, _ = windows.shape
     if frames != window.frames:
         raise ValueError(f"observe: windows of {frames} frames for a {window.frames}-frame window")
+    skeleton = layout_skeleton(layout)
+    seen_points = detector_points(windows, skeleton)
+    joints = skeleton.num_joints
+    if rng is not None and config.joint_offset_m > 0:
+        offsets = rng.normal(0.0, config.joint_offset_m, (count, joints, 3))
+        seen_points = offset_joints(seen_points, body_frames(windows), offsets, skeleton)
     R, t = cameras.R[:, None, None], cameras.t[:, None, None]
     intrinsics, dist = cameras.intrinsics[:, None, None], cameras.dist[:, None, None]
     has_distortion = cameras.has_distortion
-    points_camera = tf.world_to_camera(windows, R, t)
+    points_camera = tf.world_to_camera(seen_points, R, t)
     pixels = tf.camera_to_pixels(points_camera, intrinsics, dist if has_distortion else None)
     rays_camera = points_camera / points_camera[..., 2:3]  # exact, no round trip through the lens
     visible = np.ones((count, frames, joints), dtype=bool)
+    confidences = np.ones((count, frames, joints))
     if rng is not None and config.drop_probability > 0:
         visible = rng.random(visible.shape) >= config.drop_probability
         visible[..., 0] = True  # the root has no parent to collapse onto
-        parents = [max(p, 0) for p in H36M17.parents]
+        parents = [max(p, 0) for p in skeleton.parents]
         pixels = np.where(visible[..., None], pixels, pixels[..., parents, :])
         rays_camera = np.where(visible[..., None], rays_camera, rays_camera[..., parents, :])
     if rng is not None and config.swap_probability > 0:
         swapped = rng.random((count, frames)) < config.swap_probability
-        pixels = np.where(swapped[..., None, None], pixels[..., LEG_SWAP, :], pixels)
-        rays_camera = np.where(swapped[..., None, None], rays_camera[..., LEG_SWAP, :], rays_camera)
-    if rng is not None and config.noise_height_fraction[1] > 0:
+        swap = leg_swap(skeleton)
+        pixels = np.where(swapped[..., None, None], pixels[..., swap, :], pixels)
+        rays_camera = np.where(swapped[..., None, None], rays_camera[..., swap, :], rays_camera)
+    noisy = rng is not None and (config.noise_px > 0 or config.noise_height_fraction[1] > 0)
+    if noisy:
         seen = pixels[:, window.target]
         span = np.nanmax(np.nanmax(seen, axis=1) - np.nanmin(seen, axis=1), axis=-1)  # (B,) the person's size
-        sigma = config.noise_px + rng.uniform(*config.noise_height_fraction, count) * np.nan_to_num(span)
-        pixels = pixels + rng.normal(0.0, 1.0, pixels.shape) * sigma[:, None, None, None]
-    elif rng is not None and config.noise_px > 0:
-        pixels = pixels + rng.normal(0.0, config.noise_px, pixels.shape)
-    if rng is not None and (config.noise_px > 0 or config.noise_height_fraction[1] > 0):
+        span = np.maximum(np.nan_to_num(span), 1.0)
+        level = np.full(count, config.noise_px)
+        if config.noise_height_fraction[1] > 0:
+            level = level + rng.uniform(*config.noise_height_fraction, count) * span
+        sigma = np.broadcast_to(level[:, None, None], (count, frames, joints))
+        if config.noise_spread > 0:
+            sigma = sigma * np.exp(rng.normal(0.0, config.noise_spread, sigma.shape))
+        pixels = pixels + rng.normal(0.0, 1.0, pixels.shape) * sigma[..., None]
+        confidences = np.exp(-sigma / span[:, None, None] / CONFIDENCE_NOISE_SCALE)
+        if config.noise_spread > 0:
+            confidences = confidences ** np.exp(rng.uniform(np.log(0.5), np.log(2.0), (count, 1, 1)))
         # The clean ray is a close start for undistorting the noisy pixel; where a wide lens cannot be
         # inverted there, the clean ray stays.
-        noisy = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
-                                         initial_rays=rays_camera)
-        rays_camera = np.where(np.isfinite(noisy), noisy, rays_camera)
+        noisy_rays = tf.pixels_to_camera_rays(pixels, intrinsics, dist if has_distortion else None,
+                                              initial_rays=rays_camera)
+        rays_camera = np.where(np.isfinite(noisy_rays), noisy_rays, rays_camera)
+    confidences = np.where(visible, confidences, 0.0)
     roll = cameras.roll if remove_roll else None
     rays = tf.rays_camera_to_normalized(rays_camera, cameras.pitch[:, None, None],
                                         None if roll is None else roll[:, None, None])
     index = window.target
-    target = tf.camera_to_normalized(points_camera[:, index], cameras.height[:, None], cameras.pitch[:, None],
+    target_camera = tf.world_to_camera(windows[:, index], cameras.R[:, None], cameras.t[:, None])
+    target = tf.camera_to_normalized(target_camera, cameras.height[:, None], cameras.pitch[:, None],
                                      None if roll is None else roll[:, None])
     return Batch(
         pixels=pixels.astype(np.float32), rays=rays.astype(np.float32),
         camera_params=cameras.height_pitch.astype(np.float32),
         pose=(target - target[:, :1]).astype(np.float32), root=target[:, 0].astype(np.float32),
-        visible=visible, cameras=cameras, world=windows[:, index].astype(np.float32))
+        visible=visible, confidences=confidences.astype(np.float32), cameras=cameras,
+        world=windows[:, index].astype(np.float32))
 
 
 class SampleGenerator:
@@ -175,10 +249,11 @@ class SampleGenerator:
     bone scaling, flips and detector-like 2D noise, all vectorised."""
 
     def __init__(self, motion: MotionSet, config: SampleConfig, window: Window, remove_roll: bool = False,
-                 seed: int = 0):
+                 seed: int = 0, layout: str = "h36m17"):
         if motion.num_frames == 0:
             raise InputError("SampleGenerator: the motion set has no frames")
         self.motion, self.config, self.window, self.remove_roll = motion, config, window, remove_roll
+        self.skeleton = layout_skeleton(layout)
         self.rng = np.random.default_rng(seed)
         clip_of_frame = np.repeat(np.arange(motion.num_clips), motion.clip_lengths())
         self.first = motion.clip_start[:-1][clip_of_frame]
@@ -193,11 +268,9 @@ class SampleGenerator:
                                                                                 (size, H36M17.num_joints)))
         factors[:, H36M17.left] = factors[:, list(H36M17.flip_permutation[i] for i in H36M17.left)]
         windows = scale_bones(windows, factors[:, None])
-        if config.joint_offset_m > 0:
-            windows = offset_joints(windows, rng.normal(0.0, config.joint_offset_m, (size, H36M17.num_joints, 3)))
         cameras = sample_cameras(windows[:, self.window.target, 0], rng, config.cameras)
-        batch = observe(windows, cameras, self.window, self.remove_roll, rng, config)
-        return flip_batch(batch, rng.random(size) < config.flip_probability)
+        batch = observe(windows, cameras, self.window, self.remove_roll, rng, config, self.skeleton)
+        return flip_batch(batch, rng.random(size) < config.flip_probability, self.skeleton)
 
 
 THROUGHPUT_CASES = {

@@ -17,9 +17,10 @@ import torch
 from ray3d.errors import InputError
 from ray3d.geometry import CameraBatch
 from ray3d.models.inference import BATCH_PER_GROUP, inference_network
-from ray3d.models.network import LiftingNetwork, TensorBatch, frame_to_world, predict_with_flip
+from ray3d.models.network import LiftingNetwork, frame_to_world, predict_with_flip
+from ray3d.models.tensor_batch import TensorBatch
 
-INPUT_NAMES = ("pixels", "rays", "camera_params", "intrinsics", "roll")
+INPUT_NAMES = ("pixels", "rays", "camera_params", "intrinsics", "roll", "confidences")
 OUTPUT_NAMES = ("pose", "root")
 
 
@@ -30,8 +31,8 @@ class _TensorInputs(torch.nn.Module):
         super().__init__()
         self.model, self.image_width = model, image_width
 
-    def forward(self, pixels, rays, camera_params, intrinsics, roll):
-        return self.model(TensorBatch(pixels, rays, camera_params, intrinsics, roll, self.image_width))
+    def forward(self, pixels, rays, camera_params, intrinsics, roll, confidences):
+        return self.model(TensorBatch(pixels, rays, camera_params, intrinsics, roll, self.image_width, confidences))
 
 
 def _example_inputs(model: LiftingNetwork, image_width: float, batch: int = 2) -> tuple[torch.Tensor, ...]:
@@ -43,7 +44,8 @@ class _Backend:
     """What every backend shares: flip-test prediction and the way back to the world."""
 
     def __init__(self, model: LiftingNetwork, image_width: float):
-        self.config, self.skeleton, self.receptive_field = model.config, model.skeleton, model.receptive_field
+        self.config, self.receptive_field = model.config, model.receptive_field
+        self.skeleton, self.output_skeleton = model.skeleton, model.output_skeleton
         self.image_width = image_width
 
     def _check_width(self, batch: TensorBatch) -> None:
@@ -52,7 +54,7 @@ class _Backend:
                              f"{batch.image_width:g}")
 
     def predict(self, batch: TensorBatch, flip_test: bool = False):
-        return predict_with_flip(self, self.skeleton, batch, flip_test)
+        return predict_with_flip(self, self.config, batch, flip_test)
 
     def to_world(self, points: torch.Tensor, cameras: CameraBatch, camera_params: torch.Tensor) -> torch.Tensor:
         return frame_to_world(points, self.config.output_frame, cameras, camera_params, self.config.remove_roll)

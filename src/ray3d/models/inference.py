@@ -147,13 +147,15 @@ class StackedRIEBranch(nn.Module):
         self.register_buffer("others", torch.tensor([[o for o in range(count) if o != g] for g in range(count)]))
         if self.outputs == "pose":
             decoders = list(branch.decoders.values())
+            outputs = [branch.output_groups[g] for g in backbone.groups]
+            self.padded_outputs = max(len(j) for j in outputs)
             self.decode_hidden = StackedLinear(*zip(*(_folded_unit(d) for d in decoders)))
-            rows = [torch.arange(3 * len(j)) for j in groups]
+            rows = [torch.arange(3 * len(j)) for j in outputs]
             self.decode_out = StackedLinear([d[-1].weight for d in decoders], [d[-1].bias for d in decoders],
-                                            out_rows=rows, out_features=3 * self.padded_joints)
-            slots = torch.empty(self.num_joints, dtype=torch.long)
-            for g, joints in enumerate(groups):
-                slots[torch.tensor(joints)] = g * self.padded_joints + torch.arange(len(joints))
+                                            out_rows=rows, out_features=3 * self.padded_outputs)
+            slots = torch.empty(branch.output_skeleton.num_joints, dtype=torch.long)
+            for g, joints in enumerate(outputs):
+                slots[torch.tensor(joints, dtype=torch.long)] = g * self.padded_outputs + torch.arange(len(joints))
             self.register_buffer("slots", slots)
         else:
             self.head = branch.head
@@ -185,7 +187,7 @@ class StackedRIEBranch(nn.Module):
         if self.outputs == "pose":
             shared = torch.cat([global_feature, *tail], dim=-1).expand(groups, -1, -1)
             hidden = F.leaky_relu(self.decode_hidden(torch.cat([features, shared], dim=-1)), _SLOPE)
-            decoded = self.decode_out(hidden).view(groups, batch, self.padded_joints, 3)
+            decoded = self.decode_out(hidden).view(groups, batch, self.padded_outputs, 3)
             return decoded.transpose(0, 1).reshape(batch, -1, 3)[:, self.slots]
         return self.head(torch.cat([features.transpose(0, 1).reshape(batch, -1), global_feature, *tail], dim=-1))
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import torch
 from torch import nn
 
@@ -29,7 +28,8 @@ from ray3d.geometry import transforms as tf
 from ray3d.models.blocks import CameraEmbedding, TemporalEncoder, mlp, receptive_field
 from ray3d.models.poseformer import PoseTransformer
 from ray3d.models.rie import RIEBackbone
-from ray3d.skeleton import LAYOUTS, Skeleton, flip, layout_skeleton, mirror_pixels
+from ray3d.models.tensor_batch import TensorBatch
+from ray3d.skeleton import LAYOUTS, Skeleton, flip, layout_skeleton
 from ray3d.temporal import Window
 
 INPUTS = ("ncs_rays", "camera_rays", "pixels", "pixels_centred")
@@ -42,7 +42,9 @@ CANONICAL_FOCAL_PX = 1000.0
 @dataclasses.dataclass(frozen=True)
 class ModelConfig:
     name: str = "ray3d"
-    layout: str = "h36m17"
+    layout: str = "h36m17"              # the input joints
+    output_layout: str | None = None    # the predicted joints; None: the input's
+    confidence_input: bool = False      # each joint's detector confidence as one more input channel
     input: str = "ncs_rays"
     backbone: str = "rie"
     camera_embedding: bool = True
@@ -77,6 +79,9 @@ class ModelConfig:
              "the transformer backbone's window is one number: kernels (F,)"),
             (self.backbone != "transformer" or self.layers >= 1, "the transformer backbone needs layers >= 1"),
             (self.layout in LAYOUTS, f"layout must be one of {tuple(LAYOUTS)}"),
+            (self.output_layout is None or self.output_layout in LAYOUTS,
+             f"output_layout must be one of {tuple(LAYOUTS)}"),
+            (self._groups_decodable(), "output_layout: every joint group it has must be in the input layout too"),
             (self.root_kernels is None or self.backbone in ("rie", "tcn"),
              "root_kernels: only the temporal-convolution backbones (rie, tcn) have kernels per branch"),
             (self.root_kernels is None or receptive_field(self.root_kernels) % 2 == 1,
@@ -85,6 +90,20 @@ class ModelConfig:
         for ok, message in checks:
             if not ok:
                 raise ValueError(f"ModelConfig {self.name}: {message}")
+
+    def _groups_decodable(self) -> bool:
+        if self.layout not in LAYOUTS or self.output_layout not in (None, *LAYOUTS):
+            return True  # reported by the layout checks
+        inputs, outputs = layout_skeleton(self.layout).groups, self.output_skeleton.groups
+        return all(inputs[g] for g, joints in outputs.items() if joints)
+
+    @property
+    def input_skeleton(self) -> Skeleton:
+        return layout_skeleton(self.layout)
+
+    @property
+    def output_skeleton(self) -> Skeleton:
+        return layout_skeleton(self.output_layout or self.layout)
 
     @property
     def frames(self) -> int:
@@ -106,46 +125,7 @@ class ModelConfig:
 
     @property
     def input_channels(self) -> int:
-        return 3 if self.input.endswith("rays") else 2
-
-
-@dataclasses.dataclass
-class TensorBatch:
-    """A batch as torch tensors: pixels (B, F, J, 2), rays (B, F, J, 3) in the NCS, camera_params (B, 2),
-    intrinsics (B, 4), roll (B,) (used only by gravity-aligned models), image width (pixels are normalised by it)."""
-
-    pixels: torch.Tensor
-    rays: torch.Tensor
-    camera_params: torch.Tensor
-    intrinsics: torch.Tensor
-    roll: torch.Tensor
-    image_width: float
-
-    @classmethod
-    def from_arrays(cls, pixels: np.ndarray, rays: np.ndarray, cameras: CameraBatch,
-                    device: str | torch.device = "cpu") -> TensorBatch:
-        """From (B, F, J, 2) pixels, (B, F, J, 3) NCS rays and the B cameras that saw them."""
-        def tensor(array: np.ndarray) -> torch.Tensor:
-            return torch.from_numpy(np.ascontiguousarray(array, dtype=np.float32)).to(device)
-
-        return cls(tensor(pixels), tensor(rays), tensor(cameras.height_pitch), tensor(cameras.intrinsics),
-                   tensor(cameras.roll), float(cameras.image_size[0]))
-
-    @classmethod
-    def example(cls, model_frames: int, joints: int, size: int, seed: int = 0,
-                image_width: float = 1000.0) -> TensorBatch:
-        """A plausible random batch (rays in front of a 1.5 m high camera), for sizing, timing and tracing
-        networks."""
-        generator = torch.Generator().manual_seed(seed)
-        rays = torch.randn(size, model_frames, joints, 3, generator=generator) * 0.2 + torch.tensor([0.0, 0.3, 1.0])
-        return cls(torch.rand(size, model_frames, joints, 2, generator=generator) * image_width, rays,
-                   torch.tensor([[1.5, 0.2]]).repeat(size, 1), torch.tensor([[1000.0, 1000, 500, 500]]).repeat(size, 1),
-                   torch.zeros(size), image_width)
-
-    def flipped(self, skeleton: Skeleton) -> TensorBatch:
-        """The input of the mirrored scene: rays mirrored in the NCS, pixels about the principal point."""
-        return dataclasses.replace(self, pixels=mirror_pixels(self.pixels, self.intrinsics[:, None, None, 2], skeleton),
-                                   rays=flip(self.rays, skeleton))
+        return (3 if self.input.endswith("rays") else 2) + int(self.confidence_input)
 
 
 def branch_window(x: torch.Tensor, extra: torch.Tensor | None, frames: int, causal: bool):
@@ -160,9 +140,11 @@ def branch_window(x: torch.Tensor, extra: torch.Tensor | None, frames: int, caus
 class _Branch(nn.Module):
     """A backbone and its decoder(s): outputs (B, out_per_joint * J) for the pose or (B, k) for the root."""
 
-    def __init__(self, config: ModelConfig, skeleton: Skeleton, outputs: str, root_outputs: int):
+    def __init__(self, config: ModelConfig, outputs: str, root_outputs: int):
         super().__init__()
-        self.config, self.skeleton, self.outputs = config, skeleton, outputs
+        self.config, self.outputs = config, outputs
+        skeleton, self.output_skeleton = config.input_skeleton, config.output_skeleton
+        predicted = self.output_skeleton.num_joints
         camera = CameraEmbedding.out_features if config.camera_embedding else 0
         extra = skeleton.num_joints if config.ground_features else 0
         c, h = config.channels, config.hidden
@@ -173,8 +155,12 @@ class _Branch(nn.Module):
                                         config.fusion, extra, config.causal)
             groups = self.backbone.groups
             if outputs == "pose":
+                # Each group's features decode that group's joints of the output layout.
+                self.output_groups = {g: list(self.output_skeleton.groups[g]) for g in groups}
+                for g, joints in self.output_groups.items():
+                    self.register_buffer(f"_outputs_{g}", torch.tensor(joints, dtype=torch.long), persistent=False)
                 self.decoders = nn.ModuleDict({g: mlp(2 * c + camera, h, 3 * len(j), 1, config.dropout)
-                                               for g, j in groups.items()})
+                                               for g, j in self.output_groups.items()})
             else:
                 self.head = mlp(c * (len(groups) + 1) + camera, h, root_outputs, 1, config.dropout)
         elif config.backbone == "transformer":
@@ -184,14 +170,13 @@ class _Branch(nn.Module):
             # features so narrow that its running statistics no longer fit any one batch.
             width = self.backbone.out_features + camera
             self.head = nn.Sequential(nn.LayerNorm(width), nn.Linear(
-                width, 3 * skeleton.num_joints if outputs == "pose" else root_outputs))
+                width, 3 * predicted if outputs == "pose" else root_outputs))
         else:
             features = config.input_channels * skeleton.num_joints + extra
             self.backbone = (TemporalEncoder(features, c, kernels, config.dropout, config.causal)
                              if config.backbone == "tcn"
                              else mlp(features, h, c, 2, config.dropout))
-            self.head = mlp(c + camera, h, 3 * skeleton.num_joints if outputs == "pose" else root_outputs, 1,
-                            config.dropout)
+            self.head = mlp(c + camera, h, 3 * predicted if outputs == "pose" else root_outputs, 1, config.dropout)
 
     def forward(self, x: torch.Tensor, extra: torch.Tensor | None, camera: torch.Tensor | None) -> torch.Tensor:
         """``x`` (B, F, J, C) and ``extra`` (B, F, E) over the model's window; a branch whose own window is
@@ -202,21 +187,25 @@ class _Branch(nn.Module):
         if self.config.backbone == "rie":
             features, global_feature = self.backbone(x, extra)
             if self.outputs == "pose":
-                pose = x.new_zeros(batch, self.skeleton.num_joints, 3)
-                for g, joints in self.backbone.groups.items():
+                pose = x.new_zeros(batch, self.output_skeleton.num_joints, 3)
+                for g, joints in self.output_groups.items():
                     decoded = self.decoders[g](torch.cat([features[g], global_feature, *tail], dim=-1))
-                    pose = pose.index_copy(1, self.backbone.group_index(g), decoded.view(batch, len(joints), 3))
+                    pose = pose.index_copy(1, self.output_index(g), decoded.view(batch, len(joints), 3))
                 return pose
             return self.head(torch.cat([*features.values(), global_feature, *tail], dim=-1))
         if self.config.backbone == "transformer":
             out = self.head(torch.cat([self.backbone(x, extra), *tail], dim=-1))
-            return out.view(batch, self.skeleton.num_joints, 3) if self.outputs == "pose" else out
+            return out.view(batch, self.output_skeleton.num_joints, 3) if self.outputs == "pose" else out
         flat = x.reshape(batch, x.shape[1], -1)
         if extra is not None:
             flat = torch.cat([flat, extra], dim=-1)
         feature = self.backbone(flat) if self.config.backbone == "tcn" else self.backbone(flat[:, 0])
         out = self.head(torch.cat([feature, *tail], dim=-1))
-        return out.view(batch, self.skeleton.num_joints, 3) if self.outputs == "pose" else out
+        return out.view(batch, self.output_skeleton.num_joints, 3) if self.outputs == "pose" else out
+
+    def output_index(self, group: str) -> torch.Tensor:
+        """The output joints ``group`` decodes, as an index tensor (on the module's device)."""
+        return getattr(self, f"_outputs_{group}")
 
 
 class LiftingNetwork(nn.Module):
@@ -226,15 +215,22 @@ class LiftingNetwork(nn.Module):
     def __init__(self, config: ModelConfig):
         super().__init__()
         self.config = config
-        self.skeleton = layout_skeleton(config.layout)
+        self.skeleton, self.output_skeleton = config.input_skeleton, config.output_skeleton
         self.receptive_field = config.frames
         root_outputs = 3 if config.root == "xyz" else 1
-        self.pose_net = _Branch(config, self.skeleton, "pose", root_outputs)
-        self.trajectory_net = _Branch(config, self.skeleton, "root", root_outputs)
+        self.pose_net = _Branch(config, "pose", root_outputs)
+        self.trajectory_net = _Branch(config, "root", root_outputs)
         self.pose_camera = CameraEmbedding(config.dropout) if config.camera_embedding else None
         self.trajectory_camera = CameraEmbedding(config.dropout) if config.camera_embedding else None
 
     def network_input(self, batch: TensorBatch) -> torch.Tensor:
+        """(B, F, J, C): the geometric input of each joint, then its confidence when the model reads it."""
+        geometric = self._geometric_input(batch)
+        if not self.config.confidence_input:
+            return geometric
+        return torch.cat([geometric, batch.confidences[..., None].to(geometric.dtype)], dim=-1)
+
+    def _geometric_input(self, batch: TensorBatch) -> torch.Tensor:
         kind = self.config.input
         if kind == "ncs_rays":
             return batch.rays
@@ -287,15 +283,15 @@ class LiftingNetwork(nn.Module):
 
     def predict(self, batch: TensorBatch, flip_test: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
         """``forward``, optionally averaged with the mirrored input's mirrored prediction."""
-        return predict_with_flip(self, self.skeleton, batch, flip_test)
+        return predict_with_flip(self, self.config, batch, flip_test)
 
 
-def predict_with_flip(forward, skeleton: Skeleton, batch: TensorBatch, flip_test: bool):
+def predict_with_flip(forward, config: ModelConfig, batch: TensorBatch, flip_test: bool):
     """(pose, root) from ``forward(batch)``, averaged with the mirrored input's mirrored output when asked."""
     pose, root = forward(batch)
     if flip_test:
-        flipped_pose, flipped_root = forward(batch.flipped(skeleton))
-        pose = (pose + flip(flipped_pose, skeleton)) / 2
+        flipped_pose, flipped_root = forward(batch.flipped(config.input_skeleton))
+        pose = (pose + flip(flipped_pose, config.output_skeleton)) / 2
         root = (root + flipped_root * root.new_tensor([-1.0, 1.0, 1.0])) / 2
     return pose, root
 
