@@ -94,7 +94,7 @@ class ModelConfig:
     def _groups_decodable(self) -> bool:
         if self.layout not in LAYOUTS or self.output_layout not in (None, *LAYOUTS):
             return True  # reported by the layout checks
-        inputs, outputs = layout_skeleton(self.layout).groups, self.output_skeleton.groups
+        inputs, outputs = self.input_skeleton.groups, self.output_skeleton.groups
         return all(inputs[g] for g, joints in outputs.items() if joints)
 
     @property
