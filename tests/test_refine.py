@@ -15,6 +15,7 @@ from ray3d.skeleton import H36M17
 
 ANKLES = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
 CONFIG = RefineConfig()
+EXACT_2D = RefineConfig(keypoint_error=0.0)
 
 
 def _camera(height=7.0, pitch=16.0, distance=20.0) -> Camera:
@@ -53,24 +54,44 @@ def test_a_moving_truth_stays_within_centimetres():
     assert np.abs(refined - truth).max() < 0.02 and np.abs(found.scale - 1).max() < 1e-3
 
 
+def _off_ray(points: np.ndarray, camera: Camera, rays: np.ndarray) -> np.ndarray:
+    """(T, J) distances of points from the rays through the camera centre."""
+    directions = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
+    offsets = points - camera.center
+    return np.linalg.norm(offsets - np.einsum("tjk,tjk->tj", offsets, directions)[..., None] * directions, axis=-1)
+
+
 @settings(max_examples=25, deadline=None)
 @given(st.floats(0.5, 1.6), st.floats(-0.3, 0.3), st.booleans())
 def test_the_person_stays_on_their_rays(scale, wobble, with_rays):
-    """Given the observed rays, the root ends on its ray; without them, every joint stays on the line from the
-    camera through where the network put it."""
+    """Given the observed rays of exact 2D, every joint ends on its ray; without them, every joint stays on the
+    line from the camera through where the network put it."""
     camera, truth = _camera(), _consistent_person(40)
     factors = scale * (1 + wobble * np.sin(np.linspace(0, 3, len(truth))))
     wrong = scale_about(truth, camera.center, factors) + np.random.default_rng(0).normal(0, 0.02, truth.shape)
     rays = _rays(camera, truth) if with_rays else wrong - camera.center
-    refined, _ = refine_track(wrong, camera, 30.0, rays if with_rays else None)
-    joints = [0] if with_rays else slice(None)
-    directions = refined[:, joints] - camera.center
-    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
-    rays = rays[:, joints] / np.linalg.norm(rays[:, joints], axis=-1, keepdims=True)
-    np.testing.assert_allclose(np.einsum("tjk,tjk->tj", directions, rays), 1.0, atol=1e-9)
-    if with_rays:  # the limbs keep the network's shape, at one size for the whole track
-        ratio = body_sizes(refined) / body_sizes(wrong)
-        np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)
+    refined, _ = refine_track(wrong, camera, 30.0, rays if with_rays else None, config=EXACT_2D)
+    np.testing.assert_allclose(_off_ray(refined, camera, rays), 0.0, atol=1e-9)
+
+
+def test_a_detectors_joints_move_part_way_towards_their_rays_and_unmeasured_ones_keep_the_shape():
+    """With a detector's keypoint error the root ends on its ray and each measured joint between the network's
+    shape (what keypoints trusted not at all give, at one size for the track) and its ray; a joint without a
+    ray (NaN) keeps the shape."""
+    camera, truth = _camera(), _consistent_person(40)
+    wrong = scale_about(truth, camera.center, np.full(len(truth), 0.9))
+    wrong = wrong + np.random.default_rng(1).normal(0, 0.03, truth.shape)
+    rays = _rays(camera, truth)
+    rays[:, H36M17.index("head")] = np.nan
+    shape_only, _ = refine_track(wrong, camera, 30.0, rays, config=RefineConfig(keypoint_error=1e9))
+    refined, _ = refine_track(wrong, camera, 30.0, rays)
+    ratio = body_sizes(shape_only) / body_sizes(wrong)
+    np.testing.assert_allclose(ratio, ratio[0], rtol=1e-9)
+    np.testing.assert_allclose(refined[:, [0, H36M17.index("head")]], shape_only[:, [0, H36M17.index("head")]],
+                               atol=1e-9)
+    measured = [j for j in range(1, 17) if j != H36M17.index("head")]
+    before, after = (_off_ray(points, camera, rays)[:, measured] for points in (shape_only, refined))
+    assert (after < before).all() and (after > 0.1 * before).all()
 
 
 def test_a_high_camera_pulls_a_person_placed_too_close_back_to_the_floor():

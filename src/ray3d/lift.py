@@ -169,10 +169,10 @@ class Lifter:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
         refinement = None
         if refine:
-            joints, found = refine_track(joints, camera, input_fps, joint_directions(camera, pixels, inputs, joints),
-                                         temporal.seen_frames(~h36m_found),
-                                         refine if isinstance(refine, RefineConfig) else RefineConfig())
-            refinement = found.summary()
+            joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, pixels, inputs),
+                                           temporal.seen_frames(~h36m_found),
+                                           refine if isinstance(refine, RefineConfig) else RefineConfig())
+            refinement = refined.summary()
         joints = temporal.smooth(joints, smooth_3d, input_fps)
         return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement)
 

@@ -5,7 +5,10 @@ The network's depth is good near the camera and poor far from it; a person's fee
 they stand or walk; and a person keeps one body size. Each frame is moved along the rays by one factor ``s_t``
 about the camera centre (``X' = C + s_t (X - C)``), so its joints stay on their rays; the
 factors, and one body size per track, are the least-squares solution of the terms below. Given the joints'
-observed rays, the root ends on its ray and the limbs keep the network's shape at the track's size.
+observed rays, the root ends on its ray, the limbs take the network's shape at the track's size, and each
+measured joint then moves towards its own ray by as much as the keypoints are surer of where it is, across the
+ray, than the network (``keypoint_error`` against ``pose_lateral_sd_m``): onto it for exact 2D, hardly at all
+for a detector's keypoints of a person far away.
 
 - the network: ``log s_t = 0`` with a standard deviation that grows with the distance (``depth_sd``);
 - the floor: in every frame the detector saw, the lowest ankle lies ``contact_ankle_height_m`` above the floor,
@@ -60,6 +63,11 @@ class RefineConfig:
     depth_sd: tuple[float, float] = (0.03, 0.006)  # the network's relative depth error: a + b * distance (m)
     distance_acceleration_sd: float = 0.3    # of the log of the person's distance, per second^1.5
     robust_scale: float = 2.0                # residuals (in standard deviations) beyond which the loss is linear
+    # Across its ray, a joint of the network's shape hung from the root is off by 0.017 m per axis (the shipped
+    # `ray3d`, training performers, h36m cameras); a keypoint detector errs by a few per cent of the person's
+    # size in the image, which at the person is the same fraction of their size in metres, at any distance.
+    pose_lateral_sd_m: float = 0.02
+    keypoint_error: float = 0.03             # of the body-size chain, per axis; 0 for exact 2D
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,14 +96,14 @@ def body_sizes(joints: np.ndarray) -> np.ndarray:
     return chain(TRUNK_CHAIN) + (chain(LEGS[0]) + chain(LEGS[1])) / 2
 
 
-def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton, joints: np.ndarray) -> np.ndarray:
+def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(T, 17, 3) world directions of the H36M-17 joints' observed rays: the ray of the (T, J, 2) pixel of the
-    same joint of ``skeleton`` where it has one, else the direction from the camera towards where the network
-    put the joint (``joints``, (T, 17, 3) world), which no detector measured."""
-    directions = np.asarray(joints, dtype=np.float64) - camera.center
+    same joint of ``skeleton`` where it has one, else NaN (a joint no detector measures)."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    directions = np.full((len(pixels), H36M17.num_joints, 3), np.nan)
     pairs = [(H36M17.index(name), j) for j, name in enumerate(skeleton.joint_names) if name in H36M17.joint_names]
-    lifted, seen = (list(index) for index in zip(*pairs))
-    directions[:, lifted] = camera.pixels_to_world_directions(np.asarray(pixels, dtype=np.float64)[:, seen])
+    lifted, measured = (list(index) for index in zip(*pairs))
+    directions[:, lifted] = camera.pixels_to_world_directions(pixels[:, measured])
     return directions
 
 
@@ -192,12 +200,14 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     """(T, 17, 3) lifted world joints of one person (H36M-17) seen by ``camera`` at ``fps`` -> the refined
     joints and what was found.
 
-    ``rays``: (T, 17, 3) world directions of the joints' observed rays (from their pixels). Given them, the
+    ``rays``: (T, 17, 3) world directions of the joints' observed rays (from their pixels; NaN where a joint
+    was not measured, which then stands for the direction towards where the network put it). Given them, the
     cues are read from the joints put on their rays at the network's distances (the body's size in the image
     at a distance is its size), and the result is the root on its observed ray at the distance found with the
-    network's pose, scaled to the track's one body size, hung from it. Without them every joint moves along
-    the line from the camera through where the network put it. ``observed``: (T,) False for
-    frames filled in across a detector's gap, which then follow their neighbours.
+    network's pose, scaled to the track's one body size, hung from it, each measured joint moved towards its
+    ray (module docstring). Without them every joint moves along the line from the camera through where the
+    network put it. ``observed``: (T,) False for frames filled in across a detector's gap, which then follow
+    their neighbours.
     """
     joints = np.asarray(joints, dtype=np.float64)
     if joints.ndim != 3 or joints.shape[1:] != (H36M17.num_joints, 3) or not np.isfinite(joints).all():
@@ -210,9 +220,10 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     if observed.shape != (count,):
         raise InputError(f"refine: observed must be ({count},), got {observed.shape}")
     if rays is not None:
-        if np.shape(rays) != joints.shape or not np.isfinite(rays).all():
-            raise InputError(f"refine: rays must be finite and shaped like the joints {joints.shape}, got "
-                             f"{np.shape(rays)}")
+        if np.shape(rays) != joints.shape:
+            raise InputError(f"refine: rays must be shaped like the joints {joints.shape}, got {np.shape(rays)}")
+        measured = np.isfinite(rays).all(-1) & (np.linalg.norm(np.nan_to_num(rays), axis=-1) > 0)
+        rays = np.where(measured[..., None], rays, joints - centre)
         rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
         along = np.einsum("tjk,tjk->tj", joints - centre, rays)
         joints = centre + along[..., None] * rays
@@ -223,10 +234,14 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     if rays is None:
         refined = scale_about(joints, centre, scale)
     else:
-        # The root on its observed ray at the distance found; the limbs keep the network's shape (the rays of
-        # a detector's joints jitter), at the track's one body size.
+        # The root on its observed ray at the distance found; the limbs in the network's shape at the track's
+        # one body size, pulled towards their rays as far as the keypoints are surer than the network.
         root = centre + (scale * along[:, 0])[:, None] * rays[:, 0]
         refined = root[:, None] + np.exp(x[-1]) / np.median(body_sizes(network)) * (network - network[:, :1])
+        across = (config.keypoint_error * np.exp(x[-1])) ** 2
+        pull = measured * config.pose_lateral_sd_m ** 2 / (config.pose_lateral_sd_m ** 2 + across)
+        foot = centre + np.einsum("tjk,tjk->tj", refined - centre, rays)[..., None] * rays  # nearest point on the ray
+        refined = refined + pull[..., None] * (foot - refined)
     distance = np.linalg.norm(refined[:, 0] - centre, axis=-1)
     lowest = refined[:, ANKLES, 2].min(1)
     contact = problem.floored & (np.abs(lowest - config.contact_ankle_height_m) < 2 * config.ankle_height_sd_m)
