@@ -1,7 +1,7 @@
 """Where the refined h36m error lies: Abs-MPJPE with the root, or one scale per track, taken from the truth.
 
 Usage: python benchmarks/h36m_oracle.py [MODEL] [CAMERA_SET]; every 16th frame, test performers, GT 2D."""
-import sys, time
+import sys
 import numpy as np
 import ray3d.evaluate as ev
 from ray3d import metrics
