@@ -222,7 +222,7 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     if rays is not None:
         if np.shape(rays) != joints.shape:
             raise InputError(f"refine: rays must be shaped like the joints {joints.shape}, got {np.shape(rays)}")
-        measured = np.isfinite(rays).all(-1) & (np.linalg.norm(np.nan_to_num(rays), axis=-1) > 0)
+        measured = np.isfinite(rays).all(-1)
         rays = np.where(measured[..., None], rays, joints - centre)
         rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
         along = np.einsum("tjk,tjk->tj", joints - centre, rays)
@@ -230,15 +230,15 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     start = np.append(np.zeros(count), np.log(np.median(body_sizes(joints))))
     problem = _Problem(joints, camera, fps, config, observed)
     x = problem.solve(start)
-    scale = np.exp(x[:-1])
+    scale, body_size = np.exp(x[:-1]), float(np.exp(x[-1]))
     if rays is None:
         refined = scale_about(joints, centre, scale)
     else:
         # The root on its observed ray at the distance found; the limbs in the network's shape at the track's
         # one body size, pulled towards their rays as far as the keypoints are surer than the network.
         root = centre + (scale * along[:, 0])[:, None] * rays[:, 0]
-        refined = root[:, None] + np.exp(x[-1]) / np.median(body_sizes(network)) * (network - network[:, :1])
-        across = (config.keypoint_error * np.exp(x[-1])) ** 2
+        refined = root[:, None] + body_size / np.median(body_sizes(network)) * (network - network[:, :1])
+        across = (config.keypoint_error * body_size) ** 2
         pull = measured * config.pose_lateral_sd_m ** 2 / (config.pose_lateral_sd_m ** 2 + across)
         foot = centre + np.einsum("tjk,tjk->tj", refined - centre, rays)[..., None] * rays  # nearest point on the ray
         refined = refined + pull[..., None] * (foot - refined)
@@ -248,6 +248,6 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     head_over_ankle = refined[:, _I("head"), 2] - lowest
     upright = contact if contact.any() else observed
     return refined, Refinement(
-        scale=scale, contact=contact, body_size_m=float(np.exp(x[-1])),
+        scale=scale, contact=contact, body_size_m=body_size,
         stature_m=float(np.median(head_over_ankle[upright]) / HEAD_OVER_ANKLE_OF_STATURE),
         position_sd_m=float(np.median(problem.log_scale_sd(x) * np.median(distance))))
