@@ -30,7 +30,7 @@ for camera in grid(sets):
     b = np.cumsum([0] + [len(windows[i]) for i in seen])
     for k, i in enumerate(seen):
         tr = slice(b[k], b[k+1]); truth = truth_all[tr]
-        rays = joint_directions(camera, pix[tr], model.config.input_skeleton, pred[tr])
+        rays = joint_directions(camera, pix[tr], model.config.input_skeleton)
         ref, info = refine_track(pred[tr], camera, float(motion.clips["fps"][i]) / stride, rays)
         r = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
         C = camera.center
