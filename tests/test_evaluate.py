@@ -106,7 +106,7 @@ def test_a_wrong_camera_and_a_smaller_body_change_the_errors():
 
 def test_refined_evaluation_lifts_each_clip_as_a_track(monkeypatch):
     """A model that puts everyone 30 % too close: the refinement, given the true rays, brings them back."""
-    from ray3d.refine import scale_about
+    from ray3d.refine import RefineConfig, scale_about
 
     camera = grid("far-test")[0]
 
@@ -127,5 +127,9 @@ def test_refined_evaluation_lifts_each_clip_as_a_track(monkeypatch):
     plain = evaluation.evaluate(Model(), motion, [camera])
     refined = evaluation.evaluate(Model(), motion, [camera], refine=True)
     assert refined["refine"] and plain["mrpe_mm"] > 3000 and refined["mrpe_mm"] < 0.2 * plain["mrpe_mm"]
+    assert refined["refine_config"]["keypoint_error"] == 0.0  # GT 2D: exact rays
+    trusting = evaluation.evaluate(Model(), motion, [camera], refine=RefineConfig(depth_sd=(1e-6, 0.0)))
+    assert trusting["refine_config"]["depth_sd"] == (1e-6, 0.0)
+    assert trusting["mrpe_mm"] > 0.9 * plain["mrpe_mm"]  # told the network's depth is exact, it keeps it
     with pytest.raises(ValueError, match="RFRH predicts only the root"):
         evaluation.evaluate("rfrh", motion, [camera], refine=True)

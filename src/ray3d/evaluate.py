@@ -8,6 +8,7 @@ Overall values are frame-weighted over all evaluated (camera, clip, frame) tripl
 
 from __future__ import annotations
 
+import dataclasses
 from collections import defaultdict
 from pathlib import Path
 
@@ -96,7 +97,7 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
              frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
-             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool = False,
+             joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool | RefineConfig = False,
              progress: bool = False) -> dict:
     """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
 
@@ -105,7 +106,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     ``joints="h36m14"`` scores only the 14 joints common to most datasets (no spine, thorax, neck/nose);
     ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_windows``; ``seed`` fixes it);
     ``refine`` lifts each (camera, clip) as one track with the track-level refinement (``ray3d.refine``), at the
-    clip's rate over ``frame_stride``. ``progress`` shows a bar over the cameras.
+    clip's rate over ``frame_stride`` (a ``RefineConfig`` sets its uncertainties; ``True`` takes the defaults
+    with ``keypoint_error`` 0 for GT 2D, since the joints' rays are then exact). ``progress`` shows a bar over the cameras.
     """
     if refine and model == RFRH:
         raise ValueError("refine needs a model that predicts every joint; RFRH predicts only the root")
@@ -119,7 +121,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         model = inference_network(model)
     window = _window(model)
     # GT 2D is exact: the refinement may put each joint on its ray; noisy 2D is weighed as a detector's.
-    refine_config = RefineConfig(keypoint_error=0.0) if noise_px == 0 else RefineConfig()
+    refine_config = (refine if isinstance(refine, RefineConfig)
+                     else RefineConfig(keypoint_error=0.0) if noise_px == 0 else RefineConfig())
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)
     clips = [motion.clip(i).astype(np.float64) for i in range(motion.num_clips)]
@@ -158,7 +161,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     geometry = {c.name: {"height_m": c.camera_height, "pitch_deg": float(np.degrees(c.pitch)),
                          "horizontal_distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}
     return {**_summarise(everything), "pairs": len(everything), "skipped_pairs": skipped, "flip_test": flip_test,
-            "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px, "refine": refine,
+            "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px, "refine": bool(refine),
+            "refine_config": dataclasses.asdict(refine_config) if refine else None,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},
             "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}
 
