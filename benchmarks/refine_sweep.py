@@ -42,7 +42,7 @@ def per_subject_table(motion, plain: dict, refined: dict) -> None:
     print("|---|---|---|---|---|")
     for subject in np.unique(motion.clips["subject"]):
         clips = np.flatnonzero(motion.clips["subject"] == subject)
-        ids = [str(motion.clips["clip_id"][i]) for i in clips if str(motion.clips["clip_id"][i]) in plain["per_clip"]]
+        ids = [k for k in motion.clips["clip_id"][clips].astype(str) if k in plain["per_clip"]]
         if not ids:
             continue
         lowest = np.median(np.concatenate([motion.clip(i)[:, ankles, 2].min(-1) for i in clips]))

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from refine_sweep import share_of_distance
 
 folder = Path(sys.argv[1])
 rows = {}
@@ -19,10 +20,7 @@ print("| model | cameras | pairs | Abs-MPJPE | MRPE | MRPE / distance (median ov
 print("|---|---|---|---|---|---|---|")
 for model, sets in rows.items():
     for cameras, r in sets.items():
-        per = r["per_camera"].values()
-        # Clips are centred on the origin; the pelvis is about 0.9 m above the floor.
-        share = [c["mrpe_mm"] / 1e3 / np.hypot(c["horizontal_distance_m"], c["height_m"] - 0.9) for c in per]
-        mrpe = np.array([c["mrpe_mm"] for c in per])
+        mrpe = np.array([c["mrpe_mm"] for c in r["per_camera"].values()])
         spread = 100 * (mrpe.max() - mrpe.min()) / mrpe.mean()
         print(f"| {model} | {cameras} | {r['pairs']} | {r['abs_mpjpe_mm']:.1f} | {r['mrpe_mm']:.1f} | "
-              f"{100 * np.median(share):.1f} % | {spread:.1f} % |")
+              f"{100 * share_of_distance(r):.1f} % | {spread:.1f} % |")
