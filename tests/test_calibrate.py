@@ -70,7 +70,7 @@ def test_bad_floor_point_files(tmp_path):
 def _model_walker(stature: float = 1.75, frames: int = 120) -> np.ndarray:
     """(T, 17, 3) a person exactly as from_person models one: ankles, pelvis, thorax and head on a vertical
     line at AXIS_HEIGHTS, hips and shoulders beside it; walking towards the camera and across."""
-    from ray3d.calibrate import AXIS_HEIGHTS
+    from ray3d.body import AXIS_HEIGHTS
     from ray3d.skeleton import H36M17
 
     t = np.linspace(0, 1, frames)

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 
 from ray3d import Camera, InputError, Lifter, metrics
 from ray3d.demo import demo_clip
-from ray3d.refine import RefineConfig, body_sizes, refine_track, scale_about
+from ray3d.body import body_sizes
+from ray3d.refine import RefineConfig, refine_track, scale_about
 from ray3d.skeleton import H36M17
 
 ANKLES = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]

@@ -17,6 +17,7 @@ from ray3d.cli import main
 from ray3d.demo import demo_clip
 from ray3d.io.keypoints import read_keypoints
 from ray3d.io.world import read_world
+from ray3d.options import VideoOptions
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
 from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
@@ -138,7 +139,7 @@ def test_a_gap_longer_than_max_gap_splits_the_track_and_nothing_is_drawn_where_n
     hidden = {(0, t) for t in list(range(0, 5)) + list(range(16, 30))}  # 0.7 s unseen in the middle
     path = _render(tmp_path / "gap.mp4", pixels, hidden)
     result = lift_video(path, CAMERA, tmp_path / "out", StubDetector(pixels, hidden), Lifter.load(),
-                        min_track_s=0.2, progress=False)
+                        video_options=VideoOptions(min_track_s=0.2), progress=False)
     spans = sorted((int(t.frames[0]), int(t.frames[-1])) for t in result.world.tracks.values())
     assert spans == [(5, 15), (30, FRAMES - 1)]
     assert not any(t.interpolated.any() for t in result.world.tracks.values())
@@ -233,13 +234,15 @@ def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):
     with pytest.raises(InputError, match="nobody was found"):
         lift_video(path, CAMERA, tmp_path / "c", StubDetector([]), progress=False)
     with pytest.raises(InputError, match="nobody was found.* 1 frame"):  # one frame: too short to follow anybody
-        lift_video(path, CAMERA, tmp_path / "one", StubDetector(pixels), frames=1, progress=False)
+        lift_video(path, CAMERA, tmp_path / "one", StubDetector(pixels), video_options=VideoOptions(frames=1),
+                   progress=False)
     with pytest.raises(InputError, match="start frame 99"):
-        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), start=99, progress=False)
+        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), video_options=VideoOptions(start=99),
+                   progress=False)
     with pytest.raises(InputError, match="frames must be at least 1"):
-        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), frames=0, progress=False)
+        VideoOptions(frames=0)
     with pytest.raises(InputError, match="max_gap_s must be a duration"):
-        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), max_gap_s=-1.0, progress=False)
+        VideoOptions(max_gap_s=-1.0)
     (tmp_path / "notes.mp4").write_text("not a video")
     with pytest.raises(InputError, match="notes.mp4"):
         lift_video(tmp_path / "notes.mp4", CAMERA, tmp_path / "e", StubDetector(pixels), progress=False)
@@ -328,7 +331,7 @@ def test_the_real_chain_finds_and_follows_two_people_in_a_generated_video(tmp_pa
         writer.write(image)
     writer.release()
     result = lift_video(tmp_path / "two.mp4", camera, tmp_path / "out", PeopleDetector(camera, threads=1),
-                        Lifter.load(), min_track_s=0.5, overlay=False, progress=False)
+                        Lifter.load(), video_options=VideoOptions(min_track_s=0.5), overlay=False, progress=False)
     assert len(result.world.tracks) == 2
     for track, (seen, pixels, confidences) in result.keypoints.by_track().items():
         nose = pixels[:, 0, 0]  # BlazePose's first landmark: on one figure all along

@@ -9,6 +9,7 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
+from ray3d.body import ADULT_STATURE_M, ADULT_STATURE_SD_M, AXIS_HEIGHTS, AXIS_JOINTS
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
@@ -48,18 +49,11 @@ def from_floor_points(floor_xy: np.ndarray, pixels: np.ndarray, intrinsics: Came
     return camera, rms
 
 
-# Heights above the floor, as fractions of the person's stature, of the points on a standing person's vertical
-# axis that from_person uses. Measured on the training performers of the shipped mocap (upright frames, relative
-# to the head joint) and scaled by the head joint's height, 0.94 of stature (shoulders at 0.818 of stature,
-# Drillis & Contini 1966): the mid-ankle, the pelvis, the thorax and the H36M head joint.
-AXIS_HEIGHTS = {"ankles": 0.067, "pelvis": 0.525, "thorax": 0.851, "head": 0.940}
-ADULT_STATURE_SD_M = 0.07
 # How far real walking departs from the upright model: the RMS errors of from_person with the true focal length
 # and stature on 40 random (camera, walking clip) pairs of the training performers (`ray3d bench calibration
 # --split train --pairs 40 --bootstrap 2 --seed 1`, docs/RESULTS.md). Added in quadrature to the bootstrap.
 MODEL_ERROR_SD = {"pitch_deg": 2.9, "roll_deg": 2.3, "height_fraction": 0.10}
 MIN_PERSON_FRAMES = 10
-_AXIS_JOINTS = {"ankles": ("l_ankle", "r_ankle"), "pelvis": ("pelvis",), "thorax": ("thorax",), "head": ("head",)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -123,11 +117,11 @@ def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17", confidence
     if confidences is not None and np.shape(confidences) != keypoints.shape[:2]:
         raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {np.shape(confidences)}")
     pixels, _ = convert_keypoints(keypoints, skeleton, confidences)
-    return np.stack([pixels[:, [H36M17.index(j) for j in joints]].mean(1) for joints in _AXIS_JOINTS.values()], 1)
+    return np.stack([pixels[:, [H36M17.index(j) for j in joints]].mean(1) for joints in AXIS_JOINTS.values()], 1)
 
 
-def from_person(keypoints, image_size: tuple[int, int], person_height: float = 1.70, focal_px: float | None = None,
-                layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
+def from_person(keypoints, image_size: tuple[int, int], person_height: float = ADULT_STATURE_M,
+                focal_px: float | None = None, layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
                 seed: int = 0, max_frames: int = 400, model_error: bool = True,
                 confidences=None) -> PersonCalibration:
     """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints of

@@ -17,16 +17,18 @@ import torch
 from tqdm import tqdm
 
 from ray3d import temporal
+from ray3d.body import ANKLES
 from ray3d.checkpoints import load_model
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
-from ray3d.io.keypoints import Keypoints
+from ray3d.io.keypoints import Keypoints, TrackDetections
 from ray3d.io.world import LiftResult, World
 from ray3d.models.inference import inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.tensor_batch import TensorBatch
+from ray3d.options import LiftOptions
 from ray3d.refine import RefineConfig, joint_directions, refine_track
-from ray3d.skeleton import (H36M17, Skeleton, conversion_matrix, convert_confidences, convert_keypoints,
+from ray3d.skeleton import (Skeleton, conversion_matrix, convert_confidences, convert_keypoints,
                             layout_skeleton)
 
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
@@ -59,8 +61,7 @@ def _check_feet_below_horizon(pixels: np.ndarray, found: np.ndarray, camera: Cam
     (T, 17, 2) H36M-17 pixels, (T, 17) which were detected (the ankles are the detector's own)."""
     if camera.center[2] <= _HIGHEST_FEET_CAMERA_M:
         return
-    ankles = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
-    seen = pixels[:, ankles][found[:, ankles]]
+    seen = pixels[:, ANKLES][found[:, ANKLES]]
     if not len(seen):
         return
     directions = camera.pixels_to_world_directions(seen)
@@ -80,6 +81,15 @@ def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np
     seen = np.isfinite(keypoints).all(-1)
     scores = np.ones(seen.shape) if confidences is None else np.clip(np.nan_to_num(confidences), 0.0, 1.0)
     return convert_confidences(np.where(seen, scores, 0.0), skeleton, inputs)
+
+
+class LiftedTracks(dict):
+    """{track id: LiftResult} of the tracks lifted, and ``unliftable``: {track id: why} of those that could not
+    be."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.unliftable: dict = {}
 
 
 class Lifter:
@@ -188,36 +198,40 @@ class Lifter:
         return inputs
 
     def lift_tracks(self, tracks: dict, camera: Camera, layout: str = "h36m17", fps: float | None = None,
-                    **options) -> dict:
-        """Several people: {track id: (frame indices (N,), keypoints (N, J, 2)[, confidences (N, J)])} ->
-        {track id: LiftResult} in one world frame. Frames a track skips are filled in like missing joints."""
-        results = {}
+                    progress: bool = False, **options) -> LiftedTracks:
+        """Several people: {track id: ``TrackDetections`` or (frame indices (N,), keypoints (N, J, 2)[,
+        confidences (N, J)])} -> {track id: LiftResult} in one world frame; ``options`` as for ``lift``. Frames a
+        track skips are filled in like missing joints. A track that cannot be lifted (say, a joint never seen)
+        is left out and named in the result's ``unliftable`` with why; only when no track can be lifted is that
+        an error."""
+        results, failures = LiftedTracks(), {}
         for track, entry in tracks.items():
-            frames, keypoints, *rest = entry
-            frames = np.asarray(frames, dtype=np.int64)
-            order = np.argsort(frames)
-            span = np.arange(frames[order[0]], frames[order[-1]] + 1)
-            joints = layout_skeleton(layout).num_joints
-            dense = np.full((len(span), joints, 2), np.nan)
-            dense[frames[order] - span[0]] = np.asarray(keypoints, dtype=np.float64)[order]
-            dense_conf = None
-            if rest and rest[0] is not None:
-                dense_conf = np.zeros((len(span), joints))
-                dense_conf[frames[order] - span[0]] = np.asarray(rest[0], dtype=np.float64)[order]
-            if options.get("progress") is True:
-                options = {**options, "progress": f"track {track}"}
-            result = self.lift(dense, camera, dense_conf, fps, layout, **options)
+            span, pixels, confidences = TrackDetections(*entry).dense()
+            try:
+                result = self.lift(pixels, camera, confidences, fps, layout,
+                                   progress=f"track {track}" if progress else False, **options)
+            except InputError as err:
+                failures[track] = err
+                continue
             results[track] = dataclasses.replace(result, frames=span)
+        results.unliftable = {track: err.message for track, err in failures.items()}
+        if not results and len(failures) == 1:
+            raise next(iter(failures.values()))
+        if not results:
+            raise InputError("no track could be lifted: " + "; ".join(
+                f"track {track}: {why}" for track, why in results.unliftable.items()))
         return results
 
-    def lift_keypoints(self, keypoints: Keypoints, camera: Camera, **options) -> World:
-        """Every track of a keypoint file (``ray3d.io.keypoints.read_keypoints``) lifted into one world frame;
-        ``options`` as for ``lift``."""
+    def lift_keypoints(self, keypoints: Keypoints, camera: Camera, options: LiftOptions = LiftOptions(),
+                       progress: bool = False) -> World:
+        """Every track of a keypoint file (``ray3d.io.keypoints.read_keypoints``) lifted into one world frame
+        (the frame ``options`` name); tracks that cannot be lifted are named in ``World.unliftable``."""
         try:
-            tracks = self.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps, **options)
+            tracks = self.lift_tracks(keypoints.by_track(), camera, keypoints.layout, keypoints.fps, progress,
+                                      **options.lift_arguments())
         except InputError as err:  # name the file the keypoints came from
             raise InputError(f"{keypoints.path or keypoints.source}: {err.message}", err.arguments) from None
-        return World(tracks, camera, self.name)
+        return World(tracks, camera, self.name, unliftable=tracks.unliftable).in_frame(options.frame)
 
     @torch.no_grad()
     def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int,
@@ -259,23 +273,22 @@ class Lifter:
 
 def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifter: Lifter | None = None,
               layout: str | None = None, fps: float | None = None, overwrite: bool = False,
-              read_options: dict | None = None, frame: str = "world",
-              smooth_3d: str | None = temporal.OUTPUT_SMOOTHING, **options) -> tuple[Keypoints, World]:
+              read_options: dict | None = None, options: LiftOptions = LiftOptions(),
+              progress: bool = False) -> tuple[Keypoints, World]:
     """A keypoint file lifted into the world and written to ``out`` (.json/.csv/.npz/.trc/.bvh), as ``ray3d
     lift`` does: ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
-    (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), the joints in ``frame`` ("world" or
-    "camera", see ``World.in_frame``), the output smoothed by ``smooth_3d`` (Savitzky-Golay unless told; None:
-    as lifted), ``options`` as for ``Lifter.lift``. Returns what was read and what was written."""
+    (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), ``options`` for the lifting (the output
+    smoothed by Savitzky-Golay and written in the world frame unless they say otherwise). Returns what was read
+    and what was written."""
     from ray3d.io.atomic import check_output, refuse_existing
     from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import check_world_output, write_world
 
     check_output(out, (keypoints_path,))
-    check_world_output(out, frame)
+    check_world_output(out, options.frame)
     refuse_existing(out, overwrite)
     keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
-    world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, smooth_3d=smooth_3d, **options)
-    world = world.in_frame(frame)
+    world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, options, progress)
     write_world(out, world, overwrite=overwrite)
     return keypoints, world
 

@@ -32,18 +32,12 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.linalg import splu
 
+from ray3d import body
+from ray3d.body import body_sizes, lowest_ankle_height
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import H36M17, Skeleton
 
-_I = H36M17.index
-ANKLES = (_I("l_ankle"), _I("r_ankle"))
-# The chain whose length measures a body's size: thorax to pelvis along the spine, plus the mean leg (the head
-# and neck are left out: detectors place them least like the mocap does).
-TRUNK_CHAIN = ("thorax", "spine", "pelvis")
-LEGS = (("l_hip", "l_knee", "l_ankle"), ("r_hip", "r_knee", "r_ankle"))
-# The head joint's height over the lowest ankle as a fraction of stature (0.940 - 0.067, ray3d.calibrate).
-HEAD_OVER_ANKLE_OF_STATURE = 0.873
 EVIDENCE_FPS = 30.0  # per-frame evidence is weighed as if the footage ran at this rate
 
 
@@ -52,13 +46,13 @@ class RefineConfig:
     """The uncertainties the cues are weighed by (metres, or fractions of a distance or size).
 
     Measured on the training performers of the shipped mocap: the lowest ankle of a planted foot stands 0.069 m
-    above the floor (interquartile 0.049-0.109 m); the body-size chain is 1.34 m (5-95 %: 1.26-1.52 m).
+    above the floor (interquartile 0.049-0.109 m); the body-size prior is ``ray3d.body``'s.
     """
 
     contact_ankle_height_m: float = 0.07
     ankle_height_sd_m: float = 0.05          # contact-height spread plus the network's ankle error
-    body_size_m: float = 1.36                # prior on the size chain of an adult
-    body_size_sd: float = 0.12               # relative
+    body_size_m: float = body.ADULT_BODY_SIZE_M      # prior on the size chain of an adult
+    body_size_sd: float = body.ADULT_BODY_SIZE_SD    # relative
     frame_size_sd: float = 0.06              # relative error of one frame's predicted body size
     depth_sd: tuple[float, float] = (0.03, 0.006)  # the network's relative depth error: a + b * distance (m)
     distance_acceleration_sd: float = 0.3    # of the log of the person's distance, per second^1.5
@@ -77,7 +71,7 @@ class Refinement:
     scale: np.ndarray          # (T,) the factor each frame was moved by along its rays
     contact: np.ndarray        # (T,) whether the lowest ankle ended within two standard deviations of the floor
     body_size_m: float         # the track's size chain
-    stature_m: float           # the person's estimated stature (head over the lowest ankle / 0.873)
+    stature_m: float           # the person's estimated stature (``ray3d.body.stature`` of the upright frames)
     position_sd_m: float       # median over frames of the root position's standard deviation along its ray
 
     def summary(self) -> dict:
@@ -85,15 +79,6 @@ class Refinement:
                 "median_scale": round(float(np.median(self.scale)), 4),
                 "contact_fraction": round(float(self.contact.mean()), 4),
                 "position_sd_m": round(self.position_sd_m, 4)}
-
-
-def body_sizes(joints: np.ndarray) -> np.ndarray:
-    """(..., 17, 3) H36M-17 joints -> (...) the length of the size chain (trunk plus the mean leg), metres."""
-    def chain(names) -> np.ndarray:
-        points = joints[..., [_I(n) for n in names], :]
-        return np.linalg.norm(np.diff(points, axis=-2), axis=-1).sum(-1)
-
-    return chain(TRUNK_CHAIN) + (chain(LEGS[0]) + chain(LEGS[1])) / 2
 
 
 def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton) -> np.ndarray:
@@ -119,7 +104,7 @@ class _Problem:
         self.config, self.count = config, len(joints)
         self.centre = camera.center
         distance = np.linalg.norm(joints[:, 0] - self.centre, axis=-1)
-        self.lowest = joints[:, ANKLES, 2].min(1)
+        self.lowest = lowest_ankle_height(joints)
         self.floored = observed & (self.centre[2] - self.lowest > 0.05)  # frames the floor term applies to
         # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
         # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
@@ -243,11 +228,9 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
         foot = centre + np.einsum("tjk,tjk->tj", refined - centre, rays)[..., None] * rays  # nearest point on the ray
         refined = refined + pull[..., None] * (foot - refined)
     distance = np.linalg.norm(refined[:, 0] - centre, axis=-1)
-    lowest = refined[:, ANKLES, 2].min(1)
+    lowest = lowest_ankle_height(refined)
     contact = problem.floored & (np.abs(lowest - config.contact_ankle_height_m) < 2 * config.ankle_height_sd_m)
-    head_over_ankle = refined[:, _I("head"), 2] - lowest
-    upright = contact if contact.any() else observed
     return refined, Refinement(
         scale=scale, contact=contact, body_size_m=body_size,
-        stature_m=float(np.median(head_over_ankle[upright]) / HEAD_OVER_ANKLE_OF_STATURE),
+        stature_m=body.stature(refined, contact if contact.any() else observed),
         position_sd_m=float(np.median(problem.log_scale_sd(x) * np.median(distance))))

@@ -28,8 +28,9 @@ from typing import Any
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
-from ray3d.io.camera_files import read_camera
+from ray3d.io.camera_files import camera_from_options
 from ray3d.io.json_files import read_json
+from ray3d.options import LiftOptions, VideoOptions
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")
 WORLD_FORMATS = (".json", ".csv", ".npz", ".trc")
@@ -87,7 +88,10 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "detector": (_text, ("video",)), "start": (_count, ("video",)), "frames": (_count, ("video",)),
     "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)),
 }
-_CAMERA_COLUMNS = ("camera", "camera_height", "pitch", "roll", "hfov", "focal", "image_size")
+CAMERA_COLUMNS = ("camera", "camera_height", "pitch", "roll", "hfov", "focal", "image_size")
+LIFT_COLUMNS = ("smooth_2d", "smooth_3d", "flip_test", "refine")
+_CHECK_IMAGE_SIZE = (1920, 1080)  # a video's camera is checked with this size before the video's own is read
+VIDEO_COLUMNS = {"fps": "fps", "start": "start", "frames": "frames", "max_gap_s": "max_gap", "min_track_s": "min_track"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -102,14 +106,15 @@ class Entry:
 
     def camera(self, image_size: tuple[int, int] | None = None) -> Camera:
         """The entry's camera; ``image_size`` (a video's) is the default for a camera given by height and pitch."""
-        o = self.options
-        if "camera" in o:
-            return read_camera(o["camera"])
-        size = o.get("image_size", image_size)
-        if size is None:
-            raise InputError(f"row {self.row}: image_size is needed with camera_height and pitch for keypoints")
-        return Camera.from_height_pitch(o["camera_height"], o["pitch"], size, o.get("roll", 0.0), o.get("focal"),
-                                        o.get("hfov"))
+        return camera_from_options(**{c: self.options[c] for c in CAMERA_COLUMNS if c in self.options},
+                                   default_image_size=image_size)
+
+    def lift_options(self) -> LiftOptions:
+        return LiftOptions(**{f: self.options[f] for f in LIFT_COLUMNS if f in self.options})
+
+    def video_options(self) -> VideoOptions:
+        return VideoOptions(**{field: self.options[column] for field, column in VIDEO_COLUMNS.items()
+                               if column in self.options})
 
     def fingerprint(self) -> str:
         """What the entry's output depends on: its options, its input and camera files (size and time), and
@@ -190,21 +195,13 @@ def read_manifest(path: str | Path) -> list[Entry]:
         checkpoint = Path(options.get("checkpoint", "")).expanduser()
         if checkpoint.suffix == ".safetensors" and not checkpoint.is_absolute():
             options["checkpoint"] = str(path.parent / checkpoint)
-        if "camera" in options:
+        if "camera" in options and not options["camera"].startswith("h36m:"):
             camera = Path(options["camera"]).expanduser()
-            if not options["camera"].startswith("h36m:"):
-                camera = camera if camera.is_absolute() else path.parent / camera
-                options["camera"] = str(camera)
-            given = [c for c in _CAMERA_COLUMNS if c in options and c != "camera"]
-            if given:
-                raise InputError(f"{where}: give camera or {', '.join(given)}, not both")
-        elif not {"camera_height", "pitch"} <= set(options) or not {"hfov", "focal"} & set(options):
-            raise InputError(f"{where}: no camera: give camera (a file or h36m:S:C), or camera_height, pitch and "
-                             "hfov or focal")
+            options["camera"] = str(camera if camera.is_absolute() else path.parent / camera)
         entry = Entry(number, source, name, kind, options)
-        try:
-            if kind == "keypoints" or "camera" in options or "image_size" in options:
-                entry.camera()
+        try:  # a video's camera given by height and pitch waits for the video's image size
+            entry.camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
+            entry.lift_options()
         except InputError as err:
             raise InputError(f"{where}: camera: {err.message}") from None
         entries.append(entry)

@@ -70,26 +70,21 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     target = out_dir / entry.name
     temporary = Path(tempfile.mkdtemp(prefix=f".{entry.name}.", dir=out_dir))
     o = entry.options
-    lift_options = {k: o[k] for k in ("smooth_2d", "flip_test", "refine") if k in o}
-    if "smooth_3d" in o:
-        lift_options["smooth_3d"] = None if o["smooth_3d"] == "none" else o["smooth_3d"]
     world_file = f"world{o.get('format', '.json')}"
     try:
         if entry.kind == "keypoints":
             _, world = lift_file(entry.input, entry.camera(), temporary / world_file,
                                  Lifter.load(o.get("checkpoint", "ray3d")), o.get("layout"), o.get("fps"),
-                                 **lift_options)
+                                 options=entry.lift_options())
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:
             from ray3d.video import lift_video, make_detector, read_video_info
 
-            camera = entry.camera(read_video_info(entry.input).image_size)
-            video_options = {key: o[column] for key, column in (("fps", "fps"), ("start", "start"),
-                                                                ("frames", "frames"), ("max_gap_s", "max_gap"),
-                                                                ("min_track_s", "min_track")) if column in o}
-            result = lift_video(entry.input, camera, temporary, make_detector(o.get("detector", "people"), camera),
-                                Lifter.load(o.get("checkpoint", VIDEO_MODEL)), world_format=o.get("format", ".json"),
-                                progress=False, **video_options, **lift_options)
+            info = read_video_info(entry.input)
+            camera = entry.camera(info.image_size)
+            result = lift_video(info, camera, temporary, make_detector(o.get("detector", "people"), camera),
+                                Lifter.load(o.get("checkpoint", VIDEO_MODEL)), entry.lift_options(),
+                                entry.video_options(), world_format=o.get("format", ".json"), progress=False)
             world, frames = result.world, result.frames
     except InputError as err:
         shutil.rmtree(temporary, ignore_errors=True)

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ray3d import metrics
-from ray3d.calibrate import AXIS_HEIGHTS, from_person
+from ray3d.body import ADULT_STATURE_M, AXIS_HEIGHTS
+from ray3d.calibrate import from_person
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import centre_clip
 from ray3d.geometry import Camera, centre_looking_at, focal_from_hfov
@@ -26,11 +27,11 @@ from ray3d.skeleton import H36M17
 from ray3d.io.atomic import atomic_path
 
 IMAGE_SIZE = (1920, 1080)
-# name -> (focal length given, stature given as the person's own (else the 1.70 m default), 2D noise in px)
+# name -> (focal length given, stature given as the person's own (else the adult default), 2D noise in px)
 CASES = {
     "focal known, true stature": (True, True, 0.0),
     "focal known, true stature, 2 px noise": (True, True, 2.0),
-    "focal known, stature 1.70 m": (True, False, 0.0),
+    f"focal known, stature {ADULT_STATURE_M:.2f} m": (True, False, 0.0),
     "focal unknown, true stature": (False, True, 0.0),
 }
 ERRORS = ("pitch_error_deg", "roll_error_deg", "height_error_pct", "focal_error_pct", "abs_mpjpe_mm", "mrpe_mm",
@@ -107,7 +108,7 @@ def run(motion: MotionSet, lifter, pairs: int = 12, seed: int = 0, bootstrap: in
         for case, (focal_known, stature_known, noise_px) in cases.items():
             observed = [c + rng.normal(0.0, noise_px, c.shape) if noise_px else c for c in cleans]
             estimate = from_person(observed if people > 1 else observed[0], IMAGE_SIZE,
-                                   mean_stature if stature_known else 1.70,
+                                   mean_stature if stature_known else ADULT_STATURE_M,
                                    camera.K[0, 0] if focal_known else None, bootstrap=bootstrap, seed=pair)
             lifted = [lifter.lift(pixels, estimate.camera).joints for pixels in observed]
             references = ([lifter.lift(pixels, floor_camera).joints for pixels in observed] if noise_px

@@ -7,11 +7,10 @@ from __future__ import annotations
 import numpy as np
 
 from ray3d.io.world import LiftResult
-from ray3d.refine import ANKLES, HEAD_OVER_ANKLE_OF_STATURE
+from ray3d.body import ANKLES, head_over_ankle, lowest_ankle_height, stature
 from ray3d.skeleton import H36M17
 from ray3d.temporal import seen_frames
 
-_I = H36M17.index
 FLOOR_BAND_M = (-0.10, 0.25)     # where the lowest ankle of a person standing on the floor may be
 PLANTED_BAND_M = 0.05            # a foot within this of the track's low ankle height counts as planted
 CHECKS = ("frames", "ankle_on_floor_fraction", "lowest_ankle_median_m", "head_over_ankle_m", "stature_m",
@@ -23,8 +22,7 @@ def track_checks(result: LiftResult) -> dict[str, float]:
     seen = seen_frames(result.interpolated)
     joints, fps = result.joints[seen], result.fps
     frames = result.frames[seen]
-    lowest = joints[:, ANKLES, 2].min(1)
-    head_over_ankle = joints[:, _I("head"), 2] - lowest
+    lowest = lowest_ankle_height(joints)
     # Consecutive observed frames give speeds; a window of about a second gives the walking speed.
     step = np.diff(frames)
     consecutive = step == 1
@@ -47,8 +45,8 @@ def track_checks(result: LiftResult) -> dict[str, float]:
 
     return {"frames": int(seen.sum()),
             "ankle_on_floor_fraction": float(np.mean((lowest >= FLOOR_BAND_M[0]) & (lowest <= FLOOR_BAND_M[1]))),
-            "lowest_ankle_median_m": median(lowest), "head_over_ankle_m": median(head_over_ankle),
-            "stature_m": median(head_over_ankle) / HEAD_OVER_ANKLE_OF_STATURE,
+            "lowest_ankle_median_m": median(lowest), "head_over_ankle_m": median(head_over_ankle(joints)),
+            "stature_m": stature(joints),
             "walking_speed_1s_m_s": median(walking),
             "speed_p90_m_s": float(np.percentile(speed, 90)) if len(speed) else float("nan"),
             "bone_length_cv": float(np.mean(bones.std(0) / bones.mean(0))),

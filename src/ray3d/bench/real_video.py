@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ray3d import metrics
+from ray3d.body import HEAD_OVER_ANKLE_OF_STATURE
 from ray3d.bench.physical import CHECKS, summarise, track_checks
 from ray3d.data.motion import MotionSet
 from ray3d.data.samples import detector_points
@@ -22,6 +23,7 @@ from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.lift import Lifter
+from ray3d.options import LiftOptions
 from ray3d.skeleton import COCO17, H36M17, Skeleton, layout_skeleton
 
 EMULATED_CAMERAS = CameraRanges(height_m=(2.5, 10.0), distance_m=(6.0, 35.0), pitch_deg=(0.0, 40.0), roll_deg=3.0,
@@ -92,7 +94,7 @@ def run_video(lifter: Lifter, keypoints, camera: Camera, smooth_3d: str | None =
     """One row per (track, refinement) of the detections of a video (``ray3d.io.keypoints.Keypoints``)."""
     rows = []
     for refine in REFINE:
-        world = lifter.lift_keypoints(keypoints, camera, refine=refine, smooth_3d=smooth_3d)
+        world = lifter.lift_keypoints(keypoints, camera, LiftOptions(smooth_3d=smooth_3d, refine=refine))
         rows += [{"track": track, "refine": refine, **track_checks(result)} for track, result in world.tracks.items()]
     return rows
 
@@ -113,7 +115,7 @@ def write(out_dir: str | Path, emulated: list[dict], video: list[dict] | None = 
     """``real-video.json`` (every row) and ``real-video.md`` (the tables: medians over tracks)."""
     out_dir = Path(out_dir)
     lines = ["Medians over tracks, except the floor fraction (over person-frames). Stature = head over the lowest "
-             "ankle / 0.873.", ""]
+             f"ankle / {HEAD_OVER_ANKLE_OF_STATURE:.3f}.", ""]
     if video:
         lines += _table(f"{video_name} (no ground truth)",
                         {("on" if r else "off"): [row for row in video if row["refine"] == r] for r in REFINE})

@@ -276,11 +276,12 @@ def measure_video(video, camera, frames: int = 100) -> dict:
     tracking), of lifting and writing, and end to end."""
     import tempfile
 
+    from ray3d.options import VideoOptions
     from ray3d.video import lift_video, make_detector
 
     with tempfile.TemporaryDirectory() as out:
-        result = lift_video(video, camera, Path(out) / "video", make_detector("people", camera), frames=frames,
-                            progress=False)
+        result = lift_video(video, camera, Path(out) / "video", make_detector("people", camera),
+                            video_options=VideoOptions(frames=frames), progress=False)
     seconds = result.seconds
     return {"video": str(video), "frames": result.frames, "people": len(result.world.tracks),
             "people_frames_per_s": result.frames / seconds["people"],

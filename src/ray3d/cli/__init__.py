@@ -14,7 +14,9 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "frames": "--frames", "detector": "--detector", "people": "--people", "max_gap_s": "--max-gap",
          "min_track_s": "--min-track", "height_m": "--camera-height", "pitch_deg": "--pitch", "roll_deg": "--roll",
          "checkpoint": "--checkpoint", "stride": "--stride", "frame": "--frame", "floor_points": "--floor-points",
-         "manifest": "MANIFEST", "animation": "--animation", "camera": "--camera"}
+         "manifest": "MANIFEST", "animation": "--animation", "camera": "--camera", "camera_height": "--camera-height",
+         "pitch": "--pitch", "roll": "--roll", "image_size": "--image-size", "hfov": "--hfov", "focal": "--focal",
+         "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d", "max_gap_s": "--max-gap"}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -54,10 +54,12 @@ def real_video(args: argparse.Namespace) -> int:
         if args.keypoints:
             keypoints, name = read_keypoints(args.keypoints, fps=args.fps), args.keypoints.name
         else:
+            from ray3d.options import VideoOptions
             from ray3d.video import make_detector, track_video
 
             camera = read_camera(args.camera)
-            keypoints = track_video(args.video, camera, make_detector(args.detector, camera), args.fps)[0]
+            keypoints = track_video(args.video, camera, make_detector(args.detector, camera),
+                                    VideoOptions(fps=args.fps)).keypoints()
             name = args.video.name
         video_rows = run_video(lifter, keypoints, read_camera(args.camera), args.smooth_3d)
     emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed,

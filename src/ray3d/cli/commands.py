@@ -178,16 +178,17 @@ def models(args: argparse.Namespace) -> int:
     return 0
 
 
-def _camera(args: argparse.Namespace):
-    from ray3d.geometry import Camera
-    from ray3d.io.camera_files import read_camera
+def _camera(args: argparse.Namespace, default_image_size: tuple[int, int] | None = None):
+    from ray3d.io.camera_files import camera_from_options
 
-    if args.camera:
-        return read_camera(args.camera)
-    if args.camera_height is None or args.pitch is None or args.image_size is None:
-        raise InputError("pass --camera FILE, or --camera-height, --pitch, --image-size and --hfov or --focal")
-    return Camera.from_height_pitch(args.camera_height, args.pitch, _image_size(args), args.roll, args.focal,
-                                    args.hfov)
+    return camera_from_options(args.camera, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
+                               args.hfov, default_image_size)
+
+
+def _lift_options(args: argparse.Namespace):
+    from ray3d.options import LiftOptions
+
+    return LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame)
 
 
 def _image_size(args: argparse.Namespace) -> tuple[int, int]:
@@ -237,16 +238,12 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
     image_size = _image_size(args)
     focal = args.focal or (focal_from_hfov(image_size[0], args.hfov) if args.hfov is not None else None)
     keypoints = read_keypoints(args.from_person, args.layout)
-    if args.track is not None:
-        track, _, pixels, confidences = keypoints.track(args.track)
-        tracks, people = [track], ([pixels], [confidences])
-    else:  # everybody, jointly
-        entries = keypoints.by_track()
-        tracks, people = list(entries), ([e[1] for e in entries.values()], [e[2] for e in entries.values()])
-    confidences = None if any(c is None for c in people[1]) else people[1]
-    result = from_person(people[0], image_size, args.person_height, focal, keypoints.layout, confidences=confidences)
+    people = dict([keypoints.track(args.track)]) if args.track is not None else keypoints.by_track()  # or everybody
+    confidences = [d.confidences for d in people.values()]
+    result = from_person([d.pixels for d in people.values()], image_size, args.person_height, focal, keypoints.layout,
+                         confidences=None if any(c is None for c in confidences) else confidences)
     save_cameras(args.out, [result.camera], overwrite=args.force, calibration="from person",
-                 person_height_m=args.person_height, tracks=[str(t) for t in tracks], **result.to_dict())
+                 person_height_m=args.person_height, tracks=[str(t) for t in people], **result.to_dict())
     print(f"{result.summary()} (people {args.person_height:.2f} m tall on average) -> {args.out}")
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
@@ -261,9 +258,8 @@ def lift(args: argparse.Namespace) -> int:
     camera = _camera(args)
     keypoints, world = lift_file(
         args.keypoints, camera, args.out, Lifter.load(args.checkpoint), args.layout, args.fps, args.force,
-        dict(subject=args.subject, action=args.action, camera_index=args.camera_index),
-        frame=args.frame, smooth_2d=args.smooth_2d, smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test,
-        refine=not args.no_refine, progress=True)
+        dict(subject=args.subject, action=args.action, camera_index=args.camera_index), _lift_options(args),
+        progress=True)
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
@@ -278,12 +274,10 @@ def lift(args: argparse.Namespace) -> int:
           f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {world.frame} frame)")
     if filled:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
+    for track, why in world.unliftable.items():
+        print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
     _print_refinements(world.tracks)
     return 0
-
-
-def _smoothing(choice: str) -> str | None:
-    return None if choice == "none" else choice
 
 
 def _print_refinements(tracks: dict) -> None:
@@ -299,18 +293,15 @@ def video(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ray3d.lift import Lifter
+    from ray3d.options import VideoOptions
     from ray3d.video import lift_video, make_detector, read_video_info
 
     info = read_video_info(args.input)
-    if args.camera is None and args.image_size is None:
-        args.image_size = f"{info.image_size[0]}x{info.image_size[1]}"
-    camera = _camera(args)
-    result = lift_video(args.input, camera, args.out, make_detector(args.detector, camera),
-                        Lifter.load(args.checkpoint), fps=args.fps, world_format=args.format,
-                        overlay=not args.no_overlay, overwrite=args.force, start=args.start, frames=args.frames,
-                        max_gap_s=args.max_gap, min_track_s=args.min_track, smooth_2d=args.smooth_2d,
-                        smooth_3d=_smoothing(args.smooth_3d), flip_test=args.flip_test, refine=not args.no_refine,
-                        frame=args.frame)
+    camera = _camera(args, info.image_size)
+    options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
+    result = lift_video(info, camera, args.out, make_detector(args.detector, camera), Lifter.load(args.checkpoint),
+                        _lift_options(args), options, world_format=args.format, overlay=not args.no_overlay,
+                        overwrite=args.force)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
     print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked ({len(result.dropped)} short or "

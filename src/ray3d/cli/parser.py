@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 import ray3d
+from ray3d.body import ADULT_STATURE_M
 from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
 from ray3d.temporal import OUTPUT_SMOOTHING
@@ -31,7 +32,7 @@ def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str 
     parser.add_argument("--camera", help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
     parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
     parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
-    parser.add_argument("--roll", type=float, default=0.0, help="with --pitch: camera roll in degrees (default 0)")
+    parser.add_argument("--roll", type=float, help="with --pitch: camera roll in degrees (default 0)")
     _add_lens_arguments(parser, "with --pitch", image_size_note)
 
 
@@ -270,8 +271,8 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--from-person", type=Path, metavar="KEYPOINTS",
                            help="instead of --floor-points: 2D keypoints of one person standing or walking on the "
                                 "floor (any format ray3d lift reads); estimates height, pitch, roll (and focal)")
-    calibrate.add_argument("--person-height", type=float, default=1.70,
-                           help="with --from-person: the person's stature in metres (default 1.70)")
+    calibrate.add_argument("--person-height", type=float, default=ADULT_STATURE_M,
+                           help=f"with --from-person: the person's stature in metres (default {ADULT_STATURE_M:.2f})")
     calibrate.add_argument("--track", help="with --from-person: only this track (default: every track, jointly)")
     calibrate.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
     calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")

@@ -12,16 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ray3d.body import ANKLES, HEAD, PELVIS, head_over_ankle
 from ray3d.data import asf_amc, bvh, mapping
 from ray3d.data.motion import MotionSet
 from ray3d.data.skeleton_fk import KinematicTree
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import y_up_to_z_up
-from ray3d.skeleton import H36M17
 from ray3d.temporal import resample
 
-HEAD, PELVIS = H36M17.index("head"), H36M17.index("pelvis")
-ANKLES = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254, "cmu": 0.0254 / 0.45}
 DEFAULT_BVH_UNITS = {"cgspeed-motionbuilder": "cmu", "cgspeed-3dsmax": "cmu", "cgspeed-daz": "cm"}
@@ -53,7 +51,7 @@ def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit
     feet = y_up_to_z_up(nodes[:, mapping.foot_nodes(tree, naming)] * unit_m)
     joints, feet = joints[drop_native_frames:], feet[drop_native_frames:]
     joints, feet = resample(joints, native_fps, fps), resample(feet, native_fps, fps)
-    height = np.median(joints[:, HEAD, 2] - joints[:, ANKLES, 2].min(axis=1))
+    height = np.median(head_over_ankle(joints))
     chain = np.median(np.linalg.norm(joints[:, HEAD] - joints[:, PELVIS], axis=-1) + np.linalg.norm(
         joints[:, PELVIS] - joints[:, ANKLES[1]], axis=-1))
     low, high = PLAUSIBLE_BODY_HEIGHT_M

@@ -23,7 +23,7 @@ IMAGE_SIZE = (1000, 1000)
 
 TRAIN_YAWS_DEG = (60.0, 180.0, 300.0)
 TRAIN_PITCHES_DEG = tuple(float(p) for p in range(2, 39, 2))
-TRAIN_DISTANCES_M = tuple(np.round(np.linspace(9.05, 11.70, 6), 3))
+TRAIN_DISTANCES_M = tuple(np.round(np.linspace(9.05, 11.7, 6), 3))
 
 # Extrinsic test: one factor swept at a time around the base (yaw, pitch, distance); the pitch and distance
 # sweeps run at three yaws the training grid never uses.

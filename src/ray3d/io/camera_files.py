@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from ray3d.errors import InputError, reads_file
-from ray3d.geometry import Camera
+from ray3d.geometry import Camera, parse_image_size
 from ray3d.io.atomic import atomic_path
 from ray3d.io.json_files import read_json
 
@@ -132,3 +132,28 @@ def read_camera(spec: str | Path, index: int = 0) -> Camera:
     if not 0 <= index < len(cams):
         raise InputError(f"{path}: holds {len(cams)} camera(s); index {index} is out of range")
     return cams[index]
+
+
+def camera_from_options(camera: str | Path | None = None, camera_height: float | None = None,
+                        pitch: float | None = None, image_size: Any = None, roll: float | None = None,
+                        focal: float | None = None, hfov: float | None = None,
+                        default_image_size: tuple[int, int] | None = None) -> Camera:
+    """The camera of a job, as its options give it: a camera file (or ``h36m:SUBJECT:CAMERA_ID``), or a camera
+    placed by ``camera_height`` (m), ``pitch`` and ``roll`` (degrees) and ``hfov`` (degrees) or ``focal``
+    (pixels) for images ``image_size`` (``WIDTHxHEIGHT`` or a pair; a video's own, ``default_image_size``,
+    when not given). The one builder behind ``ray3d lift``, ``ray3d video`` and batch manifests."""
+    placed = {"camera_height": camera_height, "pitch": pitch, "roll": roll, "focal": focal, "hfov": hfov,
+              "image_size": image_size}
+    if camera is not None:
+        given = tuple(name for name, value in placed.items() if value is not None)
+        if given:
+            raise InputError(f"give a camera file or {', '.join(given)}, not both", arguments=("camera", *given))
+        return read_camera(camera)
+    try:
+        size = default_image_size if image_size is None else parse_image_size(image_size, "image_size")
+    except InputError as err:
+        raise InputError(err.message, ("image_size",)) from None
+    if camera_height is None or pitch is None or size is None or (focal is None and hfov is None):
+        raise InputError("no camera: give a camera file, or camera_height, pitch, image_size and hfov or focal",
+                         arguments=("camera", "camera_height", "pitch", "image_size", "hfov"))
+    return Camera.from_height_pitch(camera_height, pitch, size, roll or 0.0, focal, hfov)

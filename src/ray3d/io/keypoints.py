@@ -9,6 +9,7 @@ import csv
 import dataclasses
 import json
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -19,6 +20,30 @@ from ray3d.io.json_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_named_by, layout_skeleton
 from ray3d.temporal import check_frame_rate
+
+
+class TrackDetections(NamedTuple):
+    """One person's detections: frame index (N,), pixels (N, J, 2) and optional confidences (N, J)."""
+
+    frames: np.ndarray
+    pixels: np.ndarray
+    confidences: np.ndarray | None = None
+
+    def dense(self) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Every frame from the first detection to the last: (frames (T,), pixels (T, J, 2) NaN where the
+        person was not detected, confidences (T, J) 0 there, or None)."""
+        frames = np.asarray(self.frames, dtype=np.int64)
+        order = np.argsort(frames)
+        span = np.arange(frames[order[0]], frames[order[-1]] + 1)
+        rows = frames[order] - span[0]
+        pixels = np.asarray(self.pixels, dtype=np.float64)
+        dense = np.full((len(span), *pixels.shape[1:]), np.nan)
+        dense[rows] = pixels[order]
+        if self.confidences is None:
+            return span, dense, None
+        confidences = np.zeros(dense.shape[:2])
+        confidences[rows] = np.asarray(self.confidences, dtype=np.float64)[order]
+        return span, dense, confidences
 
 
 @dataclasses.dataclass
@@ -35,13 +60,13 @@ class Keypoints:
     path: Path | None = None
     untracked_dropped: int = 0  # detections left out: several people in a frame of a file without track ids
 
-    def by_track(self) -> dict:
-        """{track: (frames, pixels, confidences)} for ``Lifter.lift_tracks``."""
+    def by_track(self) -> dict[object, TrackDetections]:
+        """{track id: its detections} for ``Lifter.lift_tracks``."""
         out = {}
         for track in dict.fromkeys(self.tracks.tolist()):
             rows = self.tracks == track
-            out[track] = (self.frames[rows], self.pixels[rows],
-                          None if self.confidences is None else self.confidences[rows])
+            out[track] = TrackDetections(self.frames[rows], self.pixels[rows],
+                                         None if self.confidences is None else self.confidences[rows])
         return out
 
     def h36m_pixels(self, track, frames: np.ndarray) -> np.ndarray:
@@ -59,19 +84,19 @@ class Keypoints:
                 out[i] = pixels[where[int(frame)]]
         return out
 
-    def track(self, name=None) -> tuple:
-        """(track id, frames, pixels, confidences) of the track called ``name`` (its id or the id's text;
-        default: the track with most detections)."""
+    def track(self, name=None) -> tuple[object, TrackDetections]:
+        """(track id, its detections) of the track called ``name`` (its id or the id's text; default: the
+        track with most detections)."""
         tracks = self.by_track()
         if name is None:
-            chosen = max(tracks, key=lambda t: len(tracks[t][0]))
+            chosen = max(tracks, key=lambda t: len(tracks[t].frames))
         else:
             found = [t for t in tracks if t == name or str(t) == str(name)]
             if not found:
                 raise InputError(f"{self.path or self.source}: no track {name!r}; tracks: "
                                  f"{', '.join(map(str, tracks))}", arguments=("track",))
             chosen = found[0]
-        return (chosen, *tracks[chosen])
+        return chosen, tracks[chosen]
 
 
 def _layout_for(path: Path, pixels: np.ndarray, layout: str | None) -> str:

@@ -29,9 +29,16 @@ FRAME_AXES = {"world": AXES, "camera": CAMERA_AXES}
 CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated")
 
 
-def _check_frame(frame: str) -> None:
+def check_frame(frame: str) -> str:
+    """``frame`` when it is one a world file can hold its joints in ("world" or "camera")."""
     if frame not in FRAME_AXES:
         raise InputError(f"frame must be one of {', '.join(FRAME_AXES)}, got {frame!r}", arguments=("frame",))
+    return frame
+
+
+def _frame_described(axes: str) -> str:
+    """The frame a file's axes text describes."""
+    return "camera" if axes == CAMERA_AXES else "world"
 
 
 @dataclasses.dataclass
@@ -58,20 +65,29 @@ class LiftResult:
 
 @dataclasses.dataclass
 class World:
-    """Everything a world file holds: the people lifted from one camera into its world frame, by track id,
-    the camera and the model that lifted them."""
+    """Everything a world file holds: the people lifted from one camera, by track id, their joints in
+    ``frame`` ("world", or "camera": see ``in_frame``), the camera and the model that lifted them, and the
+    tracks that could not be lifted ({track id: why}; not written to files)."""
 
     tracks: dict[str, LiftResult]
     camera: Camera
     model: str
     units: str = UNITS
-    axes: str = AXES
+    frame: str = "world"
     path: Path | None = None  # the file it was read from
+    unliftable: dict[str, str] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.tracks:
             raise InputError("world: no tracks")
+        check_frame(self.frame)
         self.tracks = {str(track): result for track, result in self.tracks.items()}
+        self.unliftable = {str(track): why for track, why in self.unliftable.items()}
+
+    @property
+    def axes(self) -> str:
+        """The frame in words, as the files state it."""
+        return FRAME_AXES[self.frame]
 
     @property
     def fps(self) -> float:
@@ -98,20 +114,14 @@ class World:
                 np.concatenate([[t] * len(r.joints) for t, r in self.tracks.items()]),
                 np.concatenate([r.interpolated for r in results]))
 
-    @property
-    def frame(self) -> str:
-        """"world" or "camera": the frame the joints are in (``axes`` says it in words)."""
-        return "camera" if self.axes == CAMERA_AXES else "world"
-
     def in_frame(self, frame: str) -> World:
         """The same people with their joints in the ``frame`` "world" (z up, floor z = 0) or "camera" (OpenCV:
         x right, y down, z forward, metres from the lens)."""
-        _check_frame(frame)
-        if frame == self.frame:
+        if check_frame(frame) == self.frame:
             return self
         move = self.camera.world_to_camera if frame == "camera" else self.camera.camera_to_world
         tracks = {t: dataclasses.replace(r, joints=np.asarray(move(r.joints))) for t, r in self.tracks.items()}
-        return dataclasses.replace(self, tracks=tracks, axes=FRAME_AXES[frame])
+        return dataclasses.replace(self, tracks=tracks, frame=frame)
 
     def refinements(self) -> dict[str, dict | None]:
         return {track: result.refinement for track, result in self.tracks.items()}
@@ -133,7 +143,7 @@ def check_world_output(path: str | Path, frame: str = "world") -> str:
     joints in ``frame``: TRC and BVH are defined with the floor, in the world frame only."""
     path = Path(path)
     suffix = _check_format(path, FORMATS + EXPORTS)
-    _check_frame(frame)
+    check_frame(frame)
     if suffix in EXPORTS and frame != "world":
         raise InputError(f"{path}: {suffix} files are written in the world frame (they need the floor); write the "
                          "camera frame as .json, .csv or .npz", arguments=("frame",))
@@ -257,7 +267,7 @@ def _read_csv(path: Path) -> World:
     tracks = _from_rows(joints, [int(r["frame"]) for r in rows[::len(names)]],
                         [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names,
                         refinements)
-    return World(tracks, camera, fields["model"], fields["units"], fields["axes"], path)
+    return World(tracks, camera, fields["model"], fields["units"], _frame_described(fields["axes"]), path)
 
 
 @reads_file("world file")
@@ -274,7 +284,7 @@ def read_world(path: str | Path) -> World:
                                 float(data["fps"]), [str(n) for n in data["joint_names"]],
                                 json.loads(str(data["refinement_json"])))
             return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))), str(data["model"]),
-                         str(data["units"]), str(data["axes"]), path)
+                         str(data["units"]), _frame_described(str(data["axes"])), path)
         if suffix == ".json":
             document = read_json(path)
             tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
@@ -283,7 +293,7 @@ def read_world(path: str | Path) -> World:
                                          e["refinement"])
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
-                         str(document["units"]), str(document["axes"]), path)
+                         str(document["units"]), _frame_described(str(document["axes"])), path)
         return _read_csv(path)
     except InputError:
         raise

@@ -2,8 +2,9 @@
 
 from ray3d.video.detectors import DETECTORS, Detection, MediaPipeDetector, PeopleDetector, PoseDetector, make_detector
 from ray3d.video.frames import VideoInfo, read_frames, read_video_info
-from ray3d.video.pipeline import VideoResult, lift_video, track_video
+from ray3d.video.pipeline import TrackedPeople, VideoResult, lift_video, track_video, video_info
 from ray3d.video.tracking import FloorTracker, Track
 
 __all__ = ["DETECTORS", "Detection", "FloorTracker", "MediaPipeDetector", "PeopleDetector", "PoseDetector", "Track",
-           "VideoInfo", "VideoResult", "lift_video", "make_detector", "read_frames", "read_video_info", "track_video"]
+           "TrackedPeople", "VideoInfo", "VideoResult", "lift_video", "make_detector", "read_frames", "read_video_info",
+           "track_video", "video_info"]

@@ -14,8 +14,8 @@ from ray3d.errors import InputError
 from ray3d.io.atomic import atomic_path
 from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import World
-from ray3d.skeleton import H36M17, convert_keypoints
-from ray3d.video.frames import read_frames, read_video_info
+from ray3d.skeleton import H36M17
+from ray3d.video.frames import VideoInfo, read_frames
 from ray3d.viz.animation import PALETTE
 
 # The viewer's colours, in OpenCV's BGR: a person has the same colour in the overlay and the viewer.
@@ -23,31 +23,27 @@ TRACK_COLOURS = tuple(tuple(int(h[i:i + 2], 16) for i in (5, 3, 1)) for h in PAL
 _FILLED, _DETECTED = (150, 150, 150), (255, 255, 255)
 
 
-def write_overlay(video: Path, target: Path, keypoints: Keypoints, world: World, start: int, frames: int,
+def write_overlay(video: VideoInfo, target: Path, keypoints: Keypoints, world: World, start: int, frames: int,
                   overwrite: bool = False, progress: bool = True) -> Path:
     """Draw every track of ``world`` (and its ``keypoints``) on ``frames`` frames of ``video`` from ``start``;
     MP4 at the keypoints' frame rate."""
-    info = read_video_info(video)
-    detected = {}  # (track, frame) -> H36M-17 pixels (17, 2)
-    for track, (seen, pixels, confidences) in keypoints.by_track().items():
-        h36m, _ = convert_keypoints(pixels, keypoints.layout, confidences)
-        detected.update({(str(track), int(f)): p for f, p in zip(seen, h36m)})
     projected = {name: (result.frames, world.camera.project(result.joints), result.interpolated.all(axis=1),
-                        TRACK_COLOURS[i % len(TRACK_COLOURS)]) for i, (name, result) in enumerate(world.tracks.items())}
+                        TRACK_COLOURS[i % len(TRACK_COLOURS)], keypoints.h36m_pixels(name, result.frames))
+                 for i, (name, result) in enumerate(world.tracks.items())}
     with atomic_path(target, overwrite) as temporary:
-        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), keypoints.fps, info.image_size)
+        writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*"mp4v"), keypoints.fps, video.image_size)
         if not writer.isOpened():
             raise InputError(f"{target}: OpenCV cannot write MP4 video here")
         try:
-            for index, frame in tqdm(read_frames(video, start, frames), total=frames, desc="overlay", unit="frame",
+            for index, frame in tqdm(read_frames(video.path, start, frames), total=frames, desc="overlay", unit="frame",
                                      disable=not progress):
                 canvas = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
-                for name, (spanned, pixels, filled, own) in projected.items():
+                for name, (spanned, pixels, filled, own, detected) in projected.items():
                     row = index - int(spanned[0])
                     if not 0 <= row < len(spanned):
                         continue
-                    if (name, index) in detected:
-                        _draw_skeleton(canvas, detected[(name, index)], _DETECTED, 1)
+                    if np.isfinite(detected[row]).any():
+                        _draw_skeleton(canvas, detected[row], _DETECTED, 1)
                     colour, width = (_FILLED, 1) if filled[row] else (own, 2)
                     _draw_skeleton(canvas, pixels[row], colour, width)
                     _label(canvas, pixels[row], name, colour)

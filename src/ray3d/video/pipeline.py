@@ -17,15 +17,38 @@ from tqdm import tqdm
 from ray3d.checkpoints import VIDEO_MODEL
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.io.keypoints import Keypoints, write_keypoints_json
+from ray3d.io.keypoints import Keypoints, TrackDetections, write_keypoints_json
 from ray3d.io.world import World, check_world_output, export_paths, write_world
 from ray3d.lift import Lifter
-from ray3d.temporal import OUTPUT_SMOOTHING, check_frame_rate
+from ray3d.options import LiftOptions, VideoOptions
+from ray3d.temporal import check_frame_rate
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.frames import VideoInfo, read_frames, read_video_info, spread_frames
 from ray3d.video.overlay import write_overlay
 from ray3d.video.tracking import FloorTracker
 from ray3d.viz.html_viewer import write_viewer
+
+@dataclasses.dataclass
+class TrackedPeople:
+    """Everybody detected and followed in a video: {track id: detections at the video's frame index} of the
+    tracks kept, in the detector's layout, at ``fps``; the frames read; {track id: why} of those dropped."""
+
+    tracks: dict[int, TrackDetections]
+    layout: str
+    fps: float
+    frames_read: int
+    dropped: dict[int, str]
+    video: Path
+
+    def keypoints(self) -> Keypoints:
+        """The kept tracks' detections as one keypoint record (what ``keypoints.json`` holds)."""
+        ids = list(self.tracks)
+        return Keypoints(np.concatenate([self.tracks[t].pixels for t in ids]),
+                         np.concatenate([self.tracks[t].confidences for t in ids]),
+                         np.concatenate([self.tracks[t].frames for t in ids]),
+                         np.concatenate([np.full(len(self.tracks[t].frames), t) for t in ids]), self.layout, self.fps,
+                         f"{self.layout} detections", self.video)
+
 
 @dataclasses.dataclass
 class VideoResult:
@@ -42,50 +65,48 @@ class VideoResult:
     seconds: dict[str, float]
 
 
-def _span(info: VideoInfo, start: int, frames: int | None) -> int:
-    """How many frames to read from ``start``, checked against the video."""
-    if start < 0 or (info.frames > 0 and start >= info.frames):
+def video_info(video: str | Path | VideoInfo) -> VideoInfo:
+    """A video's properties: read from its header unless given already (read once per run)."""
+    return video if isinstance(video, VideoInfo) else read_video_info(video)
+
+
+def _span(info: VideoInfo, options: VideoOptions) -> int:
+    """How many frames to read from ``options.start``, checked against the video."""
+    start, frames = options.start, options.frames
+    if info.frames > 0 and start >= info.frames:
         raise InputError(f"{info.path}: start frame {start} is outside its {info.frames} frames", arguments=("start",))
-    if frames is not None and frames < 1:
-        raise InputError(f"{info.path}: frames must be at least 1, got {frames}", arguments=("frames",))
     left = info.frames - start if info.frames > 0 else None
     return min(frames, left) if frames is not None and left is not None else (frames or left or 0)
 
 
-def track_video(path: str | Path, camera: Camera, detector: PoseDetector, fps: float | None = None, start: int = 0,
-                frames: int | None = None, max_gap_s: float = 0.5, min_track_s: float = 1.0,
-                progress: bool = True) -> tuple[Keypoints, int, dict[int, str]]:
-    """Detect and track everybody: (the tracks' detections as ``Keypoints`` at the video's frame index, the
-    frames read, {track id: why it was dropped} for tracks shorter than ``min_track_s``)."""
-    info = read_video_info(path)
-    fps = _frame_rate(info, fps)
-    for name, value in (("max_gap_s", max_gap_s), ("min_track_s", min_track_s)):
-        if not np.isfinite(value) or value < 0:
-            raise InputError(f"{name} must be a duration in seconds, 0 or more; got {value}", arguments=(name,))
-    count = _span(info, start, frames)
-    detector.prepare(spread_frames(info, start, count) if count else [])
-    tracker = FloorTracker(camera, fps, detector.layout, max_gap_s)
+def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDetector,
+                options: VideoOptions = VideoOptions(), progress: bool = True) -> TrackedPeople:
+    """Detect and track everybody in the part of ``video`` that ``options`` select; tracks shorter than
+    ``options.min_track_s`` are dropped."""
+    info = video_info(video)
+    fps = _frame_rate(info, options.fps)
+    count = _span(info, options)
+    detector.prepare(spread_frames(info, options.start, count) if count else [])
+    tracker = FloorTracker(camera, fps, detector.layout, options.max_gap_s)
     read = 0
-    for index, frame in tqdm(read_frames(info.path, start, count or None), total=count or None, desc="people",
-                             unit="frame", disable=not progress):
+    for index, frame in tqdm(read_frames(info.path, options.start, count or None), total=count or None,
+                             desc="people", unit="frame", disable=not progress):
         tracker.update(index, detector(frame), frame)
         read += 1
     if read == 0:
         raise InputError(f"{info.path}: no frames could be read")
-    kept, dropped = [], {}
+    kept, dropped = {}, {}
     for track in tracker.tracks():
         seconds = (track.frames[-1] - track.frames[0] + 1) / fps
-        if seconds < min_track_s:
-            dropped[track.id] = f"seen for {seconds:.2f} s (under {min_track_s} s)"
+        if seconds < options.min_track_s:
+            dropped[track.id] = f"seen for {seconds:.2f} s (under {options.min_track_s} s)"
         else:
-            kept.append(track)
+            kept[track.id] = TrackDetections(np.array(track.frames), np.stack([d.pixels for d in track.detections]),
+                                             np.stack([d.confidences for d in track.detections]))
     if not kept:
-        raise InputError(f"{info.path}: nobody was found and followed for {min_track_s} s in its {read} frame(s)")
-    rows = [(t.id, f, d) for t in kept for f, d in zip(t.frames, t.detections)]
-    keypoints = Keypoints(np.stack([d.pixels for _, _, d in rows]), np.stack([d.confidences for _, _, d in rows]),
-                          np.array([f for _, f, _ in rows]), np.array([t for t, _, _ in rows]), detector.layout, fps,
-                          f"{detector.layout} detections", info.path)
-    return keypoints, read, dropped
+        raise InputError(f"{info.path}: nobody was found and followed for {options.min_track_s} s in its {read} "
+                         "frame(s)")
+    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path)
 
 
 def _frame_rate(info: VideoInfo, fps: float | None) -> float:
@@ -107,55 +128,48 @@ def _targets(out_dir: Path, world_format: str, overlay: bool, overwrite: bool) -
             "viewer": out_dir / "viewer.html", **({"overlay": out_dir / "overlay.mp4"} if overlay else {})}
 
 
-def lift_video(path: str | Path, camera: Camera, out_dir: str | Path, detector: PoseDetector,
-               lifter: Lifter | None = None, fps: float | None = None, world_format: str = ".json",
-               overlay: bool = True, overwrite: bool = False, progress: bool = True, start: int = 0,
-               frames: int | None = None, max_gap_s: float = 0.5, min_track_s: float = 1.0,
-               smooth_3d: str | None = OUTPUT_SMOOTHING, frame: str = "world",
-               **lift_options) -> VideoResult:
+def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Path, detector: PoseDetector,
+               lifter: Lifter | None = None, options: LiftOptions = LiftOptions(),
+               video_options: VideoOptions = VideoOptions(), world_format: str = ".json", overlay: bool = True,
+               overwrite: bool = False, progress: bool = True) -> VideoResult:
     """Detect, track and lift everybody, and write ``out_dir``/{world.json|.csv|.npz, keypoints.json,
     viewer.html, overlay.mp4}.
 
-    ``camera`` must have the video's image size; ``fps`` overrides the frame rate the video reports;
-    ``start`` / ``frames`` select part of the video; a person unseen for longer than ``max_gap_s`` starts a
-    new track, and tracks shorter than ``min_track_s`` are dropped. The lifted joints are smoothed in time
-    (``smooth_3d``, Savitzky-Golay by default: it removes a detector's jitter without lag; None keeps them as
-    lifted). The world file holds the joints in ``frame`` ("world" or "camera", see ``World.in_frame``); the
-    viewer and overlay draw the world. ``lift_options`` go to ``Lifter.lift``.
+    ``video``: a path, or its ``VideoInfo`` when the caller has read it. ``camera`` must have the video's image
+    size; ``video_options`` select the frames and how people are followed; ``options`` how they are lifted
+    (Savitzky-Golay smoothing of the joints by default: it removes a detector's jitter without lag). The world
+    file holds the joints in ``options.frame``; the viewer and overlay draw the world.
     """
-    info = read_video_info(path)
+    info = video_info(video)
     if tuple(camera.image_size) != info.image_size:
         raise InputError(f"camera {camera.name or ''}: image size {tuple(camera.image_size)} but {info.path} is "
                          f"{info.image_size[0]}x{info.image_size[1]}")
     targets = _targets(Path(out_dir), world_format, overlay, overwrite)
-    check_world_output(targets["world"], frame)
+    check_world_output(targets["world"], options.frame)
     clock = [time.perf_counter()]
-    keypoints, read, dropped = track_video(info.path, camera, detector, fps, start, frames, max_gap_s, min_track_s,
-                                           progress)
+    people = track_video(info, camera, detector, video_options, progress)
     clock.append(time.perf_counter())
     lifter = lifter or Lifter.load(VIDEO_MODEL)
-    lifted = {}
-    for track, entry in keypoints.by_track().items():
-        try:
-            lifted.update(lifter.lift_tracks({track: entry}, camera, keypoints.layout, keypoints.fps,
-                                             smooth_3d=smooth_3d, **lift_options))
-        except InputError as err:
-            dropped[track] = err.message
-    if not lifted:
-        raise InputError(f"{info.path}: no track could be lifted: " + "; ".join(f"{t}: {w}" for t, w in dropped.items()))
-    world = World(lifted, camera, lifter.name)
+    try:
+        lifted = lifter.lift_tracks(people.tracks, camera, people.layout, people.fps, **options.lift_arguments())
+    except InputError as err:
+        raise InputError(f"{info.path}: {err.message}") from None
+    dropped = {**people.dropped, **lifted.unliftable}
+    world = World(lifted, camera, lifter.name, unliftable=lifted.unliftable)
+    keypoints = people.keypoints()
     clock.append(time.perf_counter())
     Path(out_dir).mkdir(parents=True, exist_ok=True)
-    write_world(targets["world"], world.in_frame(frame), overwrite=overwrite)
+    write_world(targets["world"], world.in_frame(options.frame), overwrite=overwrite)
     write_keypoints_json(targets["keypoints"], keypoints, overwrite)
-    write_viewer(targets["viewer"], world.tracks, keypoints.fps, camera, title=f"ray3d: {info.path.name}",
+    write_viewer(targets["viewer"], world.tracks, people.fps, camera, title=f"ray3d: {info.path.name}",
                  overwrite=overwrite)
     if overlay:
-        write_overlay(info.path, targets["overlay"], keypoints, world, start, read, overwrite, progress)
+        write_overlay(info, targets["overlay"], keypoints, world, video_options.start, people.frames_read, overwrite,
+                      progress)
     clock.append(time.perf_counter())
     seconds = dict(zip(("people", "lifting", "writing"), np.diff(clock).tolist()))
     worlds = dict.fromkeys(export_paths(targets["world"], world).values())  # BVH: one file per track
     files = {**targets, "world": next(iter(worlds))} if len(worlds) == 1 else \
         {**{f"world {p.stem.removeprefix('world_')}": p for p in worlds},
          **{k: v for k, v in targets.items() if k != "world"}}
-    return VideoResult(keypoints, world, read, dropped, files, seconds)
+    return VideoResult(keypoints, world, people.frames_read, dropped, files, seconds)

@@ -11,15 +11,15 @@ import cv2
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
+from ray3d.body import ADULT_STATURE_M
 from ray3d.geometry import Camera
 
-STATURE_M = 1.70          # the person the size prior imagines
 ROI_MARGIN = 1.35         # a crop's side over the person's height in pixels (MediaPipe's ROI is about 1.25-1.5x)
 MIN_BLOB_PX = 16          # blobs shorter than this hold nobody the landmark network could pose
 MAX_REGIONS = 24          # per frame, the largest blobs first: a flickering scene cannot run away with the time
 
 
-def person_height_px(camera: Camera, foot_pixels: np.ndarray, stature_m: float = STATURE_M) -> np.ndarray:
+def person_height_px(camera: Camera, foot_pixels: np.ndarray, stature_m: float = ADULT_STATURE_M) -> np.ndarray:
     """(..., 2) pixels of the point between a standing person's feet -> (...,) how tall they look in pixels;
     NaN where that pixel's ray never meets the floor (above the horizon)."""
     floor = camera.pixels_to_height_plane(np.asarray(foot_pixels, dtype=np.float64), 0.0)
@@ -34,7 +34,7 @@ class PersonScale:
     """``person_height_px`` looked up on a grid over the image (every ``step`` pixels, interpolated): the same
     figure for many pixels without inverting the lens at each."""
 
-    def __init__(self, camera: Camera, step: int = 8, stature_m: float = STATURE_M):
+    def __init__(self, camera: Camera, step: int = 8, stature_m: float = ADULT_STATURE_M):
         width, height = camera.image_size
         self._u, self._v = np.arange(0, width + step, step), np.arange(0, height + step, step)
         grid = np.stack(np.meshgrid(self._u, self._v), axis=-1).astype(np.float64)
