@@ -21,7 +21,8 @@ import torch.nn.functional as F
 from torch import nn
 
 from ray3d.models.blocks import BatchNorm, Dropout, TemporalEncoder
-from ray3d.models.network import LiftingNetwork, _Branch, branch_window
+from ray3d.models.branches import RIEBranch, branch_window
+from ray3d.models.network import LiftingNetwork
 from ray3d.models.rie import RIEBackbone, rie_encodings, rie_global_input
 from ray3d.temporal import target_frame
 
@@ -40,7 +41,7 @@ def inference_network(model: LiftingNetwork) -> LiftingNetwork:
     fused = copy.deepcopy(model).eval()
     for name in ("pose_net", "trajectory_net"):
         branch = getattr(fused, name)
-        if isinstance(branch.backbone, RIEBackbone):
+        if isinstance(branch, RIEBranch):
             setattr(fused, name, StackedRIEBranch(branch))
     fold_batch_norms(fused)
     fused.inference_form = True
@@ -113,9 +114,9 @@ def _padded_columns(kernel: int, width: int, padded_width: int, joints_width: in
 
 
 class StackedRIEBranch(nn.Module):
-    """An RIE ``_Branch`` in inference form: its groups' layers stacked, batch norms folded."""
+    """An ``RIEBranch`` in inference form: its groups' layers stacked, batch norms folded."""
 
-    def __init__(self, branch: _Branch):
+    def __init__(self, branch: RIEBranch):
         super().__init__()
         backbone: RIEBackbone = branch.backbone
         self.outputs, self.frames = branch.outputs, branch.frames

@@ -19,21 +19,21 @@ What differs between the methods is only configuration (see ``presets.py``):
 from __future__ import annotations
 
 import dataclasses
+from typing import Protocol
 
 import torch
 from torch import nn
 
 from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
-from ray3d.models.blocks import CameraEmbedding, TemporalEncoder, mlp, receptive_field
-from ray3d.models.poseformer import PoseTransformer
-from ray3d.models.rie import RIEBackbone
+from ray3d.models.blocks import CameraEmbedding, receptive_field
+from ray3d.models.branches import BRANCHES
 from ray3d.models.tensor_batch import TensorBatch
 from ray3d.skeleton import LAYOUTS, Skeleton, flip, layout_skeleton
 from ray3d.temporal import Window
 
 INPUTS = ("ncs_rays", "camera_rays", "pixels", "pixels_centred")
-BACKBONES = ("rie", "tcn", "mlp", "transformer")
+BACKBONES = tuple(BRANCHES)
 ROOTS = ("xyz", "ray_depth", "focal_depth")
 DEPTH_SCALE_M = 5.0      # log-depth outputs are relative to this
 CANONICAL_FOCAL_PX = 1000.0
@@ -128,84 +128,18 @@ class ModelConfig:
         return (3 if self.input.endswith("rays") else 2) + int(self.confidence_input)
 
 
-def branch_window(x: torch.Tensor, extra: torch.Tensor | None, frames: int, causal: bool):
-    """A branch's own window of the model's: the ``frames`` around the target frame (the last ones when causal)
-    of ``x`` (B, F, ...) and ``extra`` (B, F, E), when that branch sees fewer frames than the model."""
-    if x.shape[1] == frames:
-        return x, extra
-    window = Window(x.shape[1], causal).around_target(frames)
-    return x[:, window], None if extra is None else extra[:, window]
+class Predictor(Protocol):
+    """What lifting and evaluation need of a network: a ``LiftingNetwork``, its inference form, or an inference
+    backend (``models.backends``)."""
 
+    config: ModelConfig
+    receptive_field: int
 
-class _Branch(nn.Module):
-    """A backbone and its decoder(s): outputs (B, out_per_joint * J) for the pose or (B, k) for the root."""
+    def predict(self, batch: TensorBatch, flip_test: bool = False) -> tuple[torch.Tensor, torch.Tensor]:
+        """(pose (B, J, 3) root-relative, root (B, 3)) in the model's output frame."""
 
-    def __init__(self, config: ModelConfig, outputs: str, root_outputs: int):
-        super().__init__()
-        self.config, self.outputs = config, outputs
-        skeleton, self.output_skeleton = config.input_skeleton, config.output_skeleton
-        predicted = self.output_skeleton.num_joints
-        camera = CameraEmbedding.out_features if config.camera_embedding else 0
-        extra = skeleton.num_joints if config.ground_features else 0
-        c, h = config.channels, config.hidden
-        kernels = config.branch_kernels(outputs)
-        self.frames = receptive_field(kernels)
-        if config.backbone == "rie":
-            self.backbone = RIEBackbone(skeleton, config.input_channels, c, h, kernels, config.dropout,
-                                        config.fusion, extra, config.causal)
-            groups = self.backbone.groups
-            if outputs == "pose":
-                # Each group's features decode that group's joints of the output layout.
-                self.output_groups = {g: list(self.output_skeleton.groups[g]) for g in groups}
-                for g, joints in self.output_groups.items():
-                    self.register_buffer(f"_outputs_{g}", torch.tensor(joints, dtype=torch.long), persistent=False)
-                self.decoders = nn.ModuleDict({g: mlp(2 * c + camera, h, 3 * len(j), 1, config.dropout)
-                                               for g, j in self.output_groups.items()})
-            else:
-                self.head = mlp(c * (len(groups) + 1) + camera, h, root_outputs, 1, config.dropout)
-        elif config.backbone == "transformer":
-            self.backbone = PoseTransformer(skeleton.num_joints, config.input_channels, c, config.layers,
-                                            self.frames, int(config.ground_features))
-            # PoseFormer's head, a LayerNorm and a Linear: a batch norm after the attention layers learns
-            # features so narrow that its running statistics no longer fit any one batch.
-            width = self.backbone.out_features + camera
-            self.head = nn.Sequential(nn.LayerNorm(width), nn.Linear(
-                width, 3 * predicted if outputs == "pose" else root_outputs))
-        else:
-            features = config.input_channels * skeleton.num_joints + extra
-            self.backbone = (TemporalEncoder(features, c, kernels, config.dropout, config.causal)
-                             if config.backbone == "tcn"
-                             else mlp(features, h, c, 2, config.dropout))
-            self.head = mlp(c + camera, h, 3 * predicted if outputs == "pose" else root_outputs, 1, config.dropout)
-
-    def forward(self, x: torch.Tensor, extra: torch.Tensor | None, camera: torch.Tensor | None) -> torch.Tensor:
-        """``x`` (B, F, J, C) and ``extra`` (B, F, E) over the model's window; a branch whose own window is
-        shorter sees the frames around the target (the last ones when causal)."""
-        batch = x.shape[0]
-        x, extra = branch_window(x, extra, self.frames, self.config.causal)
-        tail = [camera] if camera is not None else []
-        if self.config.backbone == "rie":
-            features, global_feature = self.backbone(x, extra)
-            if self.outputs == "pose":
-                pose = x.new_zeros(batch, self.output_skeleton.num_joints, 3)
-                for g, joints in self.output_groups.items():
-                    decoded = self.decoders[g](torch.cat([features[g], global_feature, *tail], dim=-1))
-                    pose = pose.index_copy(1, self.output_index(g), decoded.view(batch, len(joints), 3))
-                return pose
-            return self.head(torch.cat([*features.values(), global_feature, *tail], dim=-1))
-        if self.config.backbone == "transformer":
-            out = self.head(torch.cat([self.backbone(x, extra), *tail], dim=-1))
-            return out.view(batch, self.output_skeleton.num_joints, 3) if self.outputs == "pose" else out
-        flat = x.reshape(batch, x.shape[1], -1)
-        if extra is not None:
-            flat = torch.cat([flat, extra], dim=-1)
-        feature = self.backbone(flat) if self.config.backbone == "tcn" else self.backbone(flat[:, 0])
-        out = self.head(torch.cat([feature, *tail], dim=-1))
-        return out.view(batch, self.output_skeleton.num_joints, 3) if self.outputs == "pose" else out
-
-    def output_index(self, group: str) -> torch.Tensor:
-        """The output joints ``group`` decodes, as an index tensor (on the module's device)."""
-        return getattr(self, f"_outputs_{group}")
+    def to_world(self, points: torch.Tensor, cameras: CameraBatch, camera_params: torch.Tensor) -> torch.Tensor:
+        """(B, ..., 3) points in the model's output frame -> world."""
 
 
 class LiftingNetwork(nn.Module):
@@ -218,8 +152,8 @@ class LiftingNetwork(nn.Module):
         self.skeleton, self.output_skeleton = config.input_skeleton, config.output_skeleton
         self.receptive_field = config.frames
         root_outputs = 3 if config.root == "xyz" else 1
-        self.pose_net = _Branch(config, "pose", root_outputs)
-        self.trajectory_net = _Branch(config, "root", root_outputs)
+        self.pose_net = BRANCHES[config.backbone](config, "pose", root_outputs)
+        self.trajectory_net = BRANCHES[config.backbone](config, "root", root_outputs)
         self.pose_camera = CameraEmbedding(config.dropout) if config.camera_embedding else None
         self.trajectory_camera = CameraEmbedding(config.dropout) if config.camera_embedding else None
 
@@ -296,7 +230,7 @@ def predict_with_flip(forward, config: ModelConfig, batch: TensorBatch, flip_tes
     return pose, root
 
 
-def predict_world(model, batch: TensorBatch, cameras: CameraBatch, flip_test: bool = False) -> torch.Tensor:
+def predict_world(model: Predictor, batch: TensorBatch, cameras: CameraBatch, flip_test: bool = False) -> torch.Tensor:
     """(B, J, 3) world joints (float64) of the windows' target frames: ``model.predict`` (a ``LiftingNetwork``
     or an inference backend), then the model's output frame back to the world. The one way from network output
     to the world, for lifting, evaluation and validation alike."""
