@@ -12,7 +12,7 @@ import pytest
 
 import ray3d
 from ray3d.models.presets import PRESETS
-from ray3d.train import TrainConfig
+from ray3d.train import TrainConfig, config_document
 
 PACKAGE = Path(ray3d.__file__).parent
 REPOSITORY = PACKAGE.parents[1]
@@ -100,8 +100,25 @@ def test_no_module_is_over_the_size_limit():
 CONFIGS = sorted((REPOSITORY / "configs").glob("*.json"))
 
 
+def _changes_only(reference, value) -> bool:
+    """Whether ``value`` differs from ``reference`` in every field it gives (nested dicts field by field)."""
+    if isinstance(value, dict) and isinstance(reference, dict):
+        return all(_changes_only(reference.get(k), v) for k, v in value.items())
+    return reference != value
+
+
 @pytest.mark.skipif(not CONFIGS, reason="no configs/ folder beside the installed package")
-@pytest.mark.parametrize("path", CONFIGS, ids=lambda p: p.name)
+@pytest.mark.parametrize("path", [p for p in CONFIGS if "base" in json.loads(p.read_text())], ids=lambda p: p.name)
+def test_configs_on_a_base_list_only_what_they_change_from_it(path):
+    document = json.loads(path.read_text())
+    base = config_document(path.parent / document.pop("base"))
+    assert all(_changes_only(base.get(key), value) for key, value in document.items())
+    assert TrainConfig.from_json(path).model.name == document.get("model", {}).get("name", base["model"]["name"])
+
+
+@pytest.mark.skipif(not CONFIGS, reason="no configs/ folder beside the installed package")
+@pytest.mark.parametrize("path", [p for p in CONFIGS if "base" not in json.loads(p.read_text())],
+                         ids=lambda p: p.name)
 def test_configs_name_a_preset_and_list_only_what_they_change(path):
     document = json.loads(path.read_text())
     assert document["preset"] in PRESETS
@@ -117,3 +134,47 @@ def test_configs_name_a_preset_and_list_only_what_they_change(path):
         assert changed == value and reference != value, key
     config = TrainConfig.from_json(path)
     assert config.model.name == document.get("model", {}).get("name", PRESETS[document["preset"]].name)
+
+
+def _literals(path: Path) -> list[tuple[float, int]]:
+    """Every number written in a module's code, with its line."""
+    return [(node.value, node.lineno) for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.Constant) and isinstance(node.value, float)]
+
+
+def test_body_measures_are_written_only_in_body():
+    """A second copy of a body constant (a stature, an axis height, the head-over-ankle ratio, the size prior)
+    diverges from the first: only ``ray3d.body`` may write them."""
+    from ray3d import body
+
+    measures = {body.ADULT_STATURE_M, body.ADULT_STATURE_SD_M, body.HEAD_OVER_ANKLE_OF_STATURE,
+                body.ADULT_BODY_SIZE_M, body.PLANTED_ANKLE_HEIGHT_M, *body.AXIS_HEIGHTS.values()}
+    copies = [f"{module}:{line} {value}" for module, path in MODULES.items() if module != "ray3d.body"
+              for value, line in _literals(path) if any(abs(value - m) < 1e-9 for m in measures)]
+    assert not copies
+
+
+def _calls(path: Path, name: str) -> list[int]:
+    return [node.lineno for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None)) == name]
+
+
+def test_a_camera_from_options_is_built_in_one_place():
+    """Every job (``lift``, ``video``, batch manifests, later commands) builds its camera through
+    ``io.camera_files.camera_from_options``: a second builder from height and pitch is refused."""
+    builders = {module: lines for module, path in MODULES.items() if (lines := _calls(path, "from_height_pitch"))}
+    assert builders == {"ray3d.io.camera_files": builders.get("ray3d.io.camera_files")} and builders
+
+
+def test_the_video_header_is_read_in_one_place_per_run():
+    """``read_video_info`` is called by the command line (once, then passed down) and by ``video_info`` only."""
+    readers = {module for module, path in MODULES.items() if _calls(path, "read_video_info")}
+    assert readers <= {"ray3d.cli.commands", "ray3d.video.pipeline", "ray3d.batch.runner"}
+
+
+def test_the_readme_code_map_names_every_room_of_the_tree():
+    readme = (REPOSITORY / "README.md").read_text()
+    section = readme[readme.index("## The code: a map"):readme.index("## Conventions")]
+    rooms = {p.name + "/" if p.is_dir() else p.name for p in PACKAGE.iterdir()
+             if not p.name.startswith("__") and (p.is_dir() or p.suffix == ".py")}
+    assert not {room for room in rooms if f"`{room}`" not in section}

@@ -92,11 +92,11 @@ CASES = {
     "keypoints: ours, keypoints missing": (lambda t: _lift(_write(t, "k.json", '{"detections": [{"frame": 0}]}')),
                                            "keypoints"),
     "keypoints: ours, text values": (lambda t: _lift(_write(t, "k.json", json.dumps(
-        {"detections": [{"keypoints": [["x", "y"]] * 17}]}))), "non-numeric"),
+        {"detections": [{"keypoints": [["x", "y"]] * 17}]}))), "not numeric"),
     "keypoints: ours, an OpenPose file": (lambda t: _lift(_write(t, "k.json", '{"people": []}')), "folder"),
     "keypoints: CSV without x": (lambda t: _lift(_write(t, "k.csv", "frame,joint,y\n0,pelvis,1\n")), "header"),
     "keypoints: CSV text x": (lambda t: _lift(_write(t, "k.csv", "frame,joint,x,y\n0,pelvis,a,1\n")),
-                              "non-numeric"),
+                              "not numeric"),
     "keypoints: CSV joints differ by frame": (lambda t: _lift(_write(
         t, "k.csv", "frame,joint,x,y\n0,a,1,1\n0,b,1,1\n1,a,1,1\n")), "same joints"),
     "keypoints: COCO list of 50 numbers": (lambda t: _results(t, [{"image_id": 0, "keypoints": [1.0] * 50}]),

@@ -40,7 +40,7 @@ def test_normalized_point_is_depth_times_ray_minus_height(seed):
     camera = random_camera(rng, distortion=seed % 2 == 0)
     points = points_in_front(camera, rng, 200)
     depth = camera.world_to_camera(points)[:, 2:3]
-    rays = camera.pixels_to_rays(camera.project(points), frame="normalized")
+    rays = camera.pixels_to_rays(camera.project(points))
     expected = depth * rays + np.array([0.0, -camera.camera_height, 0.0])
     np.testing.assert_allclose(camera.world_to_normalized(points), expected, atol=1e-8)
 
@@ -105,7 +105,7 @@ def _image_grid(camera: Camera, step: int = 20) -> np.ndarray:
 @pytest.mark.parametrize("camera", cameras.h36m_all(), ids=lambda c: c.name)
 def test_pixels_to_rays_inverts_project_over_the_whole_image(camera):
     pixels = _image_grid(camera)
-    rays = camera.pixels_to_rays(pixels, frame="camera")
+    rays = camera.pixels_to_camera_rays(pixels)
     assert np.isfinite(rays).all()
     reprojected = camera.project(camera.camera_to_world(2.5 * rays))
     assert np.abs(reprojected - pixels).max() < 1e-3
@@ -122,12 +122,12 @@ def test_lens_model_matches_opencv(camera):
     pixels = _image_grid(camera, 50)
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 200, 1e-14)
     undistorted = cv2.undistortPoints(pixels[:, None], camera.K, camera.dist, criteria=criteria)[:, 0]
-    np.testing.assert_allclose(camera.pixels_to_rays(pixels, frame="camera")[:, :2], undistorted, atol=1e-7)
+    np.testing.assert_allclose(camera.pixels_to_camera_rays(pixels)[:, :2], undistorted, atol=1e-7)
 
 
 def test_pixels_beyond_the_invertible_lens_region_give_nan():
     camera = cameras.h36m("S1", "54138969")
-    rays = camera.pixels_to_rays(np.array([[500.0, 500.0], [60000.0, 60000.0]]), frame="camera")
+    rays = camera.pixels_to_camera_rays(np.array([[500.0, 500.0], [60000.0, 60000.0]]))
     assert np.isfinite(rays[0]).all() and np.isnan(rays[1]).all()
 
 
@@ -141,9 +141,9 @@ def test_rays_do_not_depend_on_intrinsics(dfx, dfy, dcx, dcy, seed):
     other = Camera.from_intrinsics(camera.K[0, 0] + dfx, camera.K[1, 1] + dfy, camera.K[0, 2] + dcx,
                                    camera.K[1, 2] + dcy, camera.dist, camera.R, camera.t, camera.image_size)
     points = points_in_front(camera, rng, 50, max_xy=0.4)
-    for frame in ("camera", "normalized"):
-        np.testing.assert_allclose(other.pixels_to_rays(other.project(points), frame=frame),
-                                   camera.pixels_to_rays(camera.project(points), frame=frame), atol=1e-9)
+    for rays in (Camera.pixels_to_camera_rays, Camera.pixels_to_rays):
+        np.testing.assert_allclose(rays(other, other.project(points)), rays(camera, camera.project(points)),
+                                   atol=1e-9)
 
 
 # -------------------------------------------------------------------------------- numpy / torch / dtypes
@@ -279,12 +279,11 @@ def test_bad_points_raise(points, message):
         cameras.h36m("S1", "54138969").world_to_normalized(points)
 
 
-def test_bad_pixels_and_frame_raise():
+def test_bad_pixels_raise():
     camera = cameras.h36m("S1", "54138969")
-    with pytest.raises(InputError, match=r"pixels: expected shape \(\.\.\., 2\)"):
-        camera.pixels_to_rays(np.zeros((3, 3)))
-    with pytest.raises(InputError, match="frame must be"):
-        camera.pixels_to_rays(np.zeros((3, 2)), frame="world")
+    for rays in (camera.pixels_to_rays, camera.pixels_to_camera_rays):
+        with pytest.raises(InputError, match=r"pixels: expected shape \(\.\.\., 2\)"):
+            rays(np.zeros((3, 3)))
 
 
 def test_unknown_h36m_camera_raises():

@@ -170,9 +170,9 @@ def test_refuses_to_overwrite_without_force(tmp_path, tiny_checkpoint, capsys):
 @pytest.mark.parametrize("name, content, message", [
     ("wrong.npz", lambda p: np.savez(p, keypoints=np.zeros((4, 13, 2))), "13 joints per detection matches no layout"),
     ("text.json", lambda p: p.write_text(json.dumps({"detections": [{"keypoints": [["a", "b"]] * 17}]})),
-     "non-numeric"),
+     "not numeric"),
     ("empty.csv", lambda p: p.write_text(""), "the file is empty"),
-    ("bad.csv", lambda p: p.write_text("frame,joint,x,y\n0,nose,1,oops\n"), "non-numeric"),
+    ("bad.csv", lambda p: p.write_text("frame,joint,x,y\n0,nose,1,oops\n"), "not numeric"),
     ("broken.json", lambda p: p.write_text("{"), "not valid JSON"),
 ])
 def test_malformed_keypoints_give_one_line_and_exit_2(tmp_path, tiny_checkpoint, capsys, name, content, message):
@@ -313,3 +313,20 @@ def test_people_left_out_of_an_untracked_results_list_are_reported(tmp_path, tin
     assert main(["lift", "--keypoints", str(files["coco.json"]), "--camera", "h36m:S9:55011271",
                  "--out", str(tmp_path / "w.json"), "--checkpoint", str(tiny_checkpoint)]) == 0
     assert "1 other detection(s) left out" in capsys.readouterr().err
+
+
+def test_our_bvh_export_reads_back_through_our_importer_within_a_centimetre(tmp_path, capsys):
+    """``ray3d lift --out w.bvh`` then ``ray3d data import-bvh w.bvh``: the same joints, metres, floor kept."""
+    from ray3d.data.motion import MotionSet
+    from ray3d.demo import demo_clip
+
+    np.savez(tmp_path / "kp.npz", keypoints=CAMERA.project(demo_clip()[:90]), layout="h36m17", fps=60.0)
+    common = ["lift", "--keypoints", str(tmp_path / "kp.npz"), "--camera", "h36m:S9:55011271"]
+    assert main([*common, "--out", str(tmp_path / "w.json")]) == 0
+    assert main([*common, "--out", str(tmp_path / "w.bvh")]) == 0
+    assert main(["data", "import-bvh", str(tmp_path / "w.bvh"), "--out", str(tmp_path / "m.npz")]) == 0
+    assert "ray3d" not in capsys.readouterr().err
+    lifted = read_world(tmp_path / "w.json").track().joints
+    imported = MotionSet.load(tmp_path / "m.npz").clip(0)
+    assert imported.shape == lifted.shape
+    assert np.abs(imported - lifted).max() < 0.01

@@ -203,3 +203,26 @@ def test_the_shipped_causal_model_answers_every_frame_at_once():
     streamed = np.stack([stream.push(p) for p in pixels])  # never None: no frame waits for the future
     np.testing.assert_allclose(streamed, lifter.lift(pixels, camera, refine=False).joints, atol=1e-5)
     assert metrics.mrpe(streamed, truth) < 0.25  # metres; 0.14 when measured (docs/RESULTS.md)
+
+
+def test_a_track_that_cannot_be_lifted_is_reported_and_the_others_are_lifted(lifter, camera, tmp_path, capsys):
+    from ray3d.cli import main
+    from ray3d.io.keypoints import read_keypoints
+    from ray3d.io.world import read_world
+
+    good, legless = camera.project(_walk(20)), camera.project(_walk(20) + np.array([0.5, 1.0, 0.0]))
+    legless[:, [H36M17.index("l_ankle"), H36M17.index("r_ankle")]] = np.nan  # never seen
+    path = tmp_path / "two.npz"
+    np.savez(path, keypoints=np.concatenate([good, legless]), frames=np.tile(np.arange(20), 2),
+             tracks=np.repeat([1, 2], 20), layout="h36m17", fps=60.0)
+    world = lifter.lift_keypoints(read_keypoints(path), camera)
+    assert list(world.tracks) == ["1"] and set(world.unliftable) == {"2"}
+    assert "missing in every frame" in world.unliftable["2"]
+    tracks = lifter.lift_tracks({"a": (np.arange(20), good), "b": (np.arange(20), legless)}, camera)
+    assert list(tracks) == ["a"] and list(tracks.unliftable) == ["b"]
+    with pytest.raises(InputError, match="no track could be lifted: track b: .*; track c: "):
+        lifter.lift_tracks({"b": (np.arange(20), legless), "c": (np.arange(20), legless)}, camera)
+    code = main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:54138969", "--out", str(tmp_path / "w.json"),
+                 "--checkpoint", str(lifter.name)])
+    assert code == 0 and "track 2 was not lifted" in capsys.readouterr().err
+    assert list(read_world(tmp_path / "w.json").tracks) == ["1"]

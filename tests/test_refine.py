@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ray3d import Camera, InputError, Lifter, metrics
-from ray3d.demo import demo_clip
 from ray3d.body import body_sizes
+from ray3d.demo import demo_clip
 from ray3d.refine import RefineConfig, refine_track, scale_about
 from ray3d.skeleton import H36M17
 
@@ -36,7 +36,7 @@ def _consistent_person(frames=90, still=False) -> np.ndarray:
 
 
 def _rays(camera: Camera, points: np.ndarray) -> np.ndarray:
-    return camera.pixels_to_rays(camera.project(points), frame="camera") @ camera.R
+    return camera.pixels_to_camera_rays(camera.project(points)) @ camera.R
 
 
 def test_the_truth_is_a_fixed_point():
@@ -129,3 +129,17 @@ def test_lifting_far_away_puts_the_feet_on_the_floor():
     lowest = refined.joints[:, ANKLES, 2].min(1)
     assert metrics.mrpe(network.joints, truth) > 3.0 and metrics.mrpe(refined.joints, truth) < 0.6
     assert np.median(lowest) == pytest.approx(0.07, abs=0.1) and refined.refinement["stature_m"] > 1.5
+
+
+def test_stature_reads_the_head_over_the_lower_ankle_as_a_share_of_height():
+    from ray3d import body
+
+    standing = np.zeros((4, 17, 3))
+    standing[:, H36M17.index("l_ankle"), 2] = body.AXIS_HEIGHTS["ankles"] * 1.8
+    standing[:, H36M17.index("r_ankle"), 2] = 0.3  # a foot lifted: the lower ankle counts
+    standing[:, H36M17.index("head"), 2] = body.AXIS_HEIGHTS["head"] * 1.8
+    assert body.stature(standing) == pytest.approx(1.8)
+    crouched = standing.copy()
+    crouched[:2, H36M17.index("head"), 2] = 1.0
+    assert body.stature(crouched, upright=[False, False, True, True]) == pytest.approx(1.8)
+    assert np.isnan(body.stature(standing[:0]))

@@ -186,3 +186,19 @@ def test_the_weight_average_copies_integer_buffers_and_averages_the_rest():
     weight = "pose_net.backbone.global_branch.0.weight"
     moved = ema.module.state_dict()[weight] - start[weight]
     assert 0 < float(moved.mean()) < 1  # between the old and the new weights
+
+
+def test_a_config_on_a_base_lists_only_its_changes_and_a_loop_of_bases_is_refused(tmp_path):
+    from ray3d.train import config_document
+
+    _write(tmp_path / "base.json", {"preset": "ray3d", "epochs": 7, "samples": {"noise_px": 2.0, "cameras": {
+        "roll_deg": 4.0, "pitch_deg": [0.0, 30.0]}}})
+    _write(tmp_path / "child.json", {"base": "base.json", "model": {"name": "child"},
+                                    "samples": {"cameras": {"roll_deg": 6.0}}})
+    config = TrainConfig.from_json(tmp_path / "child.json")
+    assert config.model.name == "child" and config.epochs == 7 and config.samples.noise_px == 2.0
+    assert config.samples.cameras.roll_deg == 6.0 and config.samples.cameras.pitch_deg == (0.0, 30.0)
+    _write(tmp_path / "a.json", {"base": "b.json"})
+    _write(tmp_path / "b.json", {"base": "a.json", "preset": "ray3d"})
+    with pytest.raises(InputError, match="its bases name it again"):
+        config_document(tmp_path / "a.json")

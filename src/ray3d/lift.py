@@ -73,6 +73,21 @@ def _check_feet_below_horizon(pixels: np.ndarray, found: np.ndarray, camera: Cam
                          "(positive looks down) or its rotation", arguments=("camera",))
 
 
+def checked_keypoints(keypoints, confidences, skeleton: Skeleton,
+                      leading: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray | None]:
+    """``keypoints`` (*leading, J, 2) pixels of ``skeleton``'s layout and optional ``confidences`` (*leading, J)
+    as float arrays, their shapes checked."""
+    keypoints = np.asarray(keypoints, dtype=np.float64)
+    if keypoints.ndim != len(leading) + 2 or keypoints.shape[len(leading):] != (skeleton.num_joints, 2):
+        expected = ", ".join([*leading, str(skeleton.num_joints), "2"])
+        raise InputError(f"keypoints: expected ({expected}) for layout {skeleton.name}, got {keypoints.shape}")
+    if confidences is not None:
+        confidences = np.asarray(confidences, dtype=np.float64)
+        if confidences.shape != keypoints.shape[:-1]:
+            raise InputError(f"confidences: expected shape {keypoints.shape[:-1]}, got {confidences.shape}")
+    return keypoints, confidences
+
+
 def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np.ndarray | None,
                       inputs: Skeleton) -> np.ndarray:
     """The (T, J_inputs) confidences a model reads: the detector's (clipped to [0, 1]; 1 where it gave none),
@@ -151,15 +166,9 @@ class Lifter:
             return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress)
                     for k, c in zip(keypoints, scores)]
         skeleton = layout_skeleton(layout)
-        if keypoints.ndim != 3 or keypoints.shape[1:] != (skeleton.num_joints, 2):
-            raise InputError(f"keypoints: expected (frames, {skeleton.num_joints}, 2) for layout {layout}, got "
-                             f"{keypoints.shape}")
+        keypoints, confidences = checked_keypoints(keypoints, confidences, skeleton, ("frames",))
         if len(keypoints) == 0:
             raise InputError("keypoints: no frames")
-        if confidences is not None:
-            confidences = np.asarray(confidences, dtype=np.float64)
-            if confidences.shape != keypoints.shape[:2]:
-                raise InputError(f"confidences: expected shape {keypoints.shape[:2]}, got {confidences.shape}")
         _check_in_image(keypoints, camera)
         h36m_pixels, h36m_found = convert_keypoints(keypoints, skeleton, confidences)
         _check_feet_below_horizon(h36m_pixels, h36m_found, camera)
@@ -245,24 +254,23 @@ class Lifter:
         count = len(pixels)
         # Windows are gathered chunk by chunk (never all at once), which keeps memory bounded.
         index = temporal.sequence_window_indices(count, self.model.config.window)
-        cameras = CameraBatch.from_cameras([camera])
         out = np.empty((count, 17, 3))
         bar = tqdm(total=count, unit="frame", desc=progress if isinstance(progress, str) else "lifting",
                    disable=not progress or count <= chunk)
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
-            out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], cameras, flip_test,
+            out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], camera, flip_test,
                                                               None if confidences is None else confidences[part])
             bar.update(len(part))
         bar.close()
         return out
 
     @torch.no_grad()
-    def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, one_camera: CameraBatch,
-                      flip_test: bool, confidences: np.ndarray | None = None) -> np.ndarray:
+    def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, camera: Camera, flip_test: bool,
+                      confidences: np.ndarray | None = None) -> np.ndarray:
         """(N, F, J, 2) pixel, (N, F, J, 3) ray and optional (N, F, J) confidence windows of the model's input
-        layout seen by ``one_camera`` (a batch of one) -> (N, 17, 3) world joints."""
-        cameras = one_camera.take(np.zeros(len(pixels), dtype=int))
+        layout seen by ``camera`` -> (N, 17, 3) world joints."""
+        cameras = CameraBatch.repeated(camera, len(pixels))
         batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device, confidences)
         return predict_world(self.model, batch, cameras, flip_test).cpu().numpy()
 
@@ -313,7 +321,6 @@ class LiftStream:
         self.frames = lifter.receptive_field
         self.delay = config.window.delay
         self.remove_roll = config.remove_roll
-        self._cameras = CameraBatch.from_cameras([camera])
         self.inputs = lifter._input_skeleton(self.skeleton)  # the joints the model reads
         self._pixels: np.ndarray | None = None   # (F, J, 2) the current window, of the model's input layout
         self._rays: np.ndarray | None = None     # (F, J, 3)
@@ -340,14 +347,7 @@ class LiftStream:
         return answers
 
     def _prepare(self, keypoints, confidences) -> tuple[np.ndarray, np.ndarray]:
-        keypoints = np.asarray(keypoints, dtype=np.float64)
-        if keypoints.shape != (self.skeleton.num_joints, 2):
-            raise InputError(f"keypoints: expected ({self.skeleton.num_joints}, 2) for layout {self.skeleton.name}, "
-                             f"got {keypoints.shape}")
-        if confidences is not None:
-            confidences = np.asarray(confidences, dtype=np.float64)
-            if confidences.shape != keypoints.shape[:1]:
-                raise InputError(f"confidences: expected shape {keypoints.shape[:1]}, got {confidences.shape}")
+        keypoints, confidences = checked_keypoints(keypoints, confidences, self.skeleton)
         pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences, self.inputs)
         scores = model_confidences(keypoints[None], self.skeleton, None if confidences is None else confidences[None],
                                    self.inputs)[0]
@@ -376,5 +376,5 @@ class LiftStream:
 
     def _answer(self) -> np.ndarray:
         self.answered += 1
-        return self.lifter._lift_windows(self._pixels[None], self._rays[None], self._cameras, self.flip_test,
+        return self.lifter._lift_windows(self._pixels[None], self._rays[None], self.camera, self.flip_test,
                                          self._scores[None])[0]

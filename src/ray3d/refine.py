@@ -45,11 +45,11 @@ EVIDENCE_FPS = 30.0  # per-frame evidence is weighed as if the footage ran at th
 class RefineConfig:
     """The uncertainties the cues are weighed by (metres, or fractions of a distance or size).
 
-    Measured on the training performers of the shipped mocap: the lowest ankle of a planted foot stands 0.069 m
-    above the floor (interquartile 0.049-0.109 m); the body-size prior is ``ray3d.body``'s.
+    The planted ankle's height and the body-size prior are ``ray3d.body``'s, measured on the training
+    performers of the shipped mocap.
     """
 
-    contact_ankle_height_m: float = 0.07
+    contact_ankle_height_m: float = body.PLANTED_ANKLE_HEIGHT_M
     ankle_height_sd_m: float = 0.05          # contact-height spread plus the network's ankle error
     body_size_m: float = body.ADULT_BODY_SIZE_M      # prior on the size chain of an adult
     body_size_sd: float = body.ADULT_BODY_SIZE_SD    # relative

@@ -213,12 +213,16 @@ def conversion_matrix(source: str, target: str) -> np.ndarray:
     return matrix
 
 
+def _check_joint_axis(array: Array, skeleton: Skeleton, axis: int, what: str) -> None:
+    if array.shape[axis] != skeleton.num_joints:
+        raise InputError(f"layout {skeleton.name}: expected {skeleton.num_joints} {what}, got shape "
+                         f"{tuple(array.shape)}")
+
+
 def convert(points: Array, source: str | Skeleton, target: str | Skeleton = "h36m17") -> Array:
     """Convert (..., J_source, D) joints (pixels or 3D, numpy or torch) to the ``target`` layout."""
     src, dst = layout_skeleton(source), layout_skeleton(target)
-    if points.shape[-2] != src.num_joints:
-        raise InputError(f"layout {src.name}: expected {src.num_joints} joints on axis -2, got shape "
-                         f"{tuple(points.shape)}")
+    _check_joint_axis(points, src, -2, "joints on axis -2")
     weights = conversion_matrix(src.name, dst.name)
     return namespace(points).einsum("kj,...jd->...kd", like(weights, points), points)
 
@@ -226,9 +230,7 @@ def convert(points: Array, source: str | Skeleton, target: str | Skeleton = "h36
 def convert_confidences(confidences: Array, source: str | Skeleton, target: str | Skeleton = "h36m17") -> Array:
     """(..., J_source) confidences -> (..., J_target): a derived joint is as sure as its least sure source."""
     src, dst = layout_skeleton(source), layout_skeleton(target)
-    if confidences.shape[-1] != src.num_joints:
-        raise InputError(f"layout {src.name}: expected {src.num_joints} confidences on the last axis, got shape "
-                         f"{tuple(confidences.shape)}")
+    _check_joint_axis(confidences, src, -1, "confidences on the last axis")
     xp = namespace(confidences)
     used = like(conversion_matrix(src.name, dst.name) != 0, confidences) > 0
     inf = like(np.inf, confidences)

@@ -80,7 +80,7 @@ class TrainConfig:
     @classmethod
     def from_json(cls, path: str | Path) -> TrainConfig:
         try:
-            return cls.from_dict(json.loads(Path(path).read_text()))
+            return cls.from_dict(config_document(path))
         except InputError:
             raise
         except (OSError, json.JSONDecodeError, TypeError, KeyError, ValueError) as err:
@@ -88,6 +88,27 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return json.loads(json.dumps(dataclasses.asdict(self)))
+
+
+def config_document(path: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """A config file's document, over the document of the config it names as ``base`` (a file beside it): a
+    config lists only what it changes from its base, and nested fields (``model``, ``samples``) merge."""
+    path = Path(path)
+    if path.resolve() in _seen:
+        raise InputError(f"{path}: its bases name it again ({' -> '.join(p.name for p in _seen)})")
+    document = json.loads(path.read_text())
+    base = document.pop("base", None)
+    if base is None:
+        return document
+    return _merged(config_document(path.parent / base, (*_seen, path.resolve())), document)
+
+
+def _merged(base: dict, changes: dict) -> dict:
+    merged = dict(base)
+    for key, value in changes.items():
+        both = isinstance(value, dict) and isinstance(merged.get(key), dict)
+        merged[key] = _merged(merged[key], value) if both else value
+    return merged
 
 
 def _distributed() -> tuple[int, int]:

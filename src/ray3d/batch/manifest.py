@@ -17,11 +17,9 @@ row and column. What is in the files is read by the job itself, so one bad input
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import functools
 import hashlib
-import io
 import json
 from pathlib import Path
 from typing import Any
@@ -29,12 +27,13 @@ from typing import Any
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.io.camera_files import camera_from_options
-from ray3d.io.json_files import read_json
+from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.options import LiftOptions, VideoOptions
+from ray3d.temporal import SMOOTHING_METHODS
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")
 WORLD_FORMATS = (".json", ".csv", ".npz", ".trc")
-SMOOTHERS = ("savgol", "one-euro", "none")
+SMOOTHERS = (*SMOOTHING_METHODS, "none")
 
 
 def _text(value: Any) -> str:
@@ -81,7 +80,7 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "pitch": (_number, _BOTH), "roll": (_number, _BOTH),
     "hfov": (_number, _BOTH), "focal": (_number, _BOTH),
     "image_size": (lambda v: parse_image_size(v, "image_size"), _BOTH),
-    "checkpoint": (_text, _BOTH), "smooth_2d": (_choice(SMOOTHERS[:2]), _BOTH),
+    "checkpoint": (_text, _BOTH), "smooth_2d": (_choice(SMOOTHING_METHODS), _BOTH),
     "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
     "refine": (_flag, _BOTH), "format": (_choice(WORLD_FORMATS), _BOTH),
     "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)),
@@ -147,9 +146,8 @@ def _rows(path: Path) -> list[dict[str, Any]]:
         if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
             raise InputError(f"{path}: expected a list of inputs or {{\"inputs\": [...]}}, each an object")
         return rows
-    text = path.read_text(encoding="utf-8-sig")
-    reader = csv.DictReader(io.StringIO(text))
-    rows = [row for row in reader if any((v or "").strip() for v in row.values() if isinstance(v, str))]
+    rows = [row for row in read_csv_rows(path)
+            if any((v or "").strip() for v in row.values() if isinstance(v, str))]
     if any(None in row for row in rows):
         raise InputError(f"{path}: a row has more values than the header has columns")
     return [{k.strip(): v.strip() for k, v in row.items() if v is not None and v.strip() != ""} for row in rows]
@@ -201,8 +199,11 @@ def read_manifest(path: str | Path) -> list[Entry]:
         entry = Entry(number, source, name, kind, options)
         try:  # a video's camera given by height and pitch waits for the video's image size
             entry.camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
-            entry.lift_options()
         except InputError as err:
             raise InputError(f"{where}: camera: {err.message}") from None
+        try:
+            entry.lift_options(), entry.video_options()
+        except InputError as err:
+            raise InputError(f"{where}: {err.message}") from None
         entries.append(entry)
     return entries

@@ -11,7 +11,6 @@ uses. The person's "true" stature is their upright head-joint height over ``AXIS
 from __future__ import annotations
 
 import csv
-import dataclasses
 import json
 from pathlib import Path
 
@@ -21,8 +20,8 @@ from ray3d import metrics
 from ray3d.body import ADULT_STATURE_M, AXIS_HEIGHTS
 from ray3d.calibrate import from_person
 from ray3d.data.motion import MotionSet
-from ray3d.data.virtual_cameras import centre_clip
-from ray3d.geometry import Camera, centre_looking_at, focal_from_hfov
+from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
+from ray3d.geometry import Camera
 from ray3d.skeleton import H36M17
 from ray3d.io.atomic import atomic_path
 
@@ -38,16 +37,10 @@ ERRORS = ("pitch_error_deg", "roll_error_deg", "height_error_pct", "focal_error_
           "abs_mpjpe_true_camera_mm", "mrpe_true_camera_mm")
 
 
-@dataclasses.dataclass(frozen=True)
-class CameraRange:
-    """Where the random evaluation cameras are: height (m), pitch and roll (deg), horizontal field of view (deg)
-    and horizontal distance to the clip's centre (m)."""
-
-    height_m: tuple[float, float] = (1.5, 4.0)
-    pitch_deg: tuple[float, float] = (5.0, 40.0)
-    roll_deg: tuple[float, float] = (-5.0, 5.0)
-    hfov_deg: tuple[float, float] = (50.0, 80.0)
-    distance_m: tuple[float, float] = (4.0, 10.0)
+# Where the random evaluation cameras are: 1.5-4 m high, 4-10 m from the person along the floor, aimed at them
+# (pitch 5-40 degrees, roll up to 5), a pinhole lens of 50-80 degrees with its principal point at the centre.
+CAMERAS = CameraRanges(distance_m=(4.0, 10.0), pitch_deg=(5.0, 40.0), roll_deg=5.0, aspect_jitter=0.0,
+                       principal_offset_px=0.0, image_size=IMAGE_SIZE, height_m=(1.5, 4.0), hfov_deg=(50.0, 80.0))
 
 
 def walking_clips(motion: MotionSet, min_frames: int = 120) -> list[np.ndarray]:
@@ -62,17 +55,13 @@ def stature(clip: np.ndarray) -> float:
     return float(np.median(clip[:, H36M17.index("head"), 2]) / AXIS_HEIGHTS["head"])
 
 
-def random_camera(clip: np.ndarray, rng: np.random.Generator, ranges: CameraRange = CameraRange(),
+def random_camera(clip: np.ndarray, rng: np.random.Generator, ranges: CameraRanges = CAMERAS,
                   attempts: int = 100) -> Camera | None:
-    """A camera looking at the clip's centre that sees every joint of every frame, or None."""
+    """A camera of the shared sampler (``sample_cameras``) aimed at the clip's mean pelvis that sees every joint
+    of every frame, or None."""
+    target = clip[:, 0].mean(axis=0, keepdims=True)
     for _ in range(attempts):
-        distance, yaw = rng.uniform(*ranges.distance_m), rng.uniform(-np.pi, np.pi)
-        # At that height, ``distance`` metres from the clip's centre in the floor plan, facing it.
-        centre = centre_looking_at([0.0, 0.0, rng.uniform(*ranges.height_m)], yaw, 0.0, distance)
-        focal = focal_from_hfov(IMAGE_SIZE[0], rng.uniform(*ranges.hfov_deg))
-        camera = Camera.from_pose(centre, yaw, np.radians(rng.uniform(*ranges.pitch_deg)),
-                                  np.radians(rng.uniform(*ranges.roll_deg)), focal, focal, IMAGE_SIZE[0] / 2,
-                                  IMAGE_SIZE[1] / 2, IMAGE_SIZE)
+        camera = sample_cameras(target, rng, ranges).camera(0)
         if camera.sees(clip):
             return camera
     return None
@@ -87,7 +76,7 @@ def _scene(clips: list[np.ndarray], pair: int, people: int, rng: np.random.Gener
 
 
 def run(motion: MotionSet, lifter, pairs: int = 12, seed: int = 0, bootstrap: int = 30,
-        ranges: CameraRange = CameraRange(), cases: dict = CASES, people: int = 1) -> list[dict]:
+        ranges: CameraRanges = CAMERAS, cases: dict = CASES, people: int = 1) -> list[dict]:
     """One row per (camera, clips, case) with the estimate, its standard deviations and errors; ``people``
     walking clips are seen at once by each camera and fitted jointly (the lifting errors average over them)."""
     rng = np.random.default_rng(seed)

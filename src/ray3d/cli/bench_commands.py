@@ -97,18 +97,16 @@ def speed(args: argparse.Namespace) -> int:
         print(f"{r['model']:<15}{r['backend']:<13}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}"
               f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}"
               f"{r['stream_ms_per_frame']:>10.2f}{train_rate}{loop_rate}{100 * r['fraction_of_peak']:>8.1f}")
+    torch_rows = [r for r in result["models"] if r["backend"] == "torch"]
     print("torch, the inference form (models.inference) against the network as trained, same run:")
-    for r in result["models"]:
-        if r["backend"] == "torch":
-            trained = r["training_form"]
-            print(f"  {r['model']:<15}batch {r['batch_frames_per_s']:,.0f} / {trained['batch_frames_per_s']:,.0f} "
-                  f"f/s, latency {r['latency_ms']:.2f} / {trained['latency_ms']:.2f} ms")
+    print("\n".join(f"  {r['model']:<15}batch {r['batch_frames_per_s']:,.0f} / "
+                    f"{r['training_form']['batch_frames_per_s']:,.0f} f/s, latency {r['latency_ms']:.2f} / "
+                    f"{r['training_form']['latency_ms']:.2f} ms" for r in torch_rows))
     print("the machine's bounds (at the matmul peak; latency: reading the fp32 weights once):")
-    for r in result["models"]:
-        if r["backend"] == "torch":
-            paths = "; ".join(f"{layer} {'+'.join(ops)}" for layer, ops in r["layer_gemm_paths"].items())
-            print(f"  {r['model']:<15}batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, train <= "
-                  f"{r['bound_train_samples_per_s']:,.0f} s/s, latency >= {r['bound_latency_ms']:.2f} ms; {paths}")
+    for r in torch_rows:
+        paths = "; ".join(f"{layer} {'+'.join(ops)}" for layer, ops in r["layer_gemm_paths"].items())
+        print(f"  {r['model']:<15}batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, train <= "
+              f"{r['bound_train_samples_per_s']:,.0f} s/s, latency >= {r['bound_latency_ms']:.2f} ms; {paths}")
     if result["video"]:
         v = result["video"]
         print(f"ray3d video, {v['frames']} frames of {v['video']} ({v['people']} people): people "

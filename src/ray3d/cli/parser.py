@@ -19,7 +19,16 @@ def _import_common(parser: argparse.ArgumentParser) -> None:
                         help="leading native frames to discard, e.g. a synthetic T-pose")
     parser.add_argument("--no-floor", action="store_true", help="keep z as in the file (no floor at z = 0)")
     parser.add_argument("--subject", default="user", help="performer name stored with the clips")
-    parser.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    _add_force(parser, "replace OUT if it exists")
+
+
+def _add_data_dir(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data-dir", help="folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR "
+                        "or ../shared/data/mocap)")
+
+
+def _add_force(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--force", action="store_true", help=what)
 
 
 def _add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_note: str = "") -> None:
@@ -76,10 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     data = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
     data_commands = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
-    data_dir_help = "folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR or ../shared/data/mocap)"
 
     info = data_commands.add_parser("info", help="what motion data is available: clips, frames, minutes, splits")
-    info.add_argument("--data-dir", help=data_dir_help)
+    _add_data_dir(info)
     info.set_defaults(handler=handlers.data_info)
 
     bvh = data_commands.add_parser("import-bvh", help="BVH takes -> a motion npz (H36M-17, metres, z up)")
@@ -102,8 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
     cams.add_argument("--split", default="test", choices=["train", "validation", "test", "all"],
                       help="clips the cameras must see entirely (default: test)")
     cams.add_argument("--no-filter", action="store_true", help="write the whole grid, without the in-image filter")
-    cams.add_argument("--data-dir", help=data_dir_help)
-    cams.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    _add_data_dir(cams)
+    _add_force(cams, "replace OUT if it exists")
     cams.set_defaults(handler=handlers.cameras)
 
     train = commands.add_parser("train", help="train a model on the training performers with random cameras")
@@ -116,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--batch-size", type=int)
     train.add_argument("--seed", type=int)
     train.add_argument("--threads", type=int, help="torch CPU threads per process")
-    train.add_argument("--data-dir", help=data_dir_help)
+    _add_data_dir(train)
     train.add_argument("--quiet", action="store_true", help="no progress bar or per-epoch lines")
     train.set_defaults(handler=handlers.train)
 
@@ -137,8 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
                             help="lift each (camera, clip) as a track with the track-level refinement, as ray3d lift does")
     evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
     evaluation.add_argument("--json", type=Path, help="write the results here")
-    evaluation.add_argument("--force", action="store_true", help="replace --json if it exists")
-    evaluation.add_argument("--data-dir", help=data_dir_help)
+    _add_force(evaluation, "replace --json if it exists")
+    _add_data_dir(evaluation)
     evaluation.set_defaults(handler=handlers.evaluate)
 
     lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
@@ -154,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("--subject", help="VideoPose3D npz: the subject")
     lift.add_argument("--action", help="VideoPose3D npz: the action")
     lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
-    lift.add_argument("--force", action="store_true", help="replace --out if it exists")
+    _add_force(lift, "replace --out if it exists")
     lift.set_defaults(handler=handlers.lift)
 
     video = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
@@ -176,7 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
     # Detector keypoints of real footage: the model trained for them.
     _add_lifting_arguments(video, VIDEO_MODEL)
-    video.add_argument("--force", action="store_true", help="replace existing outputs in --out")
+    _add_force(video, "replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 
     batch = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
@@ -206,7 +214,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
     viz.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
-    viz.add_argument("--force", action="store_true", help="replace existing outputs")
+    _add_force(viz, "replace existing outputs")
     viz.set_defaults(handler=handlers.viz)
 
     bench = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
@@ -219,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     robustness.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
     robustness.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
     robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
-    robustness.add_argument("--data-dir", help=data_dir_help)
+    _add_data_dir(robustness)
     robustness.set_defaults(handler=bench_handlers.robustness)
     calibration = bench_commands.add_parser("calibration", help="camera estimation from a walking person: errors "
                                                                 "and their cost to Ray3D (CSV, JSON, markdown)")
@@ -232,7 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibration.add_argument("--seed", type=int, default=0)
     calibration.add_argument("--split", choices=["train", "validation", "test"], default="test",
                              help="whose walking clips (default: the test performers)")
-    calibration.add_argument("--data-dir", help=data_dir_help)
+    _add_data_dir(calibration)
     calibration.set_defaults(handler=bench_handlers.calibration)
     real = bench_commands.add_parser("real-video", help="physical checks (feet on the floor, stature, walking speed, "
                                                         "bones, skating, jitter) on a video and on emulated detections")
@@ -249,7 +257,7 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--emulated-layout", choices=["h36m17", "coco17"],
                       help="what the emulated detector reports (default: what the model reads, H36M-17 or COCO-17)")
     real.add_argument("--seed", type=int, default=0)
-    real.add_argument("--data-dir", help=data_dir_help)
+    _add_data_dir(real)
     real.set_defaults(handler=bench_handlers.real_video)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
@@ -261,7 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
     speed_bench.add_argument("--video", type=Path, help="also time ray3d video on this video (the video extra)")
     speed_bench.add_argument("--camera", type=Path, help="the video's camera file")
     speed_bench.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
-    speed_bench.add_argument("--force", action="store_true", help="replace --json if it exists")
+    _add_force(speed_bench, "replace --json if it exists")
     speed_bench.set_defaults(handler=bench_handlers.speed)
 
     calibrate = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
@@ -278,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
     _add_lens_arguments(calibrate, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
     calibrate.add_argument("--out", required=True, type=Path, help="camera JSON to write")
-    calibrate.add_argument("--force", action="store_true", help="replace --out if it exists")
+    _add_force(calibrate, "replace --out if it exists")
     calibrate.set_defaults(handler=handlers.calibrate)
 
     models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
@@ -295,13 +303,13 @@ def build_parser() -> argparse.ArgumentParser:
     exporting.add_argument("--command-line", help="the training command, recorded with the weights")
     exporting.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
     exporting.add_argument("--machine", help="where it was trained, recorded with the weights")
-    exporting.add_argument("--force", action="store_true", help="replace --out if it exists")
+    _add_force(exporting, "replace --out if it exists")
     exporting.set_defaults(handler=handlers.export)
 
     speed = data_commands.add_parser("samples-speed", help="measure the training-sample generator's throughput")
     speed.add_argument("--batch", type=int, default=1024)
     speed.add_argument("--frames", type=int, default=9)
     speed.add_argument("--repeats", type=int, default=20)
-    speed.add_argument("--data-dir", help=data_dir_help)
+    _add_data_dir(speed)
     speed.set_defaults(handler=handlers.samples_speed)
     return parser

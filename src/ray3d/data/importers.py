@@ -22,7 +22,7 @@ from ray3d.temporal import resample
 
 
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254, "cmu": 0.0254 / 0.45}
-DEFAULT_BVH_UNITS = {"cgspeed-motionbuilder": "cmu", "cgspeed-3dsmax": "cmu", "cgspeed-daz": "cm"}
+DEFAULT_BVH_UNITS = {"cgspeed-motionbuilder": "cmu", "cgspeed-3dsmax": "cmu", "cgspeed-daz": "cm", "ray3d": "m"}
 FLOOR_PERCENTILE = 2.0  # of the per-frame lowest foot point: robust to the odd jump or glitch
 PLAUSIBLE_BODY_HEIGHT_M = (0.5, 2.6)
 
@@ -59,7 +59,8 @@ def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit
         raise InputError(f"{source}: the body comes out {chain:.2f} m from ankle to head (standing height "
                          f"{height:.2f} m) with {unit_m} m per file unit; pass the file's units (one of "
                          f"{', '.join(UNITS_M)})")
-    offset = float(np.percentile(feet[..., 2].min(axis=1), FLOOR_PERCENTILE)) if floor else 0.0
+    offset = float(np.percentile(feet[..., 2].min(axis=1), FLOOR_PERCENTILE)) if floor and not naming.floor_at_zero \
+        else 0.0
     joints = joints - np.array([0.0, 0.0, offset])
     return ImportedClip(joints.astype(np.float32), fps, native_fps, len(nodes), drop_native_frames, offset, source,
                         naming.name)
@@ -68,13 +69,15 @@ def _finish(tree: KinematicTree, nodes: np.ndarray, naming: mapping.Naming, unit
 @reads_file("BVH file")
 def import_bvh(path: str | Path, fps: float = 60.0, drop_native_frames: int = 0, floor: bool = True,
                units: str | None = None) -> ImportedClip:
-    """Import a BVH take (cgspeed MotionBuilder, 3dsMax or Daz naming).
+    """Import a BVH take (cgspeed MotionBuilder, 3dsMax or Daz naming, or ray3d's own export, whose floor is
+    already at 0).
 
     Args:
         fps: output frame rate.
         drop_native_frames: leading frames to discard (e.g. a synthetic T-pose), counted at the file's rate.
         floor: shift z so the floor (2nd percentile of the lowest foot point) is at 0.
-        units: file length units (``m, cm, mm, inch, cmu``); default by naming (cgspeed: CMU units; Daz: cm).
+        units: file length units (``m, cm, mm, inch, cmu``); default by naming (cgspeed: CMU units; Daz: cm;
+            ray3d: m).
     """
     motion = bvh.read_bvh(path)
     naming = mapping.detect_naming(motion.tree, str(path))

@@ -1,8 +1,8 @@
 """Where each H36M-17 joint comes from in each source skeleton: the one table of all mappings.
 
 A source point is a node name of the parsed skeleton (BVH joint origin, ``<joint>.end`` for an End Site, or
-an ASF bone's END). Derived joints (brief section 8, mocap README section 3): pelvis = mid-hips, spine =
-mid(pelvis, thorax), and where a skeleton has no usable head top, head = nose + (nose - thorax).
+an ASF bone's END). Derived joints where a skeleton lacks them (brief section 8, mocap README section 3): pelvis
+= mid-hips, spine = mid(pelvis, thorax), and where it has no usable head top, head = nose + (nose - thorax).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ class Naming:
     name: str
     joints: dict[str, str]
     head_end_site: str | None = None  # used when present with a non-zero offset, else the head is extrapolated
+    floor_at_zero: bool = False       # the file's world already has its floor at height 0 (ray3d's own BVH)
 
     def missing(self, tree: KinematicTree) -> list[str]:
         return [node for node in self.joints.values() if node != EXTRAPOLATE_HEAD and node not in tree.names]
@@ -51,6 +52,8 @@ NAMINGS = (
     Naming("cgspeed-daz",
            _sided(*_limbs("Thigh", "Shin", "Foot", "Shldr", "ForeArm", "Hand", "l", "r"),
                   {"thorax": "neck", "neck_nose": "head", "head": EXTRAPOLATE_HEAD})),
+    # What ``ray3d lift --out *.bvh`` writes (``ray3d.io.bvh_export``): every H36M-17 joint under its own name.
+    Naming("ray3d", {name: name for name in H36M17.joint_names}, floor_at_zero=True),
 )
 
 
@@ -73,8 +76,8 @@ def to_h36m17(tree: KinematicTree, positions: np.ndarray, naming: Naming) -> np.
         joint["head"] = node[naming.head_end_site]
     elif naming.joints["head"] == EXTRAPOLATE_HEAD:
         joint["head"] = 2 * joint["neck_nose"] - joint["thorax"]
-    joint["pelvis"] = (joint["l_hip"] + joint["r_hip"]) / 2
-    joint["spine"] = (joint["pelvis"] + joint["thorax"]) / 2
+    joint.setdefault("pelvis", (joint["l_hip"] + joint["r_hip"]) / 2)
+    joint.setdefault("spine", (joint["pelvis"] + joint["thorax"]) / 2)
     return np.stack([joint[name] for name in H36M17.joint_names], axis=1)
 
 

@@ -64,8 +64,7 @@ class SampleConfig:
 class Batch:
     """One batch (B samples, F frames, J joints), float32 numpy arrays.
 
-    pixels (B, F, J, 2) and rays (B, F, J, 3) in the NCS of the J joints the model sees; camera_params (B, 2)
-    = (height m, pitch rad); pose (B, K, 3) root-relative NCS pose of the window's target frame (row 0 is zero)
+    pixels (B, F, J, 2) and rays (B, F, J, 3) in the NCS of the J joints the model sees; pose (B, K, 3) root-relative NCS pose of the window's target frame (row 0 is zero)
     and root (B, 3) NCS root, of the K H36M-17 joints; visible (B, F, J) False where a joint was dropped;
     confidences (B, F, J) in [0, 1]; cameras and world (B, K, 3): the cameras and the target frame's world
     joints, to go back to the world (they describe the scene before any flip).
@@ -73,7 +72,6 @@ class Batch:
 
     pixels: np.ndarray
     rays: np.ndarray
-    camera_params: np.ndarray
     pose: np.ndarray
     root: np.ndarray
     visible: np.ndarray
@@ -83,7 +81,7 @@ class Batch:
 
     def take(self, index) -> Batch:
         """The samples at ``index`` (a slice or indices)."""
-        return Batch(self.pixels[index], self.rays[index], self.camera_params[index], self.pose[index],
+        return Batch(self.pixels[index], self.rays[index], self.pose[index],
                      self.root[index], self.visible[index], self.confidences[index], self.cameras.take(index),
                      self.world[index])
 
@@ -238,7 +236,6 @@ def observe(windows: np.ndarray, cameras: CameraBatch, window: Window, remove_ro
                                      None if roll is None else roll[:, None])
     return Batch(
         pixels=pixels.astype(np.float32), rays=rays.astype(np.float32),
-        camera_params=cameras.height_pitch.astype(np.float32),
         pose=(target - target[:, :1]).astype(np.float32), root=target[:, 0].astype(np.float32),
         visible=visible, confidences=confidences.astype(np.float32), cameras=cameras,
         world=windows[:, index].astype(np.float32))

@@ -29,6 +29,15 @@ def as_float(x: Array) -> Array:
     return x if np.issubdtype(x.dtype, np.floating) else x.astype(np.float64)
 
 
+def numeric_array(value: Any, what: str) -> np.ndarray:
+    """``value`` (numbers, nested lists of them) as a float64 numpy array; anything else is refused as
+    ``what`` being not numeric."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: not numeric") from None
+
+
 def to_numpy(x: Array) -> np.ndarray:
     """A numpy copy of ``x`` (torch tensors are detached and moved to the CPU)."""
     return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)

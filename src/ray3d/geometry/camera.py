@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from ray3d.errors import InputError
 from ray3d.geometry import transforms as tf
-from ray3d.geometry.arrays import Array, check_points, like, namespace
+from ray3d.geometry.arrays import Array, check_points, like, namespace, numeric_array
 
 ORTHONORMAL_TOLERANCE = 1e-6
 
@@ -53,10 +53,7 @@ DICT_FIELDS = ("fx", "fy", "cx", "cy", "dist", "R", "t", "width", "height")
 
 
 def _frozen(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
-    try:
-        array = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"camera field {name}: not numeric ({value!r})") from None
+    array = numeric_array(value, f"camera field {name}").copy()
     if array.shape != shape:
         raise InputError(f"camera field {name}: expected shape {shape}, got {array.shape}")
     if not np.isfinite(array).all():
@@ -229,20 +226,19 @@ class Camera:
         p = check_points(points_camera, 3, "points_camera")
         return tf.camera_to_world(p, like(self.R, p), like(self.t, p))
 
-    def _roll_like(self, ref: Array, remove_roll: bool) -> Array | None:
-        return like(self.roll, ref) if remove_roll else None
+    def _ncs(self, ref: Array, remove_roll: bool) -> tuple[Array, Array, Array | None]:
+        """(height, pitch, roll or None): what the NCS depends on, in ``ref``'s library, dtype and device."""
+        return like(self.camera_height, ref), like(self.pitch, ref), like(self.roll, ref) if remove_roll else None
 
     def camera_to_normalized(self, points_camera: Array, remove_roll: bool = False) -> Array:
         """(..., 3) camera-frame points -> NCS (``remove_roll``: the gravity-aligned NCS)."""
         p = check_points(points_camera, 3, "points_camera")
-        return tf.camera_to_normalized(p, like(self.camera_height, p), like(self.pitch, p),
-                                       self._roll_like(p, remove_roll))
+        return tf.camera_to_normalized(p, *self._ncs(p, remove_roll))
 
     def normalized_to_camera(self, points_normalized: Array, remove_roll: bool = False) -> Array:
         """(..., 3) NCS points -> camera frame."""
         p = check_points(points_normalized, 3, "points_normalized")
-        return tf.normalized_to_camera(p, like(self.camera_height, p), like(self.pitch, p),
-                                       self._roll_like(p, remove_roll))
+        return tf.normalized_to_camera(p, *self._ncs(p, remove_roll))
 
     def world_to_normalized(self, points_world: Array, remove_roll: bool = False) -> Array:
         """(..., 3) world points -> NCS."""
@@ -258,25 +254,24 @@ class Camera:
         p = self.world_to_camera(points_world)
         return tf.camera_to_pixels(p, like(self.intrinsics, p), like(self.dist, p) if self.has_distortion else None)
 
-    def pixels_to_rays(self, pixels: Array, frame: str = "normalized", remove_roll: bool = False) -> Array:
-        """(..., 2) pixels -> (..., 3) rays through them, undistorted.
-
-        ``frame="camera"`` gives ``(x, y, 1)``; ``frame="normalized"`` gives that ray rotated into NCS (the
-        Ray3D network input; not unit length). A point at camera depth z_c on the ray of pixel p satisfies
-        ``X_n = z_c * ray_n + (0, -h, 0)``. Pixels where the lens model cannot be inverted give NaN rays.
-        ``remove_roll`` gives the rays in the gravity-aligned NCS.
-        """
-        if frame not in ("normalized", "camera"):
-            raise InputError(f"pixels_to_rays: frame must be 'normalized' or 'camera', got {frame!r}")
+    def pixels_to_camera_rays(self, pixels: Array) -> Array:
+        """(..., 2) pixels -> (..., 3) camera-frame rays ``(x, y, 1)`` through them, undistorted; NaN where the
+        lens model cannot be inverted."""
         uv = check_points(pixels, 2, "pixels")
-        rays = tf.pixels_to_camera_rays(uv, like(self.intrinsics, uv), like(self.dist, uv) if self.has_distortion else None)
-        return rays if frame == "camera" else tf.rays_camera_to_normalized(rays, like(self.pitch, uv),
-                                                                           self._roll_like(uv, remove_roll))
+        return tf.pixels_to_camera_rays(uv, like(self.intrinsics, uv), like(self.dist, uv) if self.has_distortion
+                                        else None)
+
+    def pixels_to_rays(self, pixels: Array, remove_roll: bool = False) -> Array:
+        """(..., 2) pixels -> (..., 3) their rays in the NCS (the Ray3D network input; not unit length): the
+        camera rays rotated by the pitch (and the roll too with ``remove_roll``: the gravity-aligned NCS). A point
+        at camera depth z_c on the ray of pixel p satisfies ``X_n = z_c * ray_n + (0, -h, 0)``."""
+        rays = self.pixels_to_camera_rays(pixels)
+        return tf.rays_camera_to_normalized(rays, *self._ncs(rays, remove_roll)[1:])
 
     def pixels_to_world_directions(self, pixels: Array) -> Array:
         """(..., 2) pixels -> (..., 3) world directions of their rays from the camera centre, ``R^T (x, y, 1)``
         (not unit length)."""
-        rays = self.pixels_to_rays(pixels, frame="camera")
+        rays = self.pixels_to_camera_rays(pixels)
         return rays @ like(self.R, rays)
 
     def pixels_to_height_plane(self, pixels: Array, height_m: float = 0.0) -> Array:

@@ -34,20 +34,25 @@ def camera_to_world(points_camera: Array, R: Array, t: Array) -> Array:
     return _rotate(R.swapaxes(-1, -2), points_camera - t)
 
 
+def _rotate_in_plane(points: Array, angle: Array, first: int, second: int) -> Array:
+    """Rotate (..., 3) points in the plane of axes ``first`` -> ``second`` by ``angle`` (broadcasting to (...)):
+    ``first' = c first - s second``, ``second' = s first + c second``."""
+    xp = namespace(points)
+    c, s = xp.cos(angle), xp.sin(angle)
+    axes = [points[..., 0], points[..., 1], points[..., 2]]
+    a, b = axes[first], axes[second]
+    axes[first], axes[second] = c * a - s * b, s * a + c * b
+    return stack_last(axes)
+
+
 def _rotate_about_x(points: Array, pitch: Array) -> Array:
     """Rotate (..., 3) points by ``R_c2n(pitch)`` = [[1,0,0],[0,c,s],[0,-s,c]]; ``pitch`` broadcasts to (...)."""
-    xp = namespace(points)
-    c, s = xp.cos(pitch), xp.sin(pitch)
-    x, y, z = points[..., 0], points[..., 1], points[..., 2]
-    return stack_last([x, c * y + s * z, c * z - s * y])
+    return _rotate_in_plane(points, pitch, 2, 1)
 
 
 def _rotate_about_z(points: Array, angle: Array) -> Array:
     """Rotate (..., 3) points about the z (optical) axis by ``angle``."""
-    xp = namespace(points)
-    c, s = xp.cos(angle), xp.sin(angle)
-    x, y, z = points[..., 0], points[..., 1], points[..., 2]
-    return stack_last([c * x - s * y, s * x + c * y, z])
+    return _rotate_in_plane(points, angle, 0, 1)
 
 
 def rays_camera_to_normalized(rays_camera: Array, pitch: Array, roll: Array | None = None) -> Array:

@@ -12,8 +12,9 @@ import numpy as np
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
+from ray3d.geometry.arrays import numeric_array
 from ray3d.io.atomic import atomic_path
-from ray3d.io.json_files import read_json
+from ray3d.io.text_files import read_json
 
 
 def save_cameras(path: str | Path, cams: list[Camera], overwrite: bool = False, **info: Any) -> None:
@@ -46,10 +47,7 @@ def _matrix(value: Any, path: Path, field: str) -> np.ndarray:
     if isinstance(value, dict) and "data" in value:
         data = np.asarray(value["data"], dtype=np.float64)
         return data.reshape(int(value.get("rows", 1)), int(value.get("cols", data.size)))
-    try:
-        return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{path}: {field}: not numeric") from None
+    return numeric_array(value, f"{path}: {field}")
 
 
 def _from_opencv_fields(fields: dict[str, Any], path: Path) -> Camera:

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
 from ray3d.errors import InputError, reads_file
-from ray3d.io.json_files import read_json
+from ray3d.io.text_files import read_csv_rows, read_json
 
 MIN_FLOOR_POINTS = 4
 
@@ -23,11 +22,7 @@ def read_floor_points(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         if not isinstance(rows, list):
             raise InputError(f"{path}: expected a list of {{\"x\", \"y\", \"u\", \"v\"}} objects")
     else:
-        try:
-            with path.open(newline="") as handle:
-                rows = list(csv.DictReader(handle))
-        except (OSError, UnicodeDecodeError) as err:
-            raise InputError(f"{path}: cannot read ({err})") from None
+        rows = read_csv_rows(path)
     try:
         values = np.array([[float(r[k]) for k in ("x", "y", "u", "v")] for r in rows])
     except (KeyError, TypeError):

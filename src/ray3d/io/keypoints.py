@@ -5,7 +5,6 @@ mmpose 0.x, AlphaPose's COCO-17 / Halpe-26 / Halpe-136, mmpose 1.x predictions),
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 from pathlib import Path
@@ -14,9 +13,10 @@ from typing import NamedTuple
 import numpy as np
 
 from ray3d.errors import InputError, reads_file
+from ray3d.geometry.arrays import numeric_array
 from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
-from ray3d.io.json_files import read_json
+from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_named_by, layout_skeleton
 from ray3d.temporal import check_frame_rate
@@ -119,11 +119,7 @@ def _layout_for(path: Path, pixels: np.ndarray, layout: str | None) -> str:
 
 
 def _numeric(path: Path, what: str, value) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{path}: {what}: non-numeric values") from None
-    return array
+    return numeric_array(value, f"{path}: {what}")
 
 
 def _finish(path: Path, pixels, confidences, frames, tracks, layout, fps, source) -> Keypoints:
@@ -295,11 +291,7 @@ def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
 
 
 def read_csv(path: Path, layout, fps) -> Keypoints:
-    try:
-        with path.open(newline="") as handle:
-            rows = list(csv.DictReader(handle))
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: cannot read as CSV ({err})") from None
+    rows = read_csv_rows(path)
     required = {"frame", "joint", "x", "y"}
     if not rows or not required <= set(rows[0]):
         raise InputError(f"{path}: CSV needs a header with {', '.join(sorted(required))} (optional track, score) "
@@ -311,7 +303,7 @@ def read_csv(path: Path, layout, fps) -> Keypoints:
             detections.setdefault(key, {})[row["joint"]] = (float(row["x"]), float(row["y"]),
                                                            float(row.get("score") or 1.0))
     except ValueError as err:
-        raise InputError(f"{path}: non-numeric frame, x, y or score ({err})") from None
+        raise InputError(f"{path}: frame, x, y or score: not numeric ({err})") from None
     joint_names = list(next(iter(detections.values())))
     if any(list(d) != joint_names for d in detections.values()):
         raise InputError(f"{path}: every (frame, track) must list the same joints in the same order")

@@ -16,7 +16,7 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path, refuse_existing
 from ray3d.io.bvh_export import Y_UP, bvh_text
-from ray3d.io.json_files import read_json
+from ray3d.io.text_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import H36M17, layout_named_by
 

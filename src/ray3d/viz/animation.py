@@ -45,7 +45,7 @@ def frustum_lines(camera: Camera, depth: float = 0.6) -> list[np.ndarray]:
     """World line segments (2, 3) drawing the camera as a small pyramid pointing where it looks."""
     width, height = camera.image_size
     corners_px = np.array([[0, 0], [width, 0], [width, height], [0, height]], dtype=float)
-    corners = camera.camera_to_world(depth * camera.pixels_to_rays(corners_px, frame="camera"))
+    corners = camera.camera_to_world(depth * camera.pixels_to_camera_rays(corners_px))
     centre = camera.center
     return [np.stack([centre, c]) for c in corners] + [np.stack([corners[i], corners[(i + 1) % 4]]) for i in range(4)]
 

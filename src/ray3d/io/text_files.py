@@ -1,7 +1,8 @@
-"""Reading JSON the user gave us: errors name the file and say what is wrong."""
+"""Reading the JSON and CSV files the user gave us: errors name the file and say what is wrong."""
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 from typing import Any
@@ -19,3 +20,13 @@ def read_json(path: str | Path) -> Any:
         raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file") from None
+
+
+def read_csv_rows(path: str | Path) -> list[dict[str, str]]:
+    """The rows of a CSV file with a header row, each {column: text} (a UTF-8 byte-order mark is ignored)."""
+    path = Path(path)
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as handle:
+            return list(csv.DictReader(handle))
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        raise InputError(f"{path}: cannot read as CSV ({err})") from None
