@@ -401,3 +401,46 @@ def test_a_camera_batch_repeats_one_camera_and_packs_height_and_pitch():
     np.testing.assert_allclose(again.t, camera.t)
     with pytest.raises(InputError, match="no cameras"):
         CameraBatch.from_cameras([])
+
+
+def _toml_camera(name: str, camera: Camera) -> str:
+    rvec = cv2.Rodrigues(camera.R)[0].ravel()
+    return (f'[{name}]\nname = "{name}"\nsize = [{camera.image_size[0]}.0, {camera.image_size[1]}.0]\n'
+            f"matrix = {camera.K.tolist()}\ndistortions = {camera.dist[:4].tolist()}\n"
+            f"rotation = {rvec.tolist()}\ntranslation = {camera.t.tolist()}\nfisheye = false\n\n")
+
+
+def test_a_calibration_toml_projects_as_opencv_does(tmp_path, rng):
+    """Pose2Sim / Anipose TOML: Rodrigues rotation, world -> camera translation, OpenCV distortion."""
+    from ray3d.io.camera_files import read_camera
+
+    first, second = cameras.h36m("S9", "54138969"), cameras.h36m("S11", "60457274")
+    path = tmp_path / "calibration.toml"
+    path.write_text(_toml_camera("cam_01", first) + _toml_camera("cam_02", second) + "[metadata]\nadjusted = false\n")
+    for spec, truth, name in ((f"{path}:cam_02", second, "cam_02"), (f"{path}:cam02", second, "cam_02"),
+                              (f"{path}:cam_01", first, "cam_01")):
+        camera = read_camera(spec)
+        points = points_in_front(truth, rng, 40, max_xy=0.4)
+        rvec, _ = cv2.Rodrigues(truth.R)
+        expected, _ = cv2.projectPoints(points, rvec, truth.t, truth.K, truth.dist[:4])
+        np.testing.assert_allclose(camera.project(points), expected[:, 0], atol=1e-6)
+        assert camera.name == name and camera.image_size == truth.image_size
+    with pytest.raises(InputError, match="holds cameras cam_01, cam_02; name one"):
+        read_camera(path)
+    with pytest.raises(InputError, match="no camera 'cam_09'"):
+        read_camera(f"{path}:cam_09")
+    path.write_text(_toml_camera("solo", first).replace("fisheye = false", "fisheye = true"))
+    with pytest.raises(InputError, match="fisheye"):
+        read_camera(path)
+
+
+def test_rotations_rounded_to_seven_digits_are_accepted_and_made_orthonormal():
+    camera = cameras.h36m("S9", "54138969")
+    rounded = np.round(camera.R, 7)
+    deviation = np.abs(rounded @ rounded.T - np.eye(3)).max()
+    assert 1e-9 < deviation < 1e-4
+    kept = Camera.from_intrinsics(*camera.intrinsics, camera.dist, rounded, camera.t, camera.image_size)
+    np.testing.assert_allclose(kept.R @ kept.R.T, np.eye(3), atol=1e-14)
+    np.testing.assert_allclose(kept.R, camera.R, atol=1e-6)
+    with pytest.raises(InputError, match=r"not a rotation \(\|R R\^T - I\| = 2\.0\de-03"):
+        Camera.from_intrinsics(*camera.intrinsics, camera.dist, camera.R * 1.001, camera.t, camera.image_size)

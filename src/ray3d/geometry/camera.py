@@ -13,7 +13,9 @@ from ray3d.errors import InputError
 from ray3d.geometry import transforms as tf
 from ray3d.geometry.arrays import Array, check_points, like, namespace, numeric_array
 
-ORTHONORMAL_TOLERANCE = 1e-6
+# Real calibration files write rotations with 7 significant digits (|R R^T - I| ~ 1e-6): within this, R is taken
+# as the nearest rotation; beyond it, it is refused.
+ORTHONORMAL_TOLERANCE = 1e-4
 
 
 def focal_from_hfov(width_px: float, hfov_deg: float) -> float:
@@ -62,6 +64,19 @@ def _frozen(value: Any, shape: tuple[int, ...], name: str) -> np.ndarray:
     return array
 
 
+def nearest_rotation(R: np.ndarray) -> np.ndarray:
+    """(3, 3) a matrix within ``ORTHONORMAL_TOLERANCE`` of a rotation -> that rotation (the orthonormal factor
+    of its polar decomposition, by SVD); anything further from one is refused, its deviation named."""
+    error = np.abs(R @ R.T - np.eye(3)).max()
+    if error > ORTHONORMAL_TOLERANCE or np.linalg.det(R) < 0:
+        raise InputError(f"camera field R: not a rotation (|R R^T - I| = {error:.2e}, det = {np.linalg.det(R):.4f}; "
+                         f"at most {ORTHONORMAL_TOLERANCE:g} is taken as rounding)")
+    if error < 1e-12:  # a rotation to float rounding: kept bit for bit
+        return R
+    u, _, vt = np.linalg.svd(R)
+    return u @ vt
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Camera:
     """A calibrated camera: ``X_c = R X_w + t`` (metres), pixels ``K distort(X_c / z_c)``.
@@ -97,11 +112,7 @@ class Camera:
         dist = _frozen(self.dist, (n_dist,) if n_dist in (4, 5) else (5,), "dist")
         if n_dist == 4:
             dist = _frozen(np.append(dist, 0.0), (5,), "dist")
-        R = _frozen(self.R, (3, 3), "R")
-        error = np.abs(R @ R.T - np.eye(3)).max()
-        if error > ORTHONORMAL_TOLERANCE or np.linalg.det(R) < 0:
-            raise InputError(
-                f"camera field R: not a rotation (|R R^T - I| = {error:.2e}, det = {np.linalg.det(R):.4f})")
+        R = _frozen(nearest_rotation(_frozen(self.R, (3, 3), "R")), (3, 3), "R")
         t = _frozen(self.t, (3,), "t")
         width, height = parse_image_size(self.image_size, "camera field image_size")
         for field, value in (("K", K), ("dist", dist), ("R", R), ("t", t), ("image_size", (width, height))):

@@ -107,10 +107,59 @@ def _read_opencv_storage(path: Path) -> Camera:
     return _from_opencv_fields({k: v for k, v in fields.items() if v is not None}, path)
 
 
+@reads_file("calibration TOML")
+def read_calibration_toml(path: str | Path, name: str | None = None) -> Camera:
+    """The camera called ``name`` (its section or its ``name`` field; optional when the file holds one) of a
+    Pose2Sim / Anipose / FreeMoCap calibration TOML: ``matrix`` (K), ``distortions`` (k1, k2, p1, p2),
+    ``rotation`` (a Rodrigues vector) and ``translation`` (metres), world -> camera as OpenCV's
+    ``projectPoints`` takes them, and ``size`` (width, height)."""
+    import tomllib
+
+    path = Path(path)
+    with path.open("rb") as handle:
+        document = tomllib.load(handle)
+    sections = {key: value for key, value in document.items() if isinstance(value, dict) and "matrix" in value}
+    if not sections:
+        raise InputError(f"{path}: no camera sections (tables with matrix, distortions, rotation, translation)")
+    if name is None:
+        if len(sections) > 1:
+            raise InputError(f"{path}: holds cameras {', '.join(sections)}; name one ({path}:NAME)",
+                             arguments=("camera",))
+        name = next(iter(sections))
+    wanted = [key for key, value in sections.items() if str(name) in (key, str(value.get("name")))
+              or str(name).replace("_", "") == key.replace("_", "")]
+    if not wanted:
+        raise InputError(f"{path}: no camera {name!r}; it holds {', '.join(sections)}", arguments=("camera",))
+    section = sections[wanted[0]]
+    where = f"{path}: [{wanted[0]}]"
+    if section.get("fisheye"):
+        raise InputError(f"{where}: a fisheye lens; ray3d's lens model is OpenCV's pinhole with radial and "
+                         "tangential distortion")
+    K = _matrix(section.get("matrix"), path, f"[{wanted[0]}] matrix")
+    rotation = _matrix(section.get("rotation"), path, f"[{wanted[0]}] rotation").reshape(-1)
+    if K.shape != (3, 3) or rotation.shape != (3,):
+        raise InputError(f"{where}: matrix must be 3 x 3 and rotation a Rodrigues vector of 3")
+    R, _ = cv2.Rodrigues(rotation)
+    size = parse_image_size(_matrix(section.get("size"), path, f"[{wanted[0]}] size").round().astype(int).tolist(),
+                            f"{where} size")
+    try:
+        return Camera.from_intrinsics(K[0, 0], K[1, 1], K[0, 2], K[1, 2], section.get("distortions", [0.0] * 4), R,
+                                      section.get("translation"), size, name=str(section.get("name", wanted[0])))
+    except InputError as err:
+        raise InputError(f"{where}: {err.message}") from None
+
+
 def read_camera(spec: str | Path, index: int = 0) -> Camera:
     """One camera from ``h36m:SUBJECT:CAMERA_ID``, our JSON (one camera or {"cameras": [...]}: ``index``),
-    OpenCV-style JSON (camera_matrix, dist_coeffs, rvec/tvec or R/t, image_width/height) or OpenCV YAML."""
+    OpenCV-style JSON (camera_matrix, dist_coeffs, rvec/tvec or R/t, image_width/height), OpenCV YAML, or a
+    calibration TOML (Pose2Sim, Anipose, FreeMoCap) as ``FILE.toml:NAME`` (``FILE.toml`` alone when it holds one
+    camera)."""
     text = str(spec)
+    toml_file, _, toml_name = text.rpartition(":")
+    if toml_file.lower().endswith(".toml") and Path(toml_file).is_file():
+        return read_calibration_toml(toml_file, toml_name)
+    if text.lower().endswith(".toml") and Path(text).is_file():
+        return read_calibration_toml(text)
     if text.startswith("h36m:"):
         parts = text.split(":")
         if len(parts) != 3:
