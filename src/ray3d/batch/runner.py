@@ -78,10 +78,10 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
                                  options=entry.lift_options())
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:
-            from ray3d.video import lift_video, make_detector, read_video_info
+            from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
             info = read_video_info(entry.input)
-            camera = entry.camera(info.image_size)
+            camera = camera_for_video(entry.camera(info.image_size), info)
             result = lift_video(info, camera, temporary, make_detector(o.get("detector", "people"), camera),
                                 Lifter.load(o.get("checkpoint", VIDEO_MODEL)), entry.lift_options(),
                                 entry.video_options(), world_format=o.get("format", ".json"), progress=False)

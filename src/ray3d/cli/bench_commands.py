@@ -70,6 +70,16 @@ def real_video(args: argparse.Namespace) -> int:
     return 0
 
 
+def real_near(args: argparse.Namespace) -> int:
+    from ray3d.bench.real_near import VIEWS, run, write
+    from ray3d.lift import Lifter
+
+    files = write(args.out, run(args.data, args.detector, Lifter.load(args.checkpoint), tuple(args.views or VIEWS)))
+    print(files[1].read_text())
+    print(f"-> {', '.join(map(str, files))}")
+    return 0
+
+
 def speed(args: argparse.Namespace) -> int:
     from ray3d.bench.speed import measure_all
     from ray3d.io.atomic import check_output, refuse_existing

@@ -294,10 +294,10 @@ def video(args: argparse.Namespace) -> int:
 
     from ray3d.lift import Lifter
     from ray3d.options import VideoOptions
-    from ray3d.video import lift_video, make_detector, read_video_info
+    from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
     info = read_video_info(args.input)
-    camera = _camera(args, info.image_size)
+    camera = camera_for_video(_camera(args, info.image_size), info)
     options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
     result = lift_video(info, camera, args.out, make_detector(args.detector, camera), Lifter.load(args.checkpoint),
                         _lift_options(args), options, world_format=args.format, overlay=not args.no_overlay,

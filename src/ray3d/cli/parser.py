@@ -70,6 +70,7 @@ def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "r
 def build_parser() -> argparse.ArgumentParser:
     from ray3d.checkpoints import VIDEO_MODEL
     from ray3d.data.virtual_cameras import SET_NAMES
+    from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     parser = OneLineErrors(
         prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
@@ -171,8 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_camera_arguments(video, image_size_note=" (default: the video's)")
     video.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
                                                                 "overlay.mp4")
-    video.add_argument("--detector", default="people",
-                       help="people (default): everybody in view of a fixed camera; mediapipe: one person, close up")
+    video.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     video.add_argument("--start", type=int, default=0, help="first frame to process (default 0)")
     video.add_argument("--frames", type=int, help="how many frames to process (default: to the end)")
     video.add_argument("--max-gap", type=float, default=0.5,
@@ -248,8 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--video", type=Path, help="a video of people walking on a floor (needs --camera)")
     real.add_argument("--keypoints", type=Path, help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
     real.add_argument("--camera", help="the video's camera file")
-    real.add_argument("--detector", default="people",
-                      help="2D detector for --video (default people)")
+    real.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     real.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
     real.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the lifted joints in time")
     real.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
@@ -259,6 +258,15 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--seed", type=int, default=0)
     _add_data_dir(real)
     real.set_defaults(handler=bench_handlers.real_video)
+    near = bench_commands.add_parser("real-near", help="near, low real cameras against 3D truth: each view of "
+                                     "../shared/data/real-near through ray3d video's finder and lifter")
+    near.add_argument("--data", type=Path, default=Path("../shared/data/real-near"),
+                      help="the real-near folder (default ../shared/data/real-near)")
+    near.add_argument("--out", required=True, type=Path, help="folder for real-near.{json,md}")
+    near.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    near.add_argument("--checkpoint", default=VIDEO_MODEL, help=f"the model that lifts (default {VIDEO_MODEL})")
+    near.add_argument("--views", nargs="+", help="which cameras (default: cam01 cam02 cam03 cam04)")
+    near.set_defaults(handler=bench_handlers.real_near)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
     speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")

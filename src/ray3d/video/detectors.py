@@ -187,6 +187,8 @@ class MediaPipeDetector:
 
 
 DETECTORS = {"people": PeopleDetector, "mediapipe": MediaPipeDetector}
+DEFAULT_DETECTOR = "people"
+DETECTOR_HELP = "people (default): everybody in view of a fixed camera; mediapipe: one person, close up"
 
 
 def make_detector(name: str, camera: Camera) -> PoseDetector:

@@ -11,6 +11,7 @@ import cv2
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.geometry import Camera
 
 BACKGROUND_SAMPLES = 25  # frames spread over the video from which a fixed camera's empty scene is learnt
 
@@ -39,6 +40,23 @@ def read_video_info(path: str | Path) -> VideoInfo:
     if min(size) <= 0:
         raise InputError(f"{path}: the video reports no frame size")
     return VideoInfo(path, frames, fps if np.isfinite(fps) else 0.0, size)
+
+
+CODED_BLOCK_PX = 16  # video codecs code frames in blocks of 16 px and crop: 1080 rows are coded as 1088
+
+
+def camera_for_video(camera: Camera, info: VideoInfo) -> Camera:
+    """``camera`` with the video's image size: the same camera when the sizes agree, or when the camera was
+    calibrated on the coded frame (up to a block of 16 px more to the right and below, a multiple of 16: the
+    pixel grid is the same, the decoder crops the padding); any other difference is refused."""
+    if tuple(camera.image_size) == info.image_size:
+        return camera
+    padding = np.subtract(camera.image_size, info.image_size)
+    coded = not (np.asarray(camera.image_size) % CODED_BLOCK_PX).any()
+    if coded and ((padding >= 0) & (padding < CODED_BLOCK_PX)).all():
+        return dataclasses.replace(camera, image_size=info.image_size)
+    raise InputError(f"camera {camera.name or ''}: image size {tuple(camera.image_size)} but {info.path} is "
+                     f"{info.image_size[0]}x{info.image_size[1]}", arguments=("camera",))
 
 
 def read_frames(path: Path, start: int = 0, count: int | None = None) -> Iterator[tuple[int, np.ndarray]]:

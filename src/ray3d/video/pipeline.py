@@ -23,7 +23,7 @@ from ray3d.lift import Lifter
 from ray3d.options import LiftOptions, VideoOptions
 from ray3d.temporal import check_frame_rate
 from ray3d.video.detectors import PoseDetector
-from ray3d.video.frames import VideoInfo, read_frames, read_video_info, spread_frames
+from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
 from ray3d.video.overlay import write_overlay
 from ray3d.video.tracking import FloorTracker
 from ray3d.viz.html_viewer import write_viewer
@@ -141,9 +141,7 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
     file holds the joints in ``options.frame``; the viewer and overlay draw the world.
     """
     info = video_info(video)
-    if tuple(camera.image_size) != info.image_size:
-        raise InputError(f"camera {camera.name or ''}: image size {tuple(camera.image_size)} but {info.path} is "
-                         f"{info.image_size[0]}x{info.image_size[1]}")
+    camera = camera_for_video(camera, info)
     targets = _targets(Path(out_dir), world_format, overlay, overwrite)
     check_world_output(targets["world"], options.frame)
     clock = [time.perf_counter()]

@@ -1,0 +1,141 @@
+"""``ray3d bench real-near``: real footage from near, low cameras against 3D truth (``../shared/data/real-near``:
+one man balancing, four calibrated views 2.7-4.1 m away, triangulated truth). Each camera alone, as a user would
+run ``ray3d video`` on it: how well the person finder sees the man (frames detected, tracks he became, joints'
+distance from the projected truth, time per frame), and how well he is lifted (Abs-MPJPE over the joints the
+truth measures, the pelvis's error on the floor plan) beside the no-learning guess from the same detections (the
+mid-ankle pixel's ray meeting the floor ``GUESS_ANKLE_HEIGHT_M`` up).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.geometry import Camera
+from ray3d.io.atomic import atomic_path
+from ray3d.io.camera_files import read_calibration_toml
+from ray3d.lift import Lifter
+from ray3d.options import LiftOptions, VideoOptions
+from ray3d.skeleton import H36M17, convert_keypoints
+
+VIEWS = ("cam01", "cam02", "cam03", "cam04")
+CALIBRATION, TRUTH = "calibration_qualisys.toml", "balancing_truth.trc"
+GUESS_ANKLE_HEIGHT_M = 0.08
+# The H36M-17 joints the truth measures, and its marker for each (pelvis: the mid-hips).
+TRUTH_MARKERS = {"r_hip": "RHip", "r_knee": "RKnee", "r_ankle": "RAnkle", "l_hip": "LHip", "l_knee": "LKnee",
+                 "l_ankle": "LAnkle", "r_shoulder": "RShoulder", "r_elbow": "RElbow", "r_wrist": "RWrist",
+                 "l_shoulder": "LShoulder", "l_elbow": "LElbow", "l_wrist": "LWrist"}
+SCORED = ("pelvis", *TRUTH_MARKERS)
+_SCORED = [H36M17.index(name) for name in SCORED]
+_ANKLES = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
+
+
+def read_truth(path: str | Path) -> np.ndarray:
+    """(T, 17, 3) H36M-17 world joints of a Pose2Sim TRC (y up: a point (X, Y, Z) is the world's (Z, X, Y)),
+    NaN for the joints it has no marker for."""
+    lines = Path(path).read_text().splitlines()
+    names = lines[3].split("\t")[2::3]
+    values = np.array([[float(v) for v in line.split("\t")[2:2 + 3 * len(names)]] for line in lines[5:] if line.strip()])
+    markers = values.reshape(len(values), len(names), 3)[..., [2, 0, 1]]
+    joints = np.full((len(markers), H36M17.num_joints, 3), np.nan)
+    for joint, marker in TRUTH_MARKERS.items():
+        joints[:, H36M17.index(joint)] = markers[:, names.index(marker)]
+    joints[:, H36M17.index("pelvis")] = joints[:, [H36M17.index("l_hip"), H36M17.index("r_hip")]].mean(axis=1)
+    return joints
+
+
+def _h36m_pixels(pixels: np.ndarray, confidences: np.ndarray, layout: str) -> np.ndarray:
+    """(N, 17, 2) H36M-17 pixels of detections, NaN where a joint was not seen (confidence under 0.5)."""
+    h36m, seen = convert_keypoints(pixels, layout, confidences >= 0.5)
+    return np.where(seen[..., None], h36m, np.nan)
+
+
+def _on_the_man(frames: np.ndarray, pixels: np.ndarray, truth_pixels: np.ndarray) -> bool:
+    """Whether a track's pelvis lies within the man's projected box (grown by a fifth) in most of its frames."""
+    truth = truth_pixels[frames][:, _SCORED]
+    low, high = truth.min(axis=1), truth.max(axis=1)
+    margin = 0.2 * (high - low)
+    pelvis = pixels[:, 0]
+    inside = ((pelvis >= low - margin) & (pelvis <= high + margin)).all(axis=-1)
+    return bool(inside.mean() > 0.5)
+
+
+def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str, lifter: Lifter) -> dict:
+    """One view's row (see the module's description)."""
+    from ray3d.video import camera_for_video, make_detector, read_video_info, track_video
+
+    info = read_video_info(video)
+    camera = camera_for_video(camera, info)
+    truth_pixels = camera.project(np.nan_to_num(truth))
+    row = {"view": video.stem, "detector": detector, "frames": int(info.frames)}
+    started = time.perf_counter()
+    try:
+        people = track_video(info, camera, make_detector(detector, camera), VideoOptions(), progress=False)
+    except InputError as err:
+        return {**row, "refused": err.message, "ms_per_frame": 1e3 * (time.perf_counter() - started) / info.frames}
+    row["ms_per_frame"] = 1e3 * (time.perf_counter() - started) / people.frames_read
+    converted = {t: (d.frames, _h36m_pixels(d.pixels, d.confidences, people.layout)) for t, d in people.tracks.items()}
+    his = {t: c for t, c in converted.items() if _on_the_man(c[0], c[1], truth_pixels)}
+    row["tracks"], row["tracks_on_the_man"] = len(people.tracks), len(his)
+    if not his:
+        return {**row, "frames_detected": 0}
+    frames = np.concatenate([f for f, _ in his.values()])
+    errors = np.concatenate([np.linalg.norm(p[:, _SCORED] - truth_pixels[f][:, _SCORED], axis=-1).ravel()
+                             for f, p in his.values()])
+    row["frames_detected"] = int(len(np.unique(frames)))
+    row["median_2d_error_px"] = float(np.nanmedian(errors))
+    longest = max(his, key=lambda t: len(his[t][0]))
+    lifted = lifter.lift_tracks({longest: people.tracks[longest]}, camera, people.layout, people.fps,
+                                **LiftOptions().lift_arguments())[longest]
+    predicted, true = lifted.joints, truth[lifted.frames]
+    row["abs_mpjpe_mm"] = 1e3 * float(np.nanmean(np.linalg.norm(predicted[:, _SCORED] - true[:, _SCORED], axis=-1)))
+    row["pelvis_floor_error_m"] = float(np.median(np.linalg.norm(predicted[:, 0, :2] - true[:, 0, :2], axis=-1)))
+    frames_seen, pixels_seen = his[longest]
+    ankles = pixels_seen[:, _ANKLES].mean(axis=1)
+    guess = camera.pixels_to_height_plane(ankles[np.isfinite(ankles).all(-1)], GUESS_ANKLE_HEIGHT_M)
+    true_pelvis = truth[frames_seen[np.isfinite(ankles).all(-1)], 0]
+    reached = np.isfinite(guess).all(-1)
+    row["guess_floor_error_m"] = float(np.median(np.linalg.norm(guess[reached, :2] - true_pelvis[reached, :2],
+                                                                axis=-1))) if reached.any() else None
+    if row["guess_floor_error_m"]:
+        row["pelvis_over_guess"] = row["pelvis_floor_error_m"] / row["guess_floor_error_m"]
+    row["model"] = lifter.name
+    return row
+
+
+def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, ...] = VIEWS) -> list[dict]:
+    data_dir = Path(data_dir)
+    for needed in (CALIBRATION, TRUTH):
+        if not (data_dir / needed).is_file():
+            raise InputError(f"{data_dir}: no {needed}: not the real-near recording", arguments=("data_dir",))
+    truth = read_truth(data_dir / TRUTH)
+    return [measure_view(data_dir / f"{view}.mp4", read_calibration_toml(data_dir / CALIBRATION, view), truth,
+                         detector, lifter) for view in views]
+
+
+COLUMNS = ("view", "detector", "tracks_on_the_man", "frames_detected", "median_2d_error_px", "ms_per_frame",
+           "abs_mpjpe_mm", "pelvis_floor_error_m", "guess_floor_error_m", "pelvis_over_guess")
+
+
+def write(out_dir: str | Path, rows: list[dict]) -> list[Path]:
+    """``real-near.json`` (every row) and ``real-near.md`` (the table)."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    def cell(row: dict, key: str) -> str:
+        value = row.get(key)
+        if key == "tracks_on_the_man" and "refused" in row:
+            return f"refused: {row['refused']}"
+        return "-" if value is None else f"{value:.3g}" if isinstance(value, float) else str(value)
+
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(cell(row, key) for key in COLUMNS) + " |" for row in rows]
+    files = [out_dir / "real-near.json", out_dir / "real-near.md"]
+    for path, text in zip(files, (json.dumps(rows, indent=1), "\n".join(lines) + "\n")):
+        with atomic_path(path, overwrite=True) as temporary:
+            temporary.write_text(text)
+    return files
