@@ -154,9 +154,13 @@ def test_body_measures_are_written_only_in_body():
     assert not copies
 
 
-def _calls(path: Path, name: str) -> list[int]:
-    return [node.lineno for node in ast.walk(ast.parse(path.read_text()))
+def _calls_in(tree: ast.AST, name: str) -> list[int]:
+    return [node.lineno for node in ast.walk(tree)
             if isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None)) == name]
+
+
+def _calls(path: Path, name: str) -> list[int]:
+    return _calls_in(ast.parse(path.read_text()), name)
 
 
 def test_a_camera_from_options_is_built_in_one_place():
@@ -166,10 +170,16 @@ def test_a_camera_from_options_is_built_in_one_place():
     assert builders == {"ray3d.io.camera_files": builders.get("ray3d.io.camera_files")} and builders
 
 
-def test_the_video_header_is_read_in_one_place_per_run():
-    """``read_video_info`` is called by the command line (once, then passed down) and by ``video_info`` only."""
-    readers = {module for module, path in MODULES.items() if _calls(path, "read_video_info")}
-    assert readers <= {"ray3d.cli.commands", "ray3d.video.pipeline", "ray3d.batch.runner"}
+def test_the_video_header_is_read_once_per_run():
+    """Below the entry points (the command line, batch tasks, benchmarks: they read a video's header once and
+    pass its ``VideoInfo`` down) only ``video.pipeline.video_info`` reads it, for a caller that gave a path."""
+    below = {module: path for module, path in MODULES.items() if _in_room(module, "ray3d.video")
+             or _in_room(module, "ray3d.lift") or _in_room(module, "ray3d.io")}
+    readers = {module for module, path in below.items() if _calls(path, "read_video_info")}
+    assert readers == {"ray3d.video.pipeline"}
+    functions = [node for node in ast.walk(ast.parse(MODULES["ray3d.video.pipeline"].read_text()))
+                 if isinstance(node, ast.FunctionDef) and _calls_in(node, "read_video_info")]
+    assert [f.name for f in functions] == ["video_info"]
 
 
 def test_the_readme_code_map_names_every_room_of_the_tree():

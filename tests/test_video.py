@@ -289,8 +289,9 @@ def test_landmark_network_on_crops():
         np.testing.assert_allclose(m[0, 0] * region[2], 256.0)
     landmarks = BlazePoseLandmarks(threads=1)
     frame = np.full((SIZE[1], SIZE[0], 3), 90, np.uint8)
-    pixels, confidences, scores = landmarks(frame, regions)
+    pixels, confidences, scores, following = landmarks(frame, regions)
     assert pixels.shape == (3, 33, 2) and confidences.shape == (3, 33) and scores.shape == (3,)
+    assert following.shape == (3, 4)
     assert np.all(scores < 0.5)  # nobody in a flat grey frame
     assert all(len(x) == 0 for x in landmarks(frame, np.zeros((0, 3))))
 
@@ -338,3 +339,78 @@ def test_the_real_chain_finds_and_follows_two_people_in_a_generated_video(tmp_pa
         person = int(np.argmin([abs(nose[0] - centre[(p, int(seen[0]))]) for p in (0, 1)]))
         assert len(seen) >= 0.7 * frames
         assert all(abs(u - centre[(person, int(f))]) < 30 for u, f in zip(nose, seen))
+
+
+def _portrait_figure(height: int):
+    """A figure the person detectors take for a person: matplotlib's sample portrait of Grace Hopper over a dark
+    coat, ``height`` pixels tall; (image, mask of its drawn pixels)."""
+    import matplotlib
+
+    portrait = cv2.imread(str(Path(matplotlib.get_data_path()) / "sample_data" / "grace_hopper.jpg"))
+    width, head = int(0.4 * height), int(height * 80 / 170)
+    figure, drawn = np.zeros((height, width, 3), np.uint8), np.zeros((height, width), dtype=bool)
+    figure[:head], drawn[:head] = cv2.resize(portrait, (width, head)), True
+    margin = int(width * 10 / 68)
+    figure[head:, margin:width - margin], drawn[head:, margin:width - margin] = (40, 35, 30), True
+    return figure, drawn
+
+
+def _still_figure_video(path: Path, height: int, top_left: tuple[int, int], sway_px: int = 0, frames: int = FRAMES):
+    figure, drawn = _portrait_figure(height)
+    background = cv2.GaussianBlur(np.random.default_rng(1).integers(70, 150, (SIZE[1], SIZE[0], 3), dtype=np.uint8),
+                                  (5, 5), 0)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), FPS, SIZE)
+    for t in range(frames):
+        image = background.copy()
+        row, column = top_left[0], top_left[1] + int(round(sway_px * np.sin(t / 3)))
+        image[row:row + height, column:column + figure.shape[1]][drawn] = figure[drawn]
+        writer.write(image)
+    writer.release()
+    return path
+
+
+@pytest.mark.parametrize("height, top_left, sway", [(420, (30, 270), 0),      # stands still all along
+                                                    (450, (15, 250), 3)])     # fills the frame, swaying
+def test_the_default_finder_follows_a_still_or_frame_filling_person_as_one_track(tmp_path, height, top_left, sway):
+    pytest.importorskip("ai_edge_litert", reason="the video extra is not installed: pip install 'ray3d[video]'")
+    from ray3d.video import DEFAULT_DETECTOR, make_detector, track_video
+
+    camera = Camera.from_height_pitch(1.6, 5.0, SIZE, hfov_deg=60.0)
+    video = _still_figure_video(tmp_path / "still.mp4", height, top_left, sway)
+    assert DEFAULT_DETECTOR == "combined"
+    people = track_video(video, camera, make_detector(DEFAULT_DETECTOR, camera), VideoOptions(), progress=False)
+    assert len(people.tracks) == 1 and people.detector == "combined"
+    (track,) = people.tracks.values()
+    assert len(track.frames) >= 0.95 * FRAMES
+    if not sway:  # motion alone never sees a person who does not move
+        with pytest.raises(InputError, match="nobody was found"):
+            track_video(video, camera, make_detector("people", camera), VideoOptions(), progress=False)
+
+
+def test_a_short_clip_keeps_a_person_seen_all_along(tmp_path):
+    from ray3d.video import track_video
+
+    frames = 16  # 0.8 s: shorter than the default minimum track of 1 s
+    pixels = [CAMERA.project(_walker((6.0, 0.0), (0.0, 0.5)))]
+    path = _render(tmp_path / "short.mp4", pixels)
+    people = track_video(path, CAMERA, StubDetector(pixels), VideoOptions(frames=frames), progress=False)
+    assert [len(t.frames) for t in people.tracks.values()] == [frames]
+
+
+def test_nobody_kept_says_what_was_found_and_what_would_keep_it(tmp_path):
+    from ray3d.video import track_video
+
+    pixels = [CAMERA.project(_walker((6.0, 0.0), (0.0, 0.5)))]
+    seen = set(range(10, 20))  # 0.5 s of a 2 s clip
+    path = _render(tmp_path / "glimpse.mp4", pixels, {(0, t) for t in range(FRAMES) if t not in seen})
+    with pytest.raises(InputError, match=r"1 candidate track\(s\), the longest seen for 0\.50 s; a minimum track "
+                                         r"length of 0\.50 s would keep it") as caught:
+        track_video(path, CAMERA, StubDetector(pixels, {(0, t) for t in range(FRAMES) if t not in seen}),
+                    VideoOptions(), progress=False)
+    assert caught.value.arguments == ("min_track_s",)
+    with pytest.raises(InputError, match="found nobody in any frame") as caught:
+        track_video(path, CAMERA, StubDetector([]), VideoOptions(), progress=False)
+    assert caught.value.arguments == ("detector",)
+    people = track_video(path, CAMERA, StubDetector(pixels, {(0, t) for t in range(FRAMES) if t not in seen}),
+                         VideoOptions(min_track_s=0.5), progress=False)
+    assert len(people.tracks) == 1

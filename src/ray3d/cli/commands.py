@@ -304,8 +304,9 @@ def video(args: argparse.Namespace) -> int:
                         overwrite=args.force)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
-    print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked ({len(result.dropped)} short or "
-          f"unliftable tracks dropped); {100 * filled:.1f}% of their frames filled in between detections")
+    print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked by the {args.detector} detector "
+          f"({len(result.dropped)} short or unliftable tracks dropped); {100 * filled:.1f}% of their frames filled "
+          "in between detections")
     seconds = result.seconds
     print(f"  {result.frames / sum(seconds.values()):.1f} frames/s end to end: people {seconds['people']:.1f} s, "
           f"lifting {seconds['lifting']:.1f} s, writing {seconds['writing']:.1f} s")

@@ -2,11 +2,15 @@
 the people in it, each a ``Detection``. Both detectors run offline from registry packages
 (``pip install 'ray3d[video]'``): their weights ship inside the mediapipe wheel.
 
-- ``people`` (default): every person, also small ones, for a fixed camera. Moving foreground cut into
-  person-sized regions (``proposals``) plus the regions of the people found in the previous frame (people who
-  stop walking), BlazePose's landmark network on an upscaled crop of each (``landmarks``), duplicates removed.
-- ``mediapipe``: MediaPipe Pose's own graph, one person per frame, for a close-up of one person (its
-  full-frame detector misses people under about 150 px, and it jumps between people in a crowd).
+- ``combined`` (default): every person in view of a fixed camera, moving or still, near or far. The regions
+  of the people found in the previous frame, the people MediaPipe's full-frame detector finds (``full_frame``:
+  people who stand still, people who fill the frame), and moving foreground cut into person-sized regions
+  (``proposals``: small, far people the full-frame detector misses); BlazePose's landmark network on an
+  upscaled crop of each (``landmarks``), duplicates removed.
+- ``people``: the same without the full-frame detector (motion and the previous frame only): the finder of
+  earlier versions, a little faster where every person is small and walks.
+- ``mediapipe``: MediaPipe Pose's own graph, one person per frame, for a close-up of one person (it jumps
+  between people in a crowd).
 """
 
 from __future__ import annotations
@@ -20,18 +24,22 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
-from ray3d.video.landmarks import BlazePoseLandmarks
+from ray3d.video.boxes import box_overlap
+from ray3d.video.full_frame import FullFramePeople
+from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
 
 
 @dataclasses.dataclass(frozen=True)
 class Detection:
-    """One person in one frame: pixels (J, 2) and confidences (J,) in the detector's layout, and how sure the
-    detector is that it is a person (0-1)."""
+    """One person in one frame: pixels (J, 2) and confidences (J,) in the detector's layout, how sure the
+    detector is that it is a person (0-1), and, from detectors that track, the region (centre u, centre v, side)
+    to look for them in the next frame."""
 
     pixels: np.ndarray
     confidences: np.ndarray
     score: float
+    following: np.ndarray | None = None
 
     @functools.cached_property
     def box(self) -> np.ndarray:
@@ -43,22 +51,15 @@ class Detection:
 
 class PoseDetector(Protocol):
     """``detector(frame)`` with an (H, W, 3) uint8 RGB frame returns the people in it; ``prepare(frames)`` is
-    given frames spread over the whole video before the first call (a fixed camera's empty scene)."""
+    given frames spread over the whole video before the first call (a fixed camera's empty scene); ``name``
+    says which detector it is."""
 
     layout: str
+    name: str
 
     def prepare(self, frames: list[np.ndarray]) -> None: ...
 
     def __call__(self, frame: np.ndarray) -> list[Detection]: ...
-
-
-def box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Intersection over union of boxes (N, 4) and (M, 4) -> (N, M)."""
-    low = np.maximum(a[:, None, :2], b[None, :, :2])
-    high = np.minimum(a[:, None, 2:], b[None, :, 2:])
-    inter = np.prod(np.clip(high - low, 0, None), axis=-1)
-    area_a, area_b = (np.prod(x[:, 2:] - x[:, :2], axis=-1) for x in (a, b))
-    return inter / np.maximum(area_a[:, None] + area_b[None] - inter, 1e-9)
 
 
 class PeopleDetector:
@@ -67,14 +68,17 @@ class PeopleDetector:
     Args:
         camera: the video's camera; its geometry says how tall a person looks at each floor pixel.
         min_score: the landmark network's person score below which a crop holds nobody.
-        threads: CPU threads for the landmark network.
+        threads: CPU threads for the networks.
+        full_frame: also look where the full-frame person detector finds somebody (``combined``).
     """
 
     layout = BLAZEPOSE33.name
 
-    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2):
+    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2, full_frame: bool = False):
         self.camera, self.min_score = camera, min_score
+        self.name = "combined" if full_frame else "people"
         self._landmarks = BlazePoseLandmarks(threads)
+        self._full_frame = FullFramePeople(threads) if full_frame else None
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
 
@@ -84,39 +88,53 @@ class PeopleDetector:
 
     def __call__(self, frame: np.ndarray) -> list[Detection]:
         # The people of the last frame are looked for where they were (also when they stopped, or merged with
-        # others into one blob); a moving blob is looked at only where it is not one of them; then, once more,
-        # where part of a blob is left that nobody found explains (the second of two walking together).
-        known = np.array([self._region_around(d) for d in self._previous]).reshape(-1, 3)
+        # others into one blob), and the people the full-frame detector finds where they are not among them; a
+        # moving blob is looked at only where it is none of these; then, once more, where part of a blob is left
+        # that nobody found explains (the second of two walking together).
+        known = as_regions([self._region_around(d) for d in self._previous])
+        whole = self._full_frame(frame)[0] if self._full_frame is not None else as_regions([])
+        new = whole[~_near(whole, known)]
         blobs = self._proposals.blobs(frame)
-        proposed = self._proposals.split_blobs(blobs)
+        proposed = as_regions(self._proposals.split_blobs(blobs))
         boxes = np.array([d.box for d in self._previous]).reshape(-1, 4)
-        fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes)]
-        found = self._look(frame, np.concatenate([known, fresh]))
+        fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes) & ~_near(proposed, new)
+                         & ~_inside_regions(proposed, new)]
+        # A region the full-frame detector found one person in may hold a person wider than motion's
+        # proposals allow (arms and legs spread).
+        vouched = np.concatenate([_near(known, whole), np.ones(len(new), bool), np.zeros(len(fresh), bool)])
+        found = self._look(frame, np.concatenate([known, new, fresh]), vouched)
         if found:
             found += self._look(frame, self._proposals.unexplained(blobs, np.stack([d.box for d in found])))
         self._previous = _without_duplicates(found)
         return self._previous
 
-    def _look(self, frame: np.ndarray, regions: np.ndarray) -> list[Detection]:
-        """The people the landmark network finds in ``regions`` (N, 3) of the frame."""
-        pixels, confidences, scores = self._landmarks(frame, regions)
-        found = [Detection(p, c, float(s)) for p, c, s in zip(pixels, confidences, scores) if s >= self.min_score]
-        return [d for d in found if self._person_sized(d)]
+    def _look(self, frame: np.ndarray, regions: np.ndarray, vouched: np.ndarray | None = None) -> list[Detection]:
+        """The people the landmark network finds in ``regions`` (N, 3) of the frame; ``vouched`` (N,): the
+        regions the full-frame detector found one person in."""
+        pixels, confidences, scores, following = self._landmarks(frame, regions)
+        vouched = np.zeros(len(regions), bool) if vouched is None else vouched
+        found = [(Detection(p, c, float(s), f if self._full_frame is not None else None), v)
+                 for p, c, s, f, v in zip(pixels, confidences, scores, following, vouched) if s >= self.min_score]
+        return [d for d, v in found if self._person_sized(d, v)]
 
     def _region_around(self, detection: Detection) -> np.ndarray:
-        """(3,) the crop region (centre u, centre v, side) for looking again at a person found in the last
+        """(4,) the crop region (centre u, centre v, side, rotation) for looking again at a person found in the last
         frame: around their joints, and where only the upper body was seen (legs hidden, a half-body pose), as
         tall as a person standing there, so the next crop holds all of them."""
+        if detection.following is not None:
+            return detection.following
         x0, y0, x1, y1 = detection.box
         tall = max(y1 - y0, 0.8 * float(np.nan_to_num(self._proposals.person_height([(x0 + x1) / 2, y1]))))
-        return np.array([(x0 + x1) / 2, y0 + tall / 2, ROI_MARGIN * max(tall, x1 - x0)])
+        return np.array([(x0 + x1) / 2, y0 + tall / 2, ROI_MARGIN * max(tall, x1 - x0), 0.0])
 
-    def _person_sized(self, detection: Detection) -> bool:
+    def _person_sized(self, detection: Detection, vouched: bool = False) -> bool:
         """Whether the detection is between a third and twice a person's height at its feet, and not wider
-        than most of it (joints strewn over two people)."""
+        than most of it (joints strewn over two people), or, where the full-frame detector ``vouched`` for one
+        person, than one and a half times it."""
         x0, y0, x1, y1 = detection.box
         expected = float(self._proposals.person_height([(x0 + x1) / 2, y1]))
-        return bool(np.isfinite(expected)) and expected / 3 <= y1 - y0 <= 2 * expected and x1 - x0 <= 0.75 * expected
+        widest = (1.5 if vouched else 0.75) * expected
+        return bool(np.isfinite(expected)) and expected / 3 <= y1 - y0 <= 2 * expected and x1 - x0 <= widest
 
 
 def _near(regions: np.ndarray, others: np.ndarray) -> np.ndarray:
@@ -139,6 +157,14 @@ def _inside(points: np.ndarray, boxes: np.ndarray, grow: float = 1.25) -> np.nda
     return (np.abs(points[:, None] - centre[None]) <= half[None]).all(axis=-1).any(axis=1)
 
 
+def _inside_regions(regions: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """(N,) whether each region's centre (N, 3) lies in one of the ``others`` (M, 3) regions' middle half (a
+    fragment of the motion of somebody already being looked at)."""
+    if not len(others) or not len(regions):
+        return np.zeros(len(regions), dtype=bool)
+    return (np.abs(regions[:, None, :2] - others[None, :, :2]) <= others[None, :, 2:] / 4).all(axis=-1).any(axis=1)
+
+
 def _without_duplicates(detections: list[Detection], overlap: float = 0.5) -> list[Detection]:
     """Greedy non-maximum suppression on the joints' boxes: of two crops that found the same person, the surer."""
     order = sorted(detections, key=lambda d: -d.score * float(d.confidences.mean()))
@@ -158,6 +184,7 @@ class MediaPipeDetector:
     """
 
     layout = BLAZEPOSE33.name
+    name = "mediapipe"
 
     def __init__(self, camera: Camera | None = None, min_detection_confidence: float = 0.5,
                  min_tracking_confidence: float = 0.5):
@@ -186,9 +213,11 @@ class MediaPipeDetector:
         self._pose.close()
 
 
-DETECTORS = {"people": PeopleDetector, "mediapipe": MediaPipeDetector}
-DEFAULT_DETECTOR = "people"
-DETECTOR_HELP = "people (default): everybody in view of a fixed camera; mediapipe: one person, close up"
+DETECTORS = {"combined": functools.partial(PeopleDetector, full_frame=True), "people": PeopleDetector,
+             "mediapipe": MediaPipeDetector}
+DEFAULT_DETECTOR = "combined"
+DETECTOR_HELP = ("combined (default): everybody in view of a fixed camera, moving or still, near or far; people: "
+                 "the same from motion and the previous frame only; mediapipe: one person, close up")
 
 
 def make_detector(name: str, camera: Camera) -> PoseDetector:

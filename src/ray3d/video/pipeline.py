@@ -28,10 +28,14 @@ from ray3d.video.overlay import write_overlay
 from ray3d.video.tracking import FloorTracker
 from ray3d.viz.html_viewer import write_viewer
 
+SHORT_CLIP_SHARE = 0.5   # a track as long as this share of the clip is kept, however short the clip
+CONFIRM_FRAMES = 3       # detections in a row before a person counts (one-off false detections never do)
+
 @dataclasses.dataclass
 class TrackedPeople:
     """Everybody detected and followed in a video: {track id: detections at the video's frame index} of the
-    tracks kept, in the detector's layout, at ``fps``; the frames read; {track id: why} of those dropped."""
+    tracks kept, in the detector's layout, at ``fps``; the frames read; {track id: why} of those dropped; the
+    video and which detector found them."""
 
     tracks: dict[int, TrackDetections]
     layout: str
@@ -39,6 +43,7 @@ class TrackedPeople:
     frames_read: int
     dropped: dict[int, str]
     video: Path
+    detector: str = ""
 
     def keypoints(self) -> Keypoints:
         """The kept tracks' detections as one keypoint record (what ``keypoints.json`` holds)."""
@@ -47,7 +52,7 @@ class TrackedPeople:
                          np.concatenate([self.tracks[t].confidences for t in ids]),
                          np.concatenate([self.tracks[t].frames for t in ids]),
                          np.concatenate([np.full(len(self.tracks[t].frames), t) for t in ids]), self.layout, self.fps,
-                         f"{self.layout} detections", self.video)
+                         f"{self.layout} detections ({self.detector} detector)", self.video)
 
 
 @dataclasses.dataclass
@@ -82,12 +87,13 @@ def _span(info: VideoInfo, options: VideoOptions) -> int:
 def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDetector,
                 options: VideoOptions = VideoOptions(), progress: bool = True) -> TrackedPeople:
     """Detect and track everybody in the part of ``video`` that ``options`` select; tracks shorter than
-    ``options.min_track_s`` are dropped."""
+    ``options.min_track_s`` (or half the clip, when that is shorter) are dropped."""
+    detector_name = getattr(detector, "name", type(detector).__name__)  # a user's own detector may have none
     info = video_info(video)
     fps = _frame_rate(info, options.fps)
     count = _span(info, options)
     detector.prepare(spread_frames(info, options.start, count) if count else [])
-    tracker = FloorTracker(camera, fps, detector.layout, options.max_gap_s)
+    tracker = FloorTracker(camera, fps, detector.layout, options.max_gap_s, CONFIRM_FRAMES)
     read = 0
     for index, frame in tqdm(read_frames(info.path, options.start, count or None), total=count or None,
                              desc="people", unit="frame", disable=not progress):
@@ -95,18 +101,34 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
         read += 1
     if read == 0:
         raise InputError(f"{info.path}: no frames could be read")
-    kept, dropped = {}, {}
+    # A short clip keeps a person seen for half of it: one seen in every frame of a 1.7 s clip is a track.
+    shortest = min(options.min_track_s, SHORT_CLIP_SHARE * read / fps)
+    kept, dropped, seen_for = {}, {}, {}
     for track in tracker.tracks():
-        seconds = (track.frames[-1] - track.frames[0] + 1) / fps
-        if seconds < options.min_track_s:
-            dropped[track.id] = f"seen for {seconds:.2f} s (under {options.min_track_s} s)"
+        seen_for[track.id] = seconds = (track.frames[-1] - track.frames[0] + 1) / fps
+        if seconds < shortest:
+            dropped[track.id] = f"seen for {seconds:.2f} s (under {shortest:.2f} s)"
         else:
             kept[track.id] = TrackDetections(np.array(track.frames), np.stack([d.pixels for d in track.detections]),
                                              np.stack([d.confidences for d in track.detections]))
     if not kept:
-        raise InputError(f"{info.path}: nobody was found and followed for {options.min_track_s} s in its {read} "
-                         "frame(s)")
-    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path)
+        raise InputError(_nobody_followed(info.path, read, fps, shortest, seen_for, tracker.frames_with_people,
+                                          detector_name), arguments=("min_track_s",) if seen_for else ("detector",))
+    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path, detector_name)
+
+
+def _nobody_followed(path: Path, read: int, fps: float, shortest: float, seen_for: dict[int, float],
+                     frames_with_people: int, detector_name: str) -> str:
+    """The refusal when no track is kept: what was found, and what would keep it."""
+    found = f"{path}: nobody was found and followed for {shortest:.2f} s in its {read} frame(s)"
+    if seen_for:
+        longest = max(seen_for.values())
+        return (f"{found}: {len(seen_for)} candidate track(s), the longest seen for {longest:.2f} s; a minimum "
+                f"track length of {np.floor(longest * 100) / 100:.2f} s would keep it")
+    if frames_with_people:
+        return (f"{found}: the {detector_name} detector found people in {frames_with_people} frame(s) but no one "
+                f"in {CONFIRM_FRAMES} frames running")
+    return f"{found}: the {detector_name} detector found nobody in any frame (try another detector)"
 
 
 def _frame_rate(info: VideoInfo, fps: float | None) -> float:

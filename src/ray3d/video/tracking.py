@@ -18,7 +18,8 @@ from scipy.optimize import linear_sum_assignment
 
 from ray3d.geometry import Camera
 from ray3d.skeleton import H36M17, convert_keypoints
-from ray3d.video.detectors import Detection, box_overlap
+from ray3d.video.boxes import box_overlap
+from ray3d.video.detectors import Detection
 from ray3d.video.proposals import PersonScale
 
 _ANKLES = [H36M17.joint_names.index("l_ankle"), H36M17.joint_names.index("r_ankle")]
@@ -26,6 +27,11 @@ _TORSO = [H36M17.joint_names.index(j) for j in ("l_shoulder", "r_shoulder", "l_h
 _GATE = 13.8  # chi-square, 2 degrees of freedom, 99.9 %: beyond it a detection cannot be that person
 _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared standard deviations of position
 _COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two detections are different people
+# A detection whose image box overlaps this much (intersection over union) the box of a person seen in the last
+# frame is still them when their floor point jumps beyond the gate: a near person lifting or swinging a leg moves
+# the point between their ankles by more than a stride. (Not for a person missed: at a crossing the one in front
+# would take the place of the one hidden.)
+_SAME_BOX = 0.5
 
 
 @dataclasses.dataclass
@@ -50,6 +56,7 @@ class _Person:
         self.filter.statePost = np.array([[floor[0]], [floor[1]], [0.0], [0.0]])
         self.filter.errorCovPost = np.diag([noise[0, 0], noise[1, 1], 2.0 ** 2, 2.0 ** 2]).astype(np.float64)
         self.colour, self.hits, self.missed = colour, 1, 0
+        self.box: np.ndarray | None = None  # (4,) the image box of their last detection
         self.track: Track | None = None
         self.waiting: list[tuple[int, Detection]] = []  # detections before the track is confirmed
 
@@ -96,9 +103,11 @@ class FloorTracker:
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
+        self.frames_with_people = 0  # frames in which the detector found anybody
 
     def update(self, frame_index: int, detections: list[Detection], frame: np.ndarray) -> None:
         """Assign this frame's detections to people (``tracks()`` holds the result)."""
+        self.frames_with_people += bool(detections)
         measured = self._measure(detections, frame)
         usable = [i for i, m in enumerate(measured) if m is not None]
         for person in self._active:
@@ -119,10 +128,15 @@ class FloorTracker:
             for a, r in enumerate(rows):
                 for b, i in enumerate(cols):
                     floor, noise, colour = measured[i]
-                    d2 = self._active[r].distance(floor, noise)
-                    unlike = _colour_distance(self._active[r].colour, colour[0])
-                    if d2 < _GATE and unlike < _COLOUR_GATE:
+                    person = self._active[r]
+                    d2 = person.distance(floor, noise)
+                    unlike = _colour_distance(person.colour, colour[0])
+                    if unlike >= _COLOUR_GATE:
+                        continue
+                    if d2 < _GATE:
                         cost[a, b] = d2 + _APPEARANCE_WEIGHT * unlike
+                    elif person.missed == 0 and _overlap(person.box, detections[i].box) >= _SAME_BOX:
+                        cost[a, b] = _GATE + _APPEARANCE_WEIGHT * unlike
             chosen_rows, chosen_cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
             for a, b in zip(chosen_rows, chosen_cols):
                 if np.isfinite(cost[a, b]):
@@ -153,6 +167,7 @@ class FloorTracker:
         return list(self._tracks)
 
     def _record(self, person: _Person, frame_index: int, detection: Detection) -> None:
+        person.box = detection.box
         if person.track is not None:
             person.track.frames.append(frame_index)
             person.track.detections.append(detection)
@@ -191,18 +206,22 @@ class FloorTracker:
 
     def _foot_pixel(self, detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
         """The pixel between the feet, from the detection's H36M-17 ``pixels`` (17, 2) and which are ``seen``
-        (17,): the ankles where they are seen (also when the person crouches); where they are not, the bottom
-        of the joints seen, or, if that is too short for a person standing there (the legs hidden, or a
-        half-body pose), the row a person's height below the head."""
+        (17,): the ankles where they are seen (also when the person crouches); where they are not (the legs
+        hidden, or a half-body pose), no higher than the bottom of the joints seen, and as low as a person
+        standing there with their head at the top."""
         ankles = pixels[_ANKLES][seen[_ANKLES]]
         if len(ankles):
             return ankles.mean(axis=0)
         x0, y0, x1, y1 = detection.box
         foot = np.array([(x0 + x1) / 2, y1])
         expected = float(self.person_height(foot))
-        if np.isfinite(expected) and y1 - y0 < 0.6 * expected:
-            foot[1] = self.person_height.foot_below_head(foot[0], y0, expected)
+        if np.isfinite(expected):
+            foot[1] = max(y1, self.person_height.foot_below_head(foot[0], y0, expected))
         return foot
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> float:
+    return float(box_overlap(a[None], b[None])[0, 0])
 
 
 def _torso_box(detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
