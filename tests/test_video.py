@@ -414,3 +414,27 @@ def test_nobody_kept_says_what_was_found_and_what_would_keep_it(tmp_path):
     people = track_video(path, CAMERA, StubDetector(pixels, {(0, t) for t in range(FRAMES) if t not in seen}),
                          VideoOptions(min_track_s=0.5), progress=False)
     assert len(people.tracks) == 1
+
+
+def test_landmarks_move_to_the_heatmap_peak_only_where_the_heatmap_is_sure():
+    from ray3d.video.landmarks import INPUT_SIZE, refine_from_heatmap
+
+    heatmaps = np.full((1, 64, 64, 3), -10.0)
+    heatmaps[0, 20, 31, 0] = 10.0            # a sure peak beside landmark 0
+    heatmaps[0, 40, 10, 1] = -1.0            # landmark 1: nothing above 0.5 near it
+    points = np.array([[[30.5, 21.5], [10.5, 40.5], [-40.0, 10.0]]]) * INPUT_SIZE / 64  # landmark 2: outside
+    refined = refine_from_heatmap(points, heatmaps)
+    np.testing.assert_allclose(refined[0, 0], np.array([31, 20]) * INPUT_SIZE / 64, atol=0.05)
+    np.testing.assert_array_equal(refined[0, 1:], points[0, 1:])
+
+
+def test_upright_crops_map_the_body_axis_to_the_crop_vertical():
+    from ray3d.video.landmarks import INPUT_SIZE, crop_transforms, upright_rotation
+
+    hips, up = np.array([[300.0, 400.0]]), np.array([[1.0, -1.0]]) / np.sqrt(2)  # a body leaning 45 degrees right
+    rotation = upright_rotation(hips, hips + 100 * up)
+    (m,) = crop_transforms(np.array([[*hips[0], 256.0, rotation[0]]]))
+    head = m @ [*(hips[0] + 100 * up[0]), 1.0]
+    np.testing.assert_allclose(m @ [*hips[0], 1.0], [INPUT_SIZE / 2, INPUT_SIZE / 2], atol=1e-9)
+    np.testing.assert_allclose(head, [INPUT_SIZE / 2, INPUT_SIZE / 2 - 100], atol=1e-9)
+    assert upright_rotation(hips, hips + [[0.0, -50.0]])[0] == pytest.approx(0.0)

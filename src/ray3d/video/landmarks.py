@@ -67,27 +67,23 @@ def refine_from_heatmap(points: np.ndarray, heatmaps: np.ndarray, kernel: int = 
                         min_confidence: float = HEATMAP_MIN_CONFIDENCE) -> np.ndarray:
     """MediaPipe's refinement of the regressed landmarks by the network's heatmaps: (B, K, 2) crop pixels and
     (B, H, W, K) heatmap logits -> (B, K, 2), each landmark moved to the confidence-weighted mean cell of the
-    ``kernel`` x ``kernel`` heatmap window around it where that window's peak confidence reaches
-    ``min_confidence`` (as ``RefineLandmarksFromHeatmapCalculator`` does)."""
+    ``kernel`` x ``kernel`` heatmap window around it (clipped at the heatmap's edges) where that window's peak
+    confidence reaches ``min_confidence`` (as ``RefineLandmarksFromHeatmapCalculator`` does)."""
     batch, height, width, count = heatmaps.shape
-    refined = points.copy()
-    cells = points / INPUT_SIZE * np.array([width, height])
-    half = (kernel - 1) // 2
-    for b in range(batch):
-        for k in range(count):
-            col, row = int(cells[b, k, 0]), int(cells[b, k, 1])
-            if not (0 <= col < width and 0 <= row < height):
-                continue
-            rows, cols = slice(max(0, row - half), min(height, row + half + 1)), slice(max(0, col - half),
-                                                                                     min(width, col + half + 1))
-            confidence = 1.0 / (1.0 + np.exp(-heatmaps[b, rows, cols, k].astype(np.float64)))
-            if confidence.max() < min_confidence or confidence.sum() <= 0:
-                continue
-            grid_rows, grid_cols = np.mgrid[rows, cols]
-            total = confidence.sum()
-            refined[b, k] = np.array([(grid_cols * confidence).sum() / width, (grid_rows * confidence).sum() / height]
-                                     ) / total * INPUT_SIZE
-    return refined
+    cells = np.trunc(points / INPUT_SIZE * np.array([width, height])).astype(int)  # (B, K, 2) col, row, as C++ casts
+    offsets = np.arange(kernel) - (kernel - 1) // 2
+    cols = cells[..., 0, None, None] + offsets[None, :]          # (B, K, 1, kernel)
+    rows = cells[..., 1, None, None] + offsets[:, None]          # (B, K, kernel, 1)
+    inside = (cols >= 0) & (cols < width) & (rows >= 0) & (rows < height)
+    b, k = np.arange(batch)[:, None, None, None], np.arange(count)[None, :, None, None]
+    logits = heatmaps[b, np.clip(rows, 0, height - 1), np.clip(cols, 0, width - 1), k].astype(np.float64)
+    confidence = np.where(inside, 1.0 / (1.0 + np.exp(-logits)), 0.0)  # (B, K, kernel, kernel)
+    total = confidence.sum(axis=(-2, -1))
+    mean = np.stack([(confidence * cols).sum(axis=(-2, -1)) / width, (confidence * rows).sum(axis=(-2, -1)) / height],
+                    axis=-1) / np.maximum(total, 1e-12)[..., None] * INPUT_SIZE
+    centre_inside = ((cells >= 0) & (cells < [width, height])).all(axis=-1)
+    refine = centre_inside & (confidence.max(axis=(-2, -1)) >= min_confidence) & (total > 0)
+    return np.where(refine[..., None], mean, points)
 
 
 class BlazePoseLandmarks:
