@@ -86,8 +86,8 @@ CASES = {
     "keypoints: 33 joints named coco17": (lambda t: _lift(_npz(t, keypoints=np.zeros((3, 33, 2))), "--layout",
                                                           "coco17"), "33"),
     "keypoints: 20 joints": (lambda t: _lift(_npz(t, keypoints=np.zeros((3, 20, 2)))), "20 joints"),
-    "keypoints: a joint never seen": (lambda t: _lift(_npz(t, keypoints=np.where(
-        np.arange(17)[None, :, None] == 3, np.nan, _pixels())), "--layout", "h36m17"), "r_ankle"),
+    "keypoints: the root never seen": (lambda t: _lift(_npz(t, keypoints=np.where(
+        np.arange(17)[None, :, None] == 0, np.nan, _pixels())), "--layout", "h36m17"), "the root (pelvis"),
     "keypoints: ours, detections empty": (lambda t: _lift(_write(t, "k.json", '{"detections": []}')), "detections"),
     "keypoints: ours, keypoints missing": (lambda t: _lift(_write(t, "k.json", '{"detections": [{"frame": 0}]}')),
                                            "keypoints"),

@@ -330,3 +330,24 @@ def test_our_bvh_export_reads_back_through_our_importer_within_a_centimetre(tmp_
     imported = MotionSet.load(tmp_path / "m.npz").clip(0)
     assert imported.shape == lifted.shape
     assert np.abs(imported - lifted).max() < 0.01
+
+
+def test_the_model_follows_the_keypoints_layout_unless_one_is_named(tmp_path, capsys):
+    """H36M-17 keypoints: ray3d; a detector's layout: ray3d-real, trained for detectors; --checkpoint wins."""
+    from ray3d.checkpoints import default_model
+    from ray3d.lift import lift_file
+
+    assert default_model("h36m17") == "ray3d" and {default_model(n) for n in ("coco17", "body25", "blazepose33",
+                                                                              "halpe26")} == {"ray3d-real"}
+    files = _inputs(tmp_path)
+    files["h36m.npz"] = tmp_path / "h36m.npz"
+    np.savez(files["h36m.npz"], keypoints=CAMERA.project(_world()), layout="h36m17", fps=60.0)
+    for name, model in (("h36m.npz", "ray3d"), ("coco.json", "ray3d-real")):
+        _, world = lift_file(files[name], CAMERA, tmp_path / f"{name}.json")
+        assert world.model == model, name
+    assert main(["lift", "--keypoints", str(files["coco.json"]), "--camera", "h36m:S9:55011271",
+                 "--out", str(tmp_path / "cli.json")]) == 0
+    assert "with ray3d-real through camera" in capsys.readouterr().out
+    assert main(["lift", "--keypoints", str(files["coco.json"]), "--camera", "h36m:S9:55011271", "--checkpoint",
+                 "ray3d", "--out", str(tmp_path / "named.json")]) == 0
+    assert read_world(tmp_path / "named.json").model == "ray3d"

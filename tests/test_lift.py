@@ -61,8 +61,8 @@ def test_missing_joints_are_interpolated_and_reported(lifter, camera):
     assert result.interpolated.sum() == 4
     reference = lifter.lift(pixels, camera)
     assert np.abs(result.joints - reference.joints).max() < 0.05  # a straight walk interpolates well
-    holes[:, 3] = np.nan
-    with pytest.raises(InputError, match="r_ankle missing in every frame"):
+    holes[:, 0] = np.nan
+    with pytest.raises(InputError, match=r"the root \(pelvis, or both hips\) is missing in every frame"):
         lifter.lift(holes, camera)
 
 
@@ -205,24 +205,36 @@ def test_the_shipped_causal_model_answers_every_frame_at_once():
     assert metrics.mrpe(streamed, truth) < 0.25  # metres; 0.14 when measured (docs/RESULTS.md)
 
 
+def test_a_person_whose_legs_are_never_seen_is_lifted_with_flagged_legs_and_no_floor_cue(lifter, camera):
+    legs = [H36M17.index(n) for n in ("r_knee", "r_ankle", "l_knee", "l_ankle")]
+    pixels = camera.project(_walk(30))
+    hidden = pixels.copy()
+    hidden[:, legs] = np.nan
+    result = lifter.lift(hidden, camera)
+    assert result.interpolated[:, legs].all() and not np.delete(result.interpolated, legs, axis=1).any()
+    assert np.isfinite(result.joints).all() and result.refinement["contact_fraction"] == 0.0
+
+
 def test_a_track_that_cannot_be_lifted_is_reported_and_the_others_are_lifted(lifter, camera, tmp_path, capsys):
     from ray3d.cli import main
     from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import read_world
 
     good, legless = camera.project(_walk(20)), camera.project(_walk(20) + np.array([0.5, 1.0, 0.0]))
-    legless[:, [H36M17.index("l_ankle"), H36M17.index("r_ankle")]] = np.nan  # never seen
-    path = tmp_path / "two.npz"
-    np.savez(path, keypoints=np.concatenate([good, legless]), frames=np.tile(np.arange(20), 2),
-             tracks=np.repeat([1, 2], 20), layout="h36m17", fps=60.0)
+    legless[:, [H36M17.index("l_ankle"), H36M17.index("r_ankle")]] = np.nan  # never seen: lifted, flagged
+    rootless = camera.project(_walk(20) + np.array([-0.5, 1.0, 0.0]))
+    rootless[:, 0] = np.nan                                                   # never seen: cannot be placed
+    path = tmp_path / "three.npz"
+    np.savez(path, keypoints=np.concatenate([good, legless, rootless]), frames=np.tile(np.arange(20), 3),
+             tracks=np.repeat([1, 2, 3], 20), layout="h36m17", fps=60.0)
     world = lifter.lift_keypoints(read_keypoints(path), camera)
-    assert list(world.tracks) == ["1"] and set(world.unliftable) == {"2"}
-    assert "missing in every frame" in world.unliftable["2"]
-    tracks = lifter.lift_tracks({"a": (np.arange(20), good), "b": (np.arange(20), legless)}, camera)
+    assert list(world.tracks) == ["1", "2"] and set(world.unliftable) == {"3"}
+    assert "root" in world.unliftable["3"] and world.tracks["2"].interpolated[:, H36M17.index("l_ankle")].all()
+    tracks = lifter.lift_tracks({"a": (np.arange(20), good), "b": (np.arange(20), rootless)}, camera)
     assert list(tracks) == ["a"] and list(tracks.unliftable) == ["b"]
     with pytest.raises(InputError, match="no track could be lifted: track b: .*; track c: "):
-        lifter.lift_tracks({"b": (np.arange(20), legless), "c": (np.arange(20), legless)}, camera)
+        lifter.lift_tracks({"b": (np.arange(20), rootless), "c": (np.arange(20), rootless)}, camera)
     code = main(["lift", "--keypoints", str(path), "--camera", "h36m:S9:54138969", "--out", str(tmp_path / "w.json"),
                  "--checkpoint", str(lifter.name)])
-    assert code == 0 and "track 2 was not lifted" in capsys.readouterr().err
-    assert list(read_world(tmp_path / "w.json").tracks) == ["1"]
+    assert code == 0 and "track 3 was not lifted" in capsys.readouterr().err
+    assert list(read_world(tmp_path / "w.json").tracks) == ["1", "2"]

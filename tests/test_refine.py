@@ -143,3 +143,14 @@ def test_stature_reads_the_head_over_the_lower_ankle_as_a_share_of_height():
     crouched[:2, H36M17.index("head"), 2] = 1.0
     assert body.stature(crouched, upright=[False, False, True, True]) == pytest.approx(1.8)
     assert np.isnan(body.stature(standing[:0]))
+
+
+def test_the_floor_cue_is_not_used_where_the_feet_are_not_seen():
+    """A network's depth 20 % too far: with the feet seen, the floor pulls the person back onto it; with the legs
+    hidden (or out of the image) nothing says where the floor is, and the network's depth stands."""
+    camera, truth = _camera(), _consistent_person(still=True)
+    too_far = scale_about(truth, camera.center, np.full(len(truth), 1.2))
+    _, seen = refine_track(too_far, camera, 60.0)
+    _, hidden = refine_track(too_far, camera, 60.0, feet_seen=np.zeros(len(truth), bool))
+    assert seen.contact.mean() > 0.9 and abs(np.median(seen.scale) - 1 / 1.2) < 0.05
+    assert not hidden.contact.any() and abs(np.median(hidden.scale) - 1 / 1.2) > 0.1

@@ -91,3 +91,13 @@ def test_far_and_low_sets_are_where_their_names_say(mocap_dir):
         assert camera.sees(np.array([0.0, 0.0, 1.0]))
     for camera in low:
         assert 0.8 - 1e-9 <= camera.camera_height <= 2 + 1e-9 and -3 - 1e-9 <= np.degrees(camera.pitch) <= 8 + 1e-9
+
+
+def test_the_near_set_is_near_low_and_wide():
+    near = vc.grid("near-test")
+    assert len(near) == 48 and len({c.name for c in near}) == 48
+    for camera in near:
+        assert 1.5 - 1e-9 <= np.linalg.norm(camera.center[:2]) <= 6 + 1e-9
+        assert 0.8 - 1e-9 <= camera.camera_height <= 3 + 1e-9
+        assert 2 * np.degrees(np.arctan(camera.image_size[0] / 2 / camera.K[0, 0])) == pytest.approx(90.0)
+        assert camera.sees(np.array([[0.0, 0.0, 1.0]]))

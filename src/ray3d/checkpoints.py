@@ -79,8 +79,16 @@ def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, 
     return model.eval()
 
 
-# The model for detector keypoints of real footage (``ray3d video``), trained for them (docs/RESULTS.md, issue 12).
-VIDEO_MODEL = "ray3d-real"
+# The model for detector keypoints of real footage, trained for them: it measures best on real detections, near
+# and far (docs/RESULTS.md, issues 12 and 36); ground-truth-like H36M-17 input keeps the paper's model.
+DETECTOR_MODEL = "ray3d-real"
+H36M_MODEL = "ray3d"
+
+
+def default_model(layout: str) -> str:
+    """The shipped model that lifts keypoints of ``layout`` when the user names none: ``ray3d`` for H36M-17,
+    ``ray3d-real`` for a detector's layout (COCO-17, Halpe-26, BlazePose-33, BODY-25, ...)."""
+    return H36M_MODEL if layout == "h36m17" else DETECTOR_MODEL
 
 
 def shipped_models() -> list[str]:

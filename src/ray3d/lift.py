@@ -18,7 +18,7 @@ from tqdm import tqdm
 
 from ray3d import temporal
 from ray3d.body import ANKLES
-from ray3d.checkpoints import load_model
+from ray3d.checkpoints import default_model, load_model
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.keypoints import Keypoints, TrackDetections
@@ -88,6 +88,17 @@ def checked_keypoints(keypoints, confidences, skeleton: Skeleton,
     return keypoints, confidences
 
 
+def stand_in_for_unseen(pixels: np.ndarray, never_seen: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(T, J, 2) pixels of ``skeleton`` with each joint ``never_seen`` (J,) placed on its parent (parents come
+    first), as training simulates a detector's miss: the network then predicts it from the rest of the body,
+    and the output flags it as filled in."""
+    pixels = pixels.copy()
+    for joint, parent in enumerate(skeleton.parents):
+        if never_seen[joint] and parent >= 0:
+            pixels[:, joint] = pixels[:, parent]
+    return pixels
+
+
 def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np.ndarray | None,
                       inputs: Skeleton) -> np.ndarray:
     """The (T, J_inputs) confidences a model reads: the detector's (clipped to [0, 1]; 1 where it gave none),
@@ -120,14 +131,17 @@ class Lifter:
             self.device, self.model = torch.device("cpu"), model
 
     @classmethod
-    def load(cls, name_or_path: str = "ray3d", device: str | None = None, backend: str = "torch",
-             image_width: float = 1000.0) -> Lifter:
-        """A shipped model by name (``ray3d``, ``ray3d-detector``, ``videopose3d``, ...) or a checkpoint path.
+    def load(cls, name_or_path: str | None = None, device: str | None = None, backend: str = "torch",
+             image_width: float = 1000.0, layout: str = "h36m17") -> Lifter:
+        """A shipped model by name (``ray3d``, ``ray3d-real``, ``videopose3d``, ...) or a checkpoint path; without
+        one, the shipped model for keypoints of ``layout`` (``checkpoints.default_model``: ``ray3d`` for H36M-17,
+        ``ray3d-real`` for a detector's layout).
 
         ``backend="torchscript"`` runs a frozen TorchScript trace on the CPU (lowest latency with torch alone:
         live use); ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``). Pixel-input
         models are then built for images ``image_width`` pixels wide.
         """
+        name_or_path = name_or_path or default_model(layout)
         model, document = load_model(name_or_path)
         if backend in ("torchscript", "onnx"):
             from ray3d.models import backends
@@ -175,11 +189,13 @@ class Lifter:
         inputs = self._input_skeleton(skeleton)
         pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
         scores = model_confidences(keypoints, skeleton, confidences, inputs)
-        never_seen = [inputs.joint_names[j] for j in np.flatnonzero(~found.any(axis=0))]
-        if never_seen:
-            raise InputError(f"keypoints: joint(s) {', '.join(never_seen)} missing in every frame (NaN or confidence 0)")
+        never_seen = ~found.any(axis=0)
+        if never_seen[0]:
+            raise InputError(f"keypoints: the root ({inputs.joint_names[0]}, or both hips) is missing in every frame "
+                             "(NaN or confidence 0): there is nothing to place the person by")
         input_fps = fps or MODEL_FPS
-        pixels = temporal.smooth(temporal.fill_missing(pixels, ~found), smooth_2d, input_fps)
+        seen_pixels = temporal.fill_missing(pixels, ~found)
+        pixels = temporal.smooth(stand_in_for_unseen(seen_pixels, never_seen, inputs), smooth_2d, input_fps)
         resampled = temporal.needs_resampling(input_fps, MODEL_FPS)
         model_pixels, model_scores = ((temporal.resample(pixels, input_fps, MODEL_FPS),
                                        temporal.resample(scores, input_fps, MODEL_FPS)) if resampled else (pixels, scores))
@@ -188,9 +204,11 @@ class Lifter:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
         refinement = None
         if refine:
-            joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, pixels, inputs),
+            measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement
+            joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, measured, inputs),
                                            temporal.seen_frames(~h36m_found),
-                                           refine if isinstance(refine, RefineConfig) else RefineConfig())
+                                           refine if isinstance(refine, RefineConfig) else RefineConfig(),
+                                           feet_seen=h36m_found[:, list(ANKLES)].any(axis=1))
             refinement = refined.summary()
         joints = temporal.smooth(joints, smooth_3d, input_fps)
         return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement)
@@ -284,7 +302,8 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
               read_options: dict | None = None, options: LiftOptions = LiftOptions(),
               progress: bool = False) -> tuple[Keypoints, World]:
     """A keypoint file lifted into the world and written to ``out`` (.json/.csv/.npz/.trc/.bvh), as ``ray3d
-    lift`` does: ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
+    lift`` does, by ``lifter`` (default: the shipped model for the file's layout, ``Lifter.load(layout=...)``):
+    ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
     (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), ``options`` for the lifting (the output
     smoothed by Savitzky-Golay and written in the world frame unless they say otherwise). Returns what was read
     and what was written."""
@@ -296,7 +315,7 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
     check_world_output(out, options.frame)
     refuse_existing(out, overwrite)
     keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
-    world = (lifter or Lifter.load()).lift_keypoints(keypoints, camera, options, progress)
+    world = (lifter or Lifter.load(layout=keypoints.layout)).lift_keypoints(keypoints, camera, options, progress)
     write_world(out, world, overwrite=overwrite)
     return keypoints, world
 

@@ -83,12 +83,16 @@ class Refinement:
 
 def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(T, 17, 3) world directions of the H36M-17 joints' observed rays: the ray of the (T, J, 2) pixel of the
-    same joint of ``skeleton`` where it has one, else NaN (a joint no detector measures)."""
+    same joint of ``skeleton`` where it has one, else NaN (a joint no detector measures, or a NaN pixel)."""
     pixels = np.asarray(pixels, dtype=np.float64)
     directions = np.full((len(pixels), H36M17.num_joints, 3), np.nan)
     pairs = [(H36M17.index(name), j) for j, name in enumerate(skeleton.joint_names) if name in H36M17.joint_names]
     lifted, measured = (list(index) for index in zip(*pairs))
-    directions[:, lifted] = camera.pixels_to_world_directions(pixels[:, measured])
+    observed = pixels[:, measured]
+    finite = np.isfinite(observed).all(axis=-1)
+    rays = np.full((*observed.shape[:2], 3), np.nan)
+    rays[finite] = camera.pixels_to_world_directions(observed[finite])
+    directions[:, lifted] = rays
     return directions
 
 
@@ -100,12 +104,14 @@ def scale_about(joints: np.ndarray, centre: np.ndarray, scale: np.ndarray) -> np
 class _Problem:
     """The least-squares problem over x = (log s_1..T, log S)."""
 
-    def __init__(self, joints: np.ndarray, camera: Camera, fps: float, config: RefineConfig, observed: np.ndarray):
+    def __init__(self, joints: np.ndarray, camera: Camera, fps: float, config: RefineConfig, observed: np.ndarray,
+                 feet_seen: np.ndarray):
         self.config, self.count = config, len(joints)
         self.centre = camera.center
         distance = np.linalg.norm(joints[:, 0] - self.centre, axis=-1)
         self.lowest = lowest_ankle_height(joints)
-        self.floored = observed & (self.centre[2] - self.lowest > 0.05)  # frames the floor term applies to
+        # The frames the floor term applies to: seen, feet seen, and the camera above the feet.
+        self.floored = observed & feet_seen & (self.centre[2] - self.lowest > 0.05)
         # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
         # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
         self.per_frame = np.sqrt(EVIDENCE_FPS / fps)
@@ -181,7 +187,8 @@ class _Problem:
 
 def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarray | None = None,
                  observed: np.ndarray | None = None,
-                 config: RefineConfig = RefineConfig()) -> tuple[np.ndarray, Refinement]:
+                 config: RefineConfig = RefineConfig(),
+                 feet_seen: np.ndarray | None = None) -> tuple[np.ndarray, Refinement]:
     """(T, 17, 3) lifted world joints of one person (H36M-17) seen by ``camera`` at ``fps`` -> the refined
     joints and what was found.
 
@@ -192,7 +199,8 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     network's pose, scaled to the track's one body size, hung from it, each measured joint moved towards its
     ray (module docstring). Without them every joint moves along the line from the camera through where the
     network put it. ``observed``: (T,) False for frames filled in across a detector's gap, which then follow
-    their neighbours.
+    their neighbours. ``feet_seen``: (T,) False for frames whose ankles the detector did not see (legs hidden or
+    out of the image), where the feet-on-the-floor cue is not used.
     """
     joints = np.asarray(joints, dtype=np.float64)
     if joints.ndim != 3 or joints.shape[1:] != (H36M17.num_joints, 3) or not np.isfinite(joints).all():
@@ -213,7 +221,8 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
         along = np.einsum("tjk,tjk->tj", joints - centre, rays)
         joints = centre + along[..., None] * rays
     start = np.append(np.zeros(count), np.log(np.median(body_sizes(joints))))
-    problem = _Problem(joints, camera, fps, config, observed)
+    feet_seen = np.ones(count, dtype=bool) if feet_seen is None else np.asarray(feet_seen, dtype=bool)
+    problem = _Problem(joints, camera, fps, config, observed, feet_seen)
     x = problem.solve(start)
     scale, body_size = np.exp(x[:-1]), float(np.exp(x[-1]))
     if rays is None:

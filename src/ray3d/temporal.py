@@ -116,13 +116,13 @@ def resample_back(sequence: np.ndarray, model_fps: float, fps: float, count: int
 
 
 def fill_missing(sequence: np.ndarray, missing: np.ndarray) -> np.ndarray:
-    """Linear interpolation in time of (T, J, D) values where (T, J) ``missing``; held constant at the ends.
-    Every joint must be present in at least one frame."""
+    """Linear interpolation in time of (T, J, D) values where (T, J) ``missing``; held constant at the ends. A
+    joint missing in every frame is left as it is."""
     filled = sequence.copy()
     times = np.arange(len(sequence))
     for joint in range(sequence.shape[1]):
         valid = ~missing[:, joint]
-        if valid.all():
+        if valid.all() or not valid.any():
             continue
         for axis in range(sequence.shape[2]):
             filled[:, joint, axis] = np.interp(times, times[valid], sequence[valid, joint, axis])

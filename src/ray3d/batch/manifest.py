@@ -118,18 +118,19 @@ class Entry:
     def fingerprint(self) -> str:
         """What the entry's output depends on: its options, its input and camera files (size and time), and
         the model's weights. An output whose fingerprint matches is not made again."""
-        from ray3d.checkpoints import VIDEO_MODEL, resolve
+        from ray3d.checkpoints import DETECTOR_MODEL, H36M_MODEL, resolve
 
         def stamp(path: Path) -> list:
             stat = path.stat()
             return [str(path.resolve()), stat.st_size, stat.st_mtime_ns]
 
         camera = self.options.get("camera")
-        model = resolve(self.options.get("checkpoint", VIDEO_MODEL if self.kind == "video" else "ray3d"))
+        # Without a checkpoint the model follows the input's layout: both candidates count.
+        models = [self.options["checkpoint"]] if "checkpoint" in self.options else [H36M_MODEL, DETECTOR_MODEL]
         document = {"kind": self.kind, "options": {k: v for k, v in self.options.items() if k != "name"},
                     "input": stamp(self.input),
                     "camera": stamp(Path(camera)) if camera and Path(camera).exists() else camera,
-                    "model": _file_hash(model)}
+                    "model": [_file_hash(resolve(m)) for m in models]}
         return hashlib.sha256(json.dumps(document, sort_keys=True, default=str).encode()).hexdigest()
 
 

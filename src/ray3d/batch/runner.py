@@ -62,8 +62,7 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     cannot mend a bad input); any other exception is raised, for Ray to retry."""
     import torch
 
-    from ray3d.checkpoints import VIDEO_MODEL
-    from ray3d.lift import Lifter, lift_file
+    from ray3d.lift import lift_file
 
     torch.set_num_threads(threads)
     started = time.perf_counter()
@@ -74,7 +73,7 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     try:
         if entry.kind == "keypoints":
             _, world = lift_file(entry.input, entry.camera(), temporary / world_file,
-                                 Lifter.load(o.get("checkpoint", "ray3d")), o.get("layout"), o.get("fps"),
+                                 _lifter(o), o.get("layout"), o.get("fps"),
                                  options=entry.lift_options())
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:
@@ -83,7 +82,7 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
             info = read_video_info(entry.input)
             camera = camera_for_video(entry.camera(info.image_size), info)
             result = lift_video(info, camera, temporary, make_detector(o.get("detector", "people"), camera),
-                                Lifter.load(o.get("checkpoint", VIDEO_MODEL)), entry.lift_options(),
+                                _lifter(o), entry.lift_options(),
                                 entry.video_options(), world_format=o.get("format", ".json"), progress=False)
             world, frames = result.world, result.frames
     except InputError as err:
@@ -98,6 +97,13 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
                                                   indent=1))
     _move_into_place(temporary, target)
     return summary
+
+
+def _lifter(options: dict):
+    """The manifest's model, or None: the shipped one for the input's layout."""
+    from ray3d.lift import Lifter
+
+    return Lifter.load(options["checkpoint"]) if "checkpoint" in options else None
 
 
 def _move_into_place(temporary: Path, target: Path) -> None:

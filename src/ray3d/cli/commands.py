@@ -257,7 +257,8 @@ def lift(args: argparse.Namespace) -> int:
     check_output(args.out, (args.camera,))
     camera = _camera(args)
     keypoints, world = lift_file(
-        args.keypoints, camera, args.out, Lifter.load(args.checkpoint), args.layout, args.fps, args.force,
+        args.keypoints, camera, args.out, Lifter.load(args.checkpoint) if args.checkpoint else None, args.layout,
+        args.fps, args.force,
         dict(subject=args.subject, action=args.action, camera_index=args.camera_index), _lift_options(args),
         progress=True)
     if keypoints.fps is None:
@@ -299,14 +300,14 @@ def video(args: argparse.Namespace) -> int:
     info = read_video_info(args.input)
     camera = camera_for_video(_camera(args, info.image_size), info)
     options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
-    result = lift_video(info, camera, args.out, make_detector(args.detector, camera), Lifter.load(args.checkpoint),
-                        _lift_options(args), options, world_format=args.format, overlay=not args.no_overlay,
-                        overwrite=args.force)
+    result = lift_video(info, camera, args.out, make_detector(args.detector, camera),
+                        Lifter.load(args.checkpoint) if args.checkpoint else None, _lift_options(args), options,
+                        world_format=args.format, overlay=not args.no_overlay, overwrite=args.force)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
-    print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked by the {args.detector} detector "
-          f"({len(result.dropped)} short or unliftable tracks dropped); {100 * filled:.1f}% of their frames filled "
-          "in between detections")
+    print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked by the {args.detector} detector and "
+          f"lifted by {result.world.model} ({len(result.dropped)} short or unliftable tracks dropped); "
+          f"{100 * filled:.1f}% of their frames filled in between detections")
     seconds = result.seconds
     print(f"  {result.frames / sum(seconds.values()):.1f} frames/s end to end: people {seconds['people']:.1f} s, "
           f"lifting {seconds['lifting']:.1f} s, writing {seconds['writing']:.1f} s")

@@ -52,10 +52,9 @@ class OneLineErrors(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
-def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "ray3d",
-                           smooth_3d: str = OUTPUT_SMOOTHING) -> None:
-    parser.add_argument("--checkpoint", default=checkpoint,
-                        help=f"shipped model name or checkpoint path (default {checkpoint})")
+def _add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTPUT_SMOOTHING) -> None:
+    parser.add_argument("--checkpoint", help="shipped model name or checkpoint path (default: ray3d for H36M-17 "
+                        "keypoints, ray3d-real, trained for detectors, for any detector's layout and for videos)")
     parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
     parser.add_argument("--smooth-3d", choices=["savgol", "one-euro", "none"], default=smooth_3d,
                         help=f"smooth the 3D output in time (default {smooth_3d})")
@@ -68,7 +67,7 @@ def _add_lifting_arguments(parser: argparse.ArgumentParser, checkpoint: str = "r
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ray3d.checkpoints import VIDEO_MODEL
+    from ray3d.checkpoints import DETECTOR_MODEL
     from ray3d.data.virtual_cameras import SET_NAMES
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
@@ -183,7 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
     # Detector keypoints of real footage: the model trained for them.
-    _add_lifting_arguments(video, VIDEO_MODEL)
+    _add_lifting_arguments(video)
     _add_force(video, "replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 
@@ -264,7 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the real-near folder (default ../shared/data/real-near)")
     near.add_argument("--out", required=True, type=Path, help="folder for real-near.{json,md}")
     near.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
-    near.add_argument("--checkpoint", default=VIDEO_MODEL, help=f"the model that lifts (default {VIDEO_MODEL})")
+    near.add_argument("--checkpoint", default=DETECTOR_MODEL, help=f"the model that lifts (default {DETECTOR_MODEL})")
     near.add_argument("--views", nargs="+", help="which cameras (default: cam01 cam02 cam03 cam04)")
     near.set_defaults(handler=bench_handlers.real_near)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")

@@ -15,7 +15,7 @@ import numpy as np
 
 from ray3d import cameras as camera_tables
 from ray3d.errors import InputError
-from ray3d.geometry import CameraBatch, Camera, centre_looking_at, rotation_from_angles
+from ray3d.geometry import CameraBatch, Camera, centre_looking_at, pinhole_intrinsics, rotation_from_angles
 
 ORBIT_TARGET = np.array([0.0, 0.0, 1.8])
 BASE_CAMERA_ID = "55011271"
@@ -39,8 +39,11 @@ SCALE_TEST_FACTORS = (0.6, 0.7, 0.8, 0.9, 1.1)
 MOUNTED_YAWS_DEG = (30.0, 150.0, 270.0)
 FAR_HEIGHTS_M, FAR_DISTANCES_M = (3.0, 6.0, 9.0, 12.0), (15.0, 20.0, 25.0, 30.0, 40.0)
 LOW_HEIGHTS_M, LOW_PITCHES_DEG, LOW_DISTANCES_M = (0.8, 1.4, 2.0), (-3.0, 2.0, 8.0), (5.0, 10.0, 20.0, 30.0)
-MOUNTED_AIM_HEIGHT_M = 1.0  # far cameras are aimed at this point above the origin
-SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m", "far-test", "low-test")
+# Near: a room, a clinic, a gym, a counter: 1.5-6 m away, 0.8-3 m high, a wide lens (90 degrees) so that a
+# person near the camera is in view at all.
+NEAR_HEIGHTS_M, NEAR_DISTANCES_M, NEAR_HFOV_DEG = (0.8, 1.5, 2.2, 3.0), (1.5, 2.5, 4.0, 6.0), 90.0
+MOUNTED_AIM_HEIGHT_M = 1.0  # far and near cameras are aimed at this point above the origin
+SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m", "far-test", "low-test", "near-test")
 
 
 def base_intrinsics() -> tuple[float, float, float, float]:
@@ -57,14 +60,15 @@ def orbit_camera(yaw_deg: float, pitch_deg: float, distance_m: float, name: str,
                             IMAGE_SIZE, name=name)
 
 
-def mounted_camera(yaw_deg: float, height_m: float, distance_m: float, pitch_deg: float | None, name: str) -> Camera:
-    """A pinhole camera (the base intrinsics) ``height_m`` above the floor and ``distance_m`` from the origin
-    along the floor, facing it at a heading ``yaw_deg``; pitched ``pitch_deg``, or, when None, aimed at the
-    point ``MOUNTED_AIM_HEIGHT_M`` above the origin."""
+def mounted_camera(yaw_deg: float, height_m: float, distance_m: float, pitch_deg: float | None, name: str,
+                   intrinsics: tuple[float, float, float, float] | None = None) -> Camera:
+    """A pinhole camera (the base intrinsics unless given) ``height_m`` above the floor and ``distance_m`` from
+    the origin along the floor, facing it at a heading ``yaw_deg``; pitched ``pitch_deg``, or, when None, aimed
+    at the point ``MOUNTED_AIM_HEIGHT_M`` above the origin."""
     yaw = np.radians(yaw_deg)
     pitch = np.arctan2(height_m - MOUNTED_AIM_HEIGHT_M, distance_m) if pitch_deg is None else np.radians(pitch_deg)
     centre = centre_looking_at([0.0, 0.0, height_m], yaw, 0.0, distance_m)
-    return Camera.from_pose(centre, yaw, pitch, 0.0, *base_intrinsics(), IMAGE_SIZE, name=name)
+    return Camera.from_pose(centre, yaw, pitch, 0.0, *(intrinsics or base_intrinsics()), IMAGE_SIZE, name=name)
 
 
 def _orbit_name(prefix: str, yaw: float, pitch: float, distance: float) -> str:
@@ -111,6 +115,10 @@ def grid(set_name: str) -> list[Camera]:
     if set_name == "low-test":
         return [mounted_camera(y, h, d, p, f"low:height{h:03.1f}:pitch{p:+03.0f}:dist{d:02.0f}:yaw{y:03.0f}")
                 for y in MOUNTED_YAWS_DEG for h in LOW_HEIGHTS_M for p in LOW_PITCHES_DEG for d in LOW_DISTANCES_M]
+    if set_name == "near-test":
+        wide = pinhole_intrinsics(IMAGE_SIZE, hfov_deg=NEAR_HFOV_DEG)
+        return [mounted_camera(y, h, d, None, f"near:height{h:03.1f}:dist{d:03.1f}:yaw{y:03.0f}", wide)
+                for y in MOUNTED_YAWS_DEG for h in NEAR_HEIGHTS_M for d in NEAR_DISTANCES_M]
     raise InputError(f"unknown camera set {set_name!r}; one of {', '.join(SET_NAMES)}")
 
 

@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ray3d.checkpoints import VIDEO_MODEL
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, TrackDetections, write_keypoints_json
@@ -169,7 +168,7 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
     clock = [time.perf_counter()]
     people = track_video(info, camera, detector, video_options, progress)
     clock.append(time.perf_counter())
-    lifter = lifter or Lifter.load(VIDEO_MODEL)
+    lifter = lifter or Lifter.load(layout=people.layout)
     try:
         lifted = lifter.lift_tracks(people.tracks, camera, people.layout, people.fps, **options.lift_arguments())
     except InputError as err:
