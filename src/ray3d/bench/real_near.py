@@ -39,7 +39,8 @@ def read_truth(path: str | Path) -> np.ndarray:
     NaN for the joints it has no marker for."""
     lines = Path(path).read_text().splitlines()
     names = lines[3].split("\t")[2::3]
-    values = np.array([[float(v) for v in line.split("\t")[2:2 + 3 * len(names)]] for line in lines[5:] if line.strip()])
+    values = np.array([[float(v) for v in line.split("\t")[2:2 + 3 * len(names)]]
+                       for line in lines[5:] if line.strip()])
     markers = values.reshape(len(values), len(names), 3)[..., [2, 0, 1]]
     joints = np.full((len(markers), H36M17.num_joints, 3), np.nan)
     for joint, marker in TRUTH_MARKERS.items():

@@ -16,7 +16,7 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "checkpoint": "--checkpoint", "stride": "--stride", "frame": "--frame", "floor_points": "--floor-points",
          "manifest": "MANIFEST", "animation": "--animation", "camera": "--camera", "camera_height": "--camera-height",
          "pitch": "--pitch", "roll": "--roll", "image_size": "--image-size", "hfov": "--hfov", "focal": "--focal",
-         "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d", "max_gap_s": "--max-gap"}
+         "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d"}
 
 
 def main(argv: list[str] | None = None) -> int:
