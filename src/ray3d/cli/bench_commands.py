@@ -4,9 +4,19 @@ files went."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ray3d.cli.commands import write_json
 from ray3d.errors import InputError
+
+
+def _show(files: list[Path], what: str = "") -> int:
+    """Print a benchmark's markdown table (the ``.md`` among its ``files``) and where its files went."""
+    for path in files:
+        if path.suffix == ".md":
+            print(path.read_text())
+    print(f"{what + ' ' if what else ''}-> {', '.join(map(str, files))}")
+    return 0
 
 
 def robustness(args: argparse.Namespace) -> int:
@@ -34,10 +44,7 @@ def calibration(args: argparse.Namespace) -> int:
         raise InputError(f"bench calibration: people must be at least 1, got {args.people}", arguments=("people",))
     rows = run(motion_data.load_shipped(args.data_dir, args.split), Lifter.load(args.checkpoint), args.pairs, args.seed,
                args.bootstrap, people=args.people)
-    files = write(rows, args.out)
-    print((args.out / "calibration.md").read_text())
-    print(f"{len(rows)} estimates -> {', '.join(map(str, files))}")
-    return 0
+    return _show(write(rows, args.out), f"{len(rows)} estimates")
 
 
 def real_video(args: argparse.Namespace) -> int:
@@ -64,20 +71,15 @@ def real_video(args: argparse.Namespace) -> int:
         video_rows = run_video(lifter, keypoints, read_camera(args.camera), args.smooth_3d)
     emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed,
                             smooth_3d=args.smooth_3d, layout=args.emulated_layout)
-    files = write(args.out, emulated, video_rows, name)
-    print(files[1].read_text())
-    print(f"-> {', '.join(map(str, files))}")
-    return 0
+    return _show(write(args.out, emulated, video_rows, name))
 
 
 def real_near(args: argparse.Namespace) -> int:
     from ray3d.bench.real_near import VIEWS, run, write
     from ray3d.lift import Lifter
 
-    files = write(args.out, run(args.data, args.detector, Lifter.load(args.checkpoint), tuple(args.views or VIEWS)))
-    print(files[1].read_text())
-    print(f"-> {', '.join(map(str, files))}")
-    return 0
+    return _show(write(args.out, run(args.data, args.detector, Lifter.load(args.checkpoint),
+                                     tuple(args.views or VIEWS))))
 
 
 def speed(args: argparse.Namespace) -> int:

@@ -120,10 +120,6 @@ class ModelConfig:
         return Window(self.frames, self.causal)
 
     @property
-    def target_frame(self) -> int:
-        return self.window.target
-
-    @property
     def input_channels(self) -> int:
         return (3 if self.input.endswith("rays") else 2) + int(self.confidence_input)
 
@@ -192,7 +188,7 @@ class LiftingNetwork(nn.Module):
         if self.config.root == "xyz":
             return out
         depth = torch.exp(out[:, 0]) * DEPTH_SCALE_M
-        target = self.config.target_frame
+        target = self.config.window.target
         if self.config.root == "focal_depth":
             depth = depth * batch.intrinsics[:, 0] / CANONICAL_FOCAL_PX
             pixel = batch.pixels[:, target, 0]
