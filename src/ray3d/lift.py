@@ -228,7 +228,7 @@ class Lifter:
                     progress: bool = False, **options) -> LiftedTracks:
         """Several people: {track id: ``TrackDetections`` or (frame indices (N,), keypoints (N, J, 2)[,
         confidences (N, J)])} -> {track id: LiftResult} in one world frame; ``options`` as for ``lift``. Frames a
-        track skips are filled in like missing joints. A track that cannot be lifted (say, a joint never seen)
+        track skips are filled in like missing joints. A track that cannot be lifted (say, its root never seen)
         is left out and named in the result's ``unliftable`` with why; only when no track can be lifted is that
         an error."""
         results, failures = LiftedTracks(), {}

@@ -77,11 +77,11 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
                                  options=entry.lift_options())
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:
-            from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
+            from ray3d.video import DEFAULT_DETECTOR, camera_for_video, lift_video, make_detector, read_video_info
 
             info = read_video_info(entry.input)
             camera = camera_for_video(entry.camera(info.image_size), info)
-            result = lift_video(info, camera, temporary, make_detector(o.get("detector", "people"), camera),
+            result = lift_video(info, camera, temporary, make_detector(o.get("detector", DEFAULT_DETECTOR), camera),
                                 _lifter(o), entry.lift_options(),
                                 entry.video_options(), world_format=o.get("format", ".json"), progress=False)
             world, frames = result.world, result.frames

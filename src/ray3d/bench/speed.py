@@ -277,10 +277,10 @@ def measure_video(video, camera, frames: int = 100) -> dict:
     import tempfile
 
     from ray3d.options import VideoOptions
-    from ray3d.video import lift_video, make_detector
+    from ray3d.video import DEFAULT_DETECTOR, lift_video, make_detector
 
     with tempfile.TemporaryDirectory() as out:
-        result = lift_video(video, camera, Path(out) / "video", make_detector("people", camera),
+        result = lift_video(video, camera, Path(out) / "video", make_detector(DEFAULT_DETECTOR, camera),
                             video_options=VideoOptions(frames=frames), progress=False)
     seconds = result.seconds
     return {"video": str(video), "frames": result.frames, "people": len(result.world.tracks),

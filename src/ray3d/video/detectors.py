@@ -33,8 +33,8 @@ from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_backgr
 @dataclasses.dataclass(frozen=True)
 class Detection:
     """One person in one frame: pixels (J, 2) and confidences (J,) in the detector's layout, how sure the
-    detector is that it is a person (0-1), and, from detectors that track, the region (centre u, centre v, side)
-    to look for them in the next frame."""
+    detector is that it is a person (0-1), and, from detectors that track, the region (centre u, centre v, side,
+    rotation) to look for them in the next frame."""
 
     pixels: np.ndarray
     confidences: np.ndarray
@@ -109,7 +109,7 @@ class PeopleDetector:
         return self._previous
 
     def _look(self, frame: np.ndarray, regions: np.ndarray, vouched: np.ndarray | None = None) -> list[Detection]:
-        """The people the landmark network finds in ``regions`` (N, 3) of the frame; ``vouched`` (N,): the
+        """The people the landmark network finds in ``regions`` (N, 4) of the frame; ``vouched`` (N,): the
         regions the full-frame detector found one person in."""
         pixels, confidences, scores, following = self._landmarks(frame, regions)
         vouched = np.zeros(len(regions), bool) if vouched is None else vouched
@@ -158,11 +158,12 @@ def _inside(points: np.ndarray, boxes: np.ndarray, grow: float = 1.25) -> np.nda
 
 
 def _inside_regions(regions: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """(N,) whether each region's centre (N, 3) lies in one of the ``others`` (M, 3) regions' middle half (a
+    """(N,) whether each region's centre (N, 4) lies in one of the ``others`` (M, 4) regions' middle half (a
     fragment of the motion of somebody already being looked at)."""
     if not len(others) or not len(regions):
         return np.zeros(len(regions), dtype=bool)
-    return (np.abs(regions[:, None, :2] - others[None, :, :2]) <= others[None, :, 2:] / 4).all(axis=-1).any(axis=1)
+    half_sides = others[None, :, 2:3] / 4
+    return (np.abs(regions[:, None, :2] - others[None, :, :2]) <= half_sides).all(axis=-1).any(axis=1)
 
 
 def _without_duplicates(detections: list[Detection], overlap: float = 0.5) -> list[Detection]:
