@@ -105,14 +105,15 @@ def test_a_wrong_camera_and_a_smaller_body_change_the_errors():
 
 
 def test_refined_evaluation_lifts_each_clip_as_a_track(monkeypatch):
-    """A model that puts everyone 30 % too close: the refinement, given the true rays, brings them back."""
+    """A model that puts everyone 15 % too close (within what the floor test allows 13 m away): the refinement,
+    given the true rays, brings them back."""
     from ray3d.refine import RefineConfig, scale_about
 
     camera = grid("far-test")[0]
 
     def too_close(model, windows, cam, flip_test=False, return_pixels=False, **options):
         truth = windows[:, 4]
-        wrong = scale_about(truth, cam.center, np.full(len(truth), 0.7))
+        wrong = scale_about(truth, cam.center, np.full(len(truth), 0.85))
         return (wrong, cam.project(truth)) if return_pixels else wrong
 
     monkeypatch.setattr(evaluation, "predict_windows", too_close)
@@ -126,7 +127,7 @@ def test_refined_evaluation_lifts_each_clip_as_a_track(monkeypatch):
     motion = MotionSet.from_clips([demo_clip()[:90].astype(np.float32)], clip_id=["a"])  # a person, not a blob
     plain = evaluation.evaluate(Model(), motion, [camera])
     refined = evaluation.evaluate(Model(), motion, [camera], refine=True)
-    assert refined["refine"] and plain["mrpe_mm"] > 3000 and refined["mrpe_mm"] < 0.2 * plain["mrpe_mm"]
+    assert refined["refine"] and plain["mrpe_mm"] > 2000 and refined["mrpe_mm"] < 0.35 * plain["mrpe_mm"]
     assert refined["refine_config"]["keypoint_error"] == 0.0  # GT 2D: exact rays
     trusting = evaluation.evaluate(Model(), motion, [camera], refine=RefineConfig(depth_sd=(1e-6, 0.0)))
     assert trusting["refine_config"]["depth_sd"] == (1e-6, 0.0)

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from ray3d import Camera, InputError, cameras
 from ray3d.cli import main
+from ray3d.geometry.floor import FLAT_FLOOR
 from ray3d.io.camera_files import camera_from_options, save_cameras
 from ray3d.io.keypoints import TrackDetections
 from ray3d.options import LiftOptions, VideoOptions
@@ -54,7 +55,7 @@ def test_the_command_line_names_the_flags_of_a_camera_given_twice(tmp_path, caps
 
 def test_lift_options_are_checked_once_and_say_none_as_none():
     assert LiftOptions(smooth_2d="none", smooth_3d="none").lift_arguments() == {
-        "smooth_2d": None, "smooth_3d": None, "flip_test": False, "refine": True}
+        "smooth_2d": None, "smooth_3d": None, "flip_test": False, "refine": True, "floor": FLAT_FLOOR}
     assert LiftOptions().smooth_3d == "savgol" and LiftOptions().frame == "world"
     with pytest.raises(InputError, match="smooth_3d: unknown smoothing 'kalman'"):
         LiftOptions(smooth_3d="kalman")

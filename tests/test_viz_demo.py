@@ -41,6 +41,20 @@ def test_gif_has_one_frame_per_stride(tmp_path):
     assert info.frames == 4 and info.image_size == images[0].size
 
 
+def test_the_floor_ellipse_of_a_position_uncertainty():
+    from ray3d import Camera
+    from ray3d.viz.html_viewer import floor_ellipses
+
+    level = Camera.from_height_pitch(1.0, 0.0, (640, 480), hfov_deg=60.0)  # looks along +x at the root's height
+    joints = np.zeros((2, 17, 3))
+    joints[:, 0] = [[5.0, 0.0, 1.0], [5.0, 0.0, 6.0]]  # level with the camera, and 45 deg up from it
+    track = LiftResult(joints, np.zeros((2, 17), bool), 30.0, np.arange(2), position_sd=np.array([[0.5, 0.1]] * 2))
+    ellipses = floor_ellipses(track, level)
+    np.testing.assert_allclose(ellipses[0], [0.5, 0.1, 1.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(ellipses[1, 0], np.hypot(0.5, 0.1) / np.sqrt(2), atol=1e-9)
+    assert floor_ellipses(joints, level) is None and floor_ellipses(track, None) is None
+
+
 def test_sweep_plot_is_a_png(tmp_path):
     path = plot_sweep([1, 2, 3], {"a": [3, 2, 1], "b": [1, 2, 3]}, "pitch (deg)", "MRPE (mm)", "t", tmp_path / "p.png")
     with Image.open(path) as image:
@@ -51,7 +65,9 @@ def test_sweep_plot_is_a_png(tmp_path):
                                               "`make browser` installs them)")
 def test_html_viewer_renders_in_headless_chromium(tmp_path):
     truth = demo_clip()[:30]
-    viewer = write_viewer(tmp_path / "viewer.html", {"truth": truth, "shifted": truth + 0.3}, fps=30.0,
+    shifted = LiftResult(truth + 0.3, np.zeros((30, 17), bool), 30.0, np.arange(30),
+                         position_sd=np.tile([0.4, 0.05], (30, 1)))  # drawn with its uncertainty on the floor
+    viewer = write_viewer(tmp_path / "viewer.html", {"truth": truth, "shifted": shifted}, fps=30.0,
                           camera=cameras.h36m("S9", "54138969"))
     html = viewer.read_text()
     assert "http://" not in html and "https://" not in html  # self-contained: nothing to fetch

@@ -15,7 +15,8 @@ def _world(rng) -> World:
     def track(frames, first):
         joints = rng.normal(0, 0.3, (frames, 17, 3)) + [2.0, 1.0, 1.0]
         interpolated = rng.random((frames, 17)) < 0.1
-        return LiftResult(joints, interpolated, 30.0, np.arange(first, first + frames))
+        return LiftResult(joints, interpolated, 30.0, np.arange(first, first + frames),
+                          position_sd=rng.uniform(0.01, 0.5, (frames, 2)))
 
     return World({"7": track(5, 10), "person b": track(3, 0)}, CAMERA, "ray3d")
 
@@ -33,6 +34,7 @@ def test_every_format_reads_back_what_it_wrote(tmp_path, rng, suffix):
         np.testing.assert_array_equal(back.tracks[name].interpolated, result.interpolated)
         np.testing.assert_array_equal(back.tracks[name].frames, result.frames)
         np.testing.assert_array_equal(back.tracks[name].root, back.tracks[name].joints[:, 0])
+        np.testing.assert_allclose(back.tracks[name].position_sd, result.position_sd, atol=1e-4)
     assert back.track().frames[0] == 10 and len(back.track("person b").joints) == 3
 
 
@@ -58,6 +60,15 @@ def test_a_csv_written_before_the_refinement_still_reads(tmp_path, rng):
     back = read_world(tmp_path / "old.csv")
     np.testing.assert_allclose(back.track("7").joints, world.tracks["7"].joints, atol=1e-5)
     assert not back.track("7").interpolated.any() and back.track("7").refinement is None
+    assert back.track("7").position_sd is None
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_a_track_without_an_uncertainty_reads_back_without_one(tmp_path, rng, suffix):
+    world = _world(rng)
+    world.tracks["7"].position_sd = None
+    back = read_world(write_world(tmp_path / f"w{suffix}", world))
+    assert back.track("7").position_sd is None and back.track("person b").position_sd.shape == (3, 2)
 
 
 def test_trc_export_has_opensims_header_and_markers_in_millimetres_y_up(tmp_path):
@@ -180,7 +191,10 @@ def test_json_world_files_follow_the_shipped_schema(tmp_path, rng):
     validator = jsonschema.Draft202012Validator(schema)
     world = _world(rng)
     world.tracks["7"].refinement = {"stature_m": 1.7, "body_size_m": 1.4, "median_scale": 1.0,
-                                    "contact_fraction": 0.9, "position_sd_m": 0.05}
+                                    "contact_fraction": 0.9, "position_sd_m": 0.05, "stature_sd_m": 0.03,
+                                    "stature_interval_m": [1.64, 1.76], "floor_cue_fraction": 0.8,
+                                    "frames": {"contact": [1, 0, 1, 1, 1], "floor_cue": [1, 1, 1, 0, 0],
+                                               "floor_height_m": [0.0, 0.0, 0.0, 0.31, None]}}
     for frame in ("world", "camera"):
         document = json.loads(write_world(tmp_path / f"{frame}.json", world.in_frame(frame)).read_text())
         validator.validate(document)

@@ -62,3 +62,33 @@ def stature(joints: np.ndarray, upright: np.ndarray | None = None) -> float:
     heights = head_over_ankle(np.asarray(joints, dtype=np.float64))
     heights = heights if upright is None else heights[np.asarray(upright, dtype=bool)]
     return float(np.median(heights) / HEAD_OVER_ANKLE_OF_STATURE) if len(heights) else float("nan")
+
+
+def lowest_ankles(joints: np.ndarray) -> np.ndarray:
+    """(T, 17, 3) -> (T, 3) the lower of the two ankle joints of each frame."""
+    lower = np.argmin(joints[:, list(ANKLES), 2], axis=1)
+    return joints[np.arange(len(joints)), np.array(ANKLES)[lower]]
+
+
+POSTURES = ("upright", "sitting or crouching", "lying", "airborne")
+# A torso (pelvis to thorax) leaning further than this from the vertical is lying; a pelvis lower than this over
+# the lowest ankle is sitting or crouching (an adult's stands 0.75-0.85 m over it, a seated one's 0.3-0.5 m); a
+# lowest ankle this far over where the feet rest is airborne (a jump, a foot on a step).
+LYING_TORSO_DEG = 60.0
+SITTING_PELVIS_M = 0.55
+AIRBORNE_ANKLE_M = 0.2
+
+
+def postures(joints: np.ndarray, floor_height: float | np.ndarray = 0.0) -> np.ndarray:
+    """(T, 17, 3) H36M-17 world joints (z up) -> (T,) indices into ``POSTURES`` from the 3D pose: lying (torso
+    near horizontal), sitting or crouching (pelvis low over the feet), airborne (lowest ankle well above the
+    ``floor_height`` plus a planted ankle's height), else upright."""
+    joints = np.asarray(joints, dtype=np.float64)
+    torso = joints[:, H36M17.index("thorax")] - joints[:, PELVIS]
+    tilt = np.degrees(np.arccos(np.clip(torso[:, 2] / np.maximum(np.linalg.norm(torso, axis=-1), 1e-9), -1, 1)))
+    lowest = lowest_ankle_height(joints)
+    classes = np.zeros(len(joints), dtype=int)
+    classes[lowest - floor_height - PLANTED_ANKLE_HEIGHT_M > AIRBORNE_ANKLE_M] = POSTURES.index("airborne")
+    classes[joints[:, PELVIS, 2] - lowest < SITTING_PELVIS_M] = POSTURES.index("sitting or crouching")
+    classes[tilt > LYING_TORSO_DEG] = POSTURES.index("lying")
+    return classes

@@ -17,6 +17,7 @@ from tqdm import tqdm
 import torch
 
 from ray3d import metrics
+from ray3d.body import POSTURES, postures
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import RFRH, load_model
 from ray3d.data import motion as motion_data
@@ -29,11 +30,12 @@ from ray3d.io.camera_files import load_cameras
 from ray3d.models.inference import inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.tensor_batch import TensorBatch
-from ray3d.refine import RefineConfig, joint_directions, refine_track
+from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
 from ray3d.skeleton import H36M17, layout_skeleton
 from ray3d.temporal import Window, sequence_windows
 
 METRICS = ("mpjpe_mm", "p_mpjpe_mm", "abs_mpjpe_mm", "mrpe_mm")
+COVERAGE = ("within_1sd", "within_2sd", "across_within_1sd", "across_within_2sd")
 SCORED_LAYOUTS = ("h36m17", "h36m14")
 
 
@@ -77,8 +79,11 @@ def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Ca
     return (np.concatenate(out), np.concatenate(target_pixels)) if return_pixels else np.concatenate(out)
 
 
-def _per_frame(predicted: np.ndarray, target: np.ndarray) -> dict[str, np.ndarray]:
+def _per_frame(predicted: np.ndarray, target: np.ndarray, in_sds: np.ndarray | None = None) -> dict[str, np.ndarray]:
     mm = {"mrpe_mm": 1e3 * metrics.mrpe(predicted, target, reduction="none")}
+    if in_sds is not None:
+        mm.update(within_1sd=(in_sds[:, 0] <= 1).astype(float), within_2sd=(in_sds[:, 0] <= 2).astype(float),
+                  across_within_1sd=(in_sds[:, 1] <= 1).astype(float), across_within_2sd=(in_sds[:, 1] <= 2).astype(float))
     if not np.isnan(predicted[:, 1:]).all():
         mm["mpjpe_mm"] = 1e3 * metrics.mpjpe(predicted, target, reduction="none")
         mm["p_mpjpe_mm"] = 1e3 * metrics.p_mpjpe(predicted, target, reduction="none")
@@ -89,7 +94,7 @@ def _per_frame(predicted: np.ndarray, target: np.ndarray) -> dict[str, np.ndarra
 def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
     frames = sum(len(p["mrpe_mm"]) for p in parts)
     summary = {"frames": int(frames)}
-    for key in METRICS:
+    for key in METRICS + COVERAGE:
         values = [p[key] for p in parts if key in p]
         summary[key] = float(np.concatenate(values).mean()) if values else None
     return summary
@@ -108,6 +113,11 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     ``refine`` lifts each (camera, clip) as one track with the track-level refinement (``ray3d.refine``), at the
     clip's rate over ``frame_stride`` (a ``RefineConfig`` sets its uncertainties; ``True`` takes the defaults
     with ``keypoint_error`` 0 for GT 2D, since the joints' rays are then exact). ``progress`` shows a bar over the cameras.
+    ``within_1sd`` / ``within_2sd``: the share of frames whose root lies within 1 / 2 of its reported standard
+    deviation along its ray (``across_...``: across it; ``ray3d.metrics.root_error_in_sds``), with or without
+    the refinement; not for RFRH. ``per_posture``: the same
+    measures for the frames whose true pose is upright, sitting or crouching, lying, or airborne
+    (``ray3d.body.postures``).
     """
     if refine and model == RFRH:
         raise ValueError("refine needs a model that predicts every joint; RFRH predicts only the root")
@@ -125,6 +135,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
                      else RefineConfig(keypoint_error=0.0) if noise_px == 0 else RefineConfig())
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)
+    per_posture: dict[str, list] = defaultdict(list)
     clips = [motion.clip(i).astype(np.float64) for i in range(motion.num_clips)]
     if bone_scale != 1.0:
         clips = [scale_bones(clip, np.full(clip.shape[:2], bone_scale)) for clip in clips]
@@ -143,14 +154,26 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         predicted = predict_windows(model, stacked, camera, flip_test, given=given, noise_px=noise_px, rng=rng,
                                     return_pixels=refine)
         bounds = np.cumsum([0] + [len(windows[i]) for i in seen])
+        in_sds = None
         if refine:
             predicted, pixels = predicted
+            position_sd = np.zeros((len(predicted), 2))
             for k, i in enumerate(seen):
                 track = slice(bounds[k], bounds[k + 1])
                 rays = joint_directions(given, pixels[track], model.config.input_skeleton)
-                predicted[track] = refine_track(predicted[track], given, float(motion.clips["fps"][i]) / frame_stride,
-                                                rays, config=refine_config)[0]
-        errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored])
+                predicted[track], found = refine_track(predicted[track], given,
+                                                       float(motion.clips["fps"][i]) / frame_stride, rays,
+                                                       config=refine_config)
+                position_sd[track] = found.position_sd_m
+        elif model != RFRH:
+            position_sd = network_position_sd(predicted, given, refine_config)
+        if model != RFRH:
+            in_sds = metrics.root_error_in_sds(predicted, stacked[:, window.target], position_sd, camera)
+        errors = _per_frame(predicted[:, scored], stacked[:, window.target][:, scored], in_sds)
+        classes = postures(stacked[:, window.target])
+        for k, name in enumerate(POSTURES):
+            if (classes == k).any():
+                per_posture[name].append({key: value[classes == k] for key, value in errors.items()})
         for k, i in enumerate(seen):
             part = {key: value[bounds[k]:bounds[k + 1]] for key, value in errors.items()}
             per_camera[camera.name].append(part)
@@ -164,7 +187,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
             "frame_stride": frame_stride, "joints": joints, "noise_px": noise_px, "refine": bool(refine),
             "refine_config": dataclasses.asdict(refine_config) if refine else None,
             "per_camera": {name: {**_summarise(parts), **geometry[name]} for name, parts in per_camera.items()},
-            "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()}}
+            "per_clip": {name: _summarise(parts) for name, parts in per_clip.items()},
+            "per_posture": {name: _summarise(per_posture[name]) for name in POSTURES if name in per_posture}}
 
 
 def evaluation_motion(mocap: str | Path | None = None, split: str | None = None,

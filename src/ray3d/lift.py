@@ -1,10 +1,9 @@
 """``Lifter``: users' 2D keypoints and calibrated camera -> 3D joints in metres in the world frame.
 
-Handles what real keypoints bring: other joint layouts (COCO-17, BlazePose-33, OpenPose BODY-25), missing
-joints (NaN or confidence 0: interpolated in time and reported), other frame rates (resampled to the model's
-and back), sequences shorter than the receptive field (edge-replicated), several people (each track lifted
-on its own into the same world frame), long sequences (lifted in chunks: memory stays bounded), optional
-smoothing of the 2D input and 3D output, and a GPU when there is one.
+Handles what real keypoints bring: other joint layouts (COCO-17, BlazePose-33, OpenPose BODY-25), missing joints
+(NaN or confidence 0: interpolated in time and reported), other frame rates (resampled to the model's and back),
+sequences shorter than the receptive field (edge-replicated), several people (each track lifted on its own into
+one world frame), long sequences (in chunks), smoothing of the 2D input and 3D output, and a GPU when there is one.
 """
 
 from __future__ import annotations
@@ -21,13 +20,14 @@ from ray3d.body import ANKLES
 from ray3d.checkpoints import default_model, load_model
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
+from ray3d.geometry.floor import FLAT_FLOOR, Floor
 from ray3d.io.keypoints import Keypoints, TrackDetections
 from ray3d.io.world import LiftResult, World
 from ray3d.models.inference import inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.tensor_batch import TensorBatch
 from ray3d.options import LiftOptions
-from ray3d.refine import RefineConfig, joint_directions, refine_track
+from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
 from ray3d.skeleton import (Skeleton, conversion_matrix, convert_confidences, convert_keypoints,
                             layout_skeleton)
 
@@ -160,16 +160,16 @@ class Lifter:
     def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
              smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
              chunk: int = 8192, refine: bool | RefineConfig = True,
-             progress: bool | str = False) -> LiftResult | list[LiftResult]:
+             progress: bool | str = False, floor: Floor = FLAT_FLOOR) -> LiftResult | list[LiftResult]:
         """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
 
         Args:
             keypoints: pixels (u, v) in ``layout`` (h36m17, coco17, blazepose33, body25, ...); NaN = missing.
-            confidences: optional (T, J) scores; a joint with confidence 0 counts as missing.
-            fps: the input's frame rate (default: the model's, 60).
+            confidences: optional (T, J) scores (0: missing); fps: the input's frame rate (default: the model's, 60).
             smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
             refine: move the person along their rays so the feet rest on the floor and the body keeps one size
-                (``ray3d.refine``; a ``RefineConfig`` sets its uncertainties); False keeps the network's output.
+                (``ray3d.refine``; a ``RefineConfig`` sets its uncertainties, ``floor`` the floor under the feet);
+                False keeps the network's output (the result has the root's position uncertainty either way).
             progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
         """
         if fps is not None:
@@ -177,8 +177,8 @@ class Lifter:
         keypoints = np.asarray(keypoints, dtype=np.float64)
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences
-            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress)
-                    for k, c in zip(keypoints, scores)]
+            return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress,
+                              floor) for k, c in zip(keypoints, scores)]
         skeleton = layout_skeleton(layout)
         keypoints, confidences = checked_keypoints(keypoints, confidences, skeleton, ("frames",))
         if len(keypoints) == 0:
@@ -202,16 +202,17 @@ class Lifter:
         joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress, model_scores)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
-        refinement = None
+        refinement, config = None, refine if isinstance(refine, RefineConfig) else RefineConfig()
+        position_sd = network_position_sd(joints, camera, config)
         if refine:
             measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement
             joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, measured, inputs),
-                                           temporal.seen_frames(~h36m_found),
-                                           refine if isinstance(refine, RefineConfig) else RefineConfig(),
-                                           feet_seen=h36m_found[:, list(ANKLES)].any(axis=1))
-            refinement = refined.summary()
+                                           temporal.seen_frames(~h36m_found), config,
+                                           feet_seen=h36m_found[:, list(ANKLES)].any(axis=1), floor=floor)
+            refinement, position_sd = refined.summary(), refined.position_sd_m
         joints = temporal.smooth(joints, smooth_3d, input_fps)
-        return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement)
+        return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement,
+                          position_sd=position_sd)
 
     def _input_skeleton(self, skeleton: Skeleton) -> Skeleton:
         """The model's input layout, after checking that keypoints of ``skeleton`` give its joints."""

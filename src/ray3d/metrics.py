@@ -94,6 +94,20 @@ def mpjve(predicted: Array, target: Array, reduction: str = "mean") -> Array:
     return abs_mpjpe(velocity_p, velocity_t, reduction)
 
 
+def root_error_in_sds(predicted: np.ndarray, target: np.ndarray, position_sd: np.ndarray,
+                      camera) -> np.ndarray:
+    """(T, 17, 3) predicted and true world joints, (T, 2) the root's reported sd along its ray and across it, as
+    seen by ``camera`` (a ``Camera``) -> (T, 2) the root's error in those standard deviations: along the ray, and
+    across it in the floor plane (each one axis, so that a calibrated sd holds 68 % of frames within 1 sd)."""
+    ray = predicted[:, 0] - camera.center
+    ray /= np.linalg.norm(ray, axis=-1, keepdims=True)
+    side = np.cross(ray, [0.0, 0.0, 1.0])
+    side /= np.maximum(np.linalg.norm(side, axis=-1, keepdims=True), 1e-12)
+    error = target[:, 0] - predicted[:, 0]
+    return np.abs(np.stack([np.einsum("ti,ti->t", error, ray), np.einsum("ti,ti->t", error, side)], axis=-1)) \
+        / position_sd
+
+
 def grouped_mean(per_frame: Array, groups: Sequence[Hashable]) -> tuple[float, dict[Hashable, float]]:
     """Average per-frame values within each group (frame-weighted), then over groups (each group equal).
 

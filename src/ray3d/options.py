@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.geometry.floor import FLAT_FLOOR, Floor
 from ray3d.io.world import check_frame
 from ray3d.refine import RefineConfig
 from ray3d.temporal import OUTPUT_SMOOTHING, SMOOTHING_METHODS
@@ -27,13 +28,15 @@ def _smoothing(name: str, value: str | None) -> str | None:
 class LiftOptions:
     """How keypoints become world joints: ``smooth_2d`` / ``smooth_3d`` the input pixels / output joints in
     time ("savgol", "one-euro" or None / "none"), ``flip_test``, ``refine`` (the track-level refinement: True,
-    False or a ``RefineConfig``) and the ``frame`` the written joints are in ("world" or "camera")."""
+    False or a ``RefineConfig``), the ``frame`` the written joints are in ("world" or "camera") and the ``floor``
+    the refinement rests the feet on (``ray3d.geometry.floor``: z = 0 unless regions are declared)."""
 
     smooth_2d: str | None = None
     smooth_3d: str | None = OUTPUT_SMOOTHING
     flip_test: bool = False
     refine: bool | RefineConfig = True
     frame: str = "world"
+    floor: Floor = FLAT_FLOOR
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "smooth_2d", _smoothing("smooth_2d", self.smooth_2d))
@@ -43,7 +46,7 @@ class LiftOptions:
     def lift_arguments(self) -> dict:
         """The keyword arguments of ``Lifter.lift`` these options set."""
         return {"smooth_2d": self.smooth_2d, "smooth_3d": self.smooth_3d, "flip_test": self.flip_test,
-                "refine": self.refine}
+                "refine": self.refine, "floor": self.floor}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -26,7 +26,7 @@ from typing import Any
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
-from ray3d.io.camera_files import camera_from_options
+from ray3d.io.camera_files import camera_from_options, floor_of_camera_file
 from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.options import LiftOptions, VideoOptions
 from ray3d.temporal import SMOOTHING_METHODS
@@ -109,7 +109,9 @@ class Entry:
                                    default_image_size=image_size)
 
     def lift_options(self) -> LiftOptions:
-        return LiftOptions(**{f: self.options[f] for f in LIFT_COLUMNS if f in self.options})
+        """The entry's lifting options; the floor is the one its camera file declares (z = 0 if none)."""
+        return LiftOptions(**{f: self.options[f] for f in LIFT_COLUMNS if f in self.options},
+                           floor=floor_of_camera_file(self.options.get("camera")))
 
     def video_options(self) -> VideoOptions:
         return VideoOptions(**{field: self.options[column] for field, column in VIDEO_COLUMNS.items()

@@ -134,7 +134,13 @@ def evaluate(args: argparse.Namespace) -> int:
 
     for name, values in result["per_camera"].items():
         print(row(name, values))
+    for name, values in result["per_posture"].items():
+        print(row(f"posture: {name}", values))
     print(row("overall (mm)", result))
+    if result.get("within_1sd") is not None:
+        print(f"the true root within the reported sd along its ray: {100 * result['within_1sd']:.1f} % of frames "
+              f"within 1 sd, {100 * result['within_2sd']:.1f} % within 2; across it: "
+              f"{100 * result['across_within_1sd']:.1f} % / {100 * result['across_within_2sd']:.1f} %")
     if args.json:
         write_json(args.json, result, args.force)
     return 0
@@ -186,9 +192,11 @@ def _camera(args: argparse.Namespace, default_image_size: tuple[int, int] | None
 
 
 def _lift_options(args: argparse.Namespace):
+    from ray3d.io.camera_files import floor_of_camera_file, read_floor
     from ray3d.options import LiftOptions
 
-    return LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame)
+    floor = read_floor(args.floor) if args.floor else floor_of_camera_file(args.camera)
+    return LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame, floor)
 
 
 def _image_size(args: argparse.Namespace) -> tuple[int, int]:

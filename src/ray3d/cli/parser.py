@@ -61,6 +61,9 @@ def _add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUT
     parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
     parser.add_argument("--no-refine", action="store_true",
                         help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
+    parser.add_argument("--floor", help="a JSON file declaring floor regions (floor_regions: stages, platforms, "
+                        "ramps; docs/floor.md) the refinement rests the feet on (default: the camera file's own, "
+                        "else the plain floor z = 0)")
     parser.add_argument("--frame", choices=["world", "camera"], default="world",
                         help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
                              "right, y down, z forward, metres from the lens; .json, .csv and .npz)")

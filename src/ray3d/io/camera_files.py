@@ -1,4 +1,6 @@
-"""Camera lists as JSON: ``{"cameras": [camera, ...]}`` with each camera in ``Camera.to_dict`` form."""
+"""Camera files (ours, OpenCV JSON / YAML, calibration TOML), camera lists as JSON (``{"cameras": [camera, ...]}``
+with each camera in ``Camera.to_dict`` form), the floor regions a file declares, and the one builder of a job's
+camera from its options."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import numpy as np
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.geometry.arrays import numeric_array
+from ray3d.geometry.floor import FLAT_FLOOR, Floor, FloorRegion
 from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
 
@@ -204,3 +207,56 @@ def camera_from_options(camera: str | Path | None = None, camera_height: float |
         raise InputError("no camera: give a camera file, or camera_height, pitch, image_size and hfov or focal",
                          arguments=("camera", "camera_height", "pitch", "image_size", "hfov"))
     return Camera.from_height_pitch(camera_height, pitch, size, roll or 0.0, focal, hfov)
+
+
+FLOOR_KEY = "floor_regions"
+
+
+@reads_file("floor file")
+def read_floor(path: str | Path) -> Floor:
+    """The floor regions a JSON file declares under ``"floor_regions"`` (a camera file of ours may carry them
+    beside the camera, or a file may hold them alone): a list of ``{"name", "polygon": [[x, y], ...],
+    "height_m"}`` (a flat region: a stage, a platform, a step) or ``{"name", "polygon", "vertex_heights_m": [...]}``
+    (a plane through its vertices: a ramp, a flight of stairs as the plane through the middles of its treads), world metres. Where
+    regions overlap the first listed decides; outside every region the floor is z = 0."""
+    path = Path(path)
+    document = read_json(path)
+    entries = document.get(FLOOR_KEY) if isinstance(document, dict) else None
+    if not isinstance(entries, list) or not entries:
+        raise InputError(f"{path}: {FLOOR_KEY}: expected a list of regions "
+                         '({"name", "polygon": [[x, y], ...], "height_m" or "vertex_heights_m"})')
+    regions = []
+    for i, entry in enumerate(entries):
+        where = f"{path}: {FLOOR_KEY}[{i}]"
+        if not isinstance(entry, dict):
+            raise InputError(f"{where}: expected an object, got {type(entry).__name__}")
+        unknown = set(entry) - {"name", "polygon", "height_m", "vertex_heights_m"}
+        if unknown:
+            raise InputError(f"{where}: unknown field {sorted(unknown)[0]!r}")
+        name = str(entry.get("name", f"region {i}"))
+        polygon = numeric_array(entry.get("polygon"), f"{where}.polygon")
+        if polygon.ndim != 2 or polygon.shape[1:] != (2,) or len(polygon) < 3:
+            raise InputError(f"{where}.polygon: expected 3 or more [x, y] points in metres, got shape {polygon.shape}")
+        if ("height_m" in entry) == ("vertex_heights_m" in entry):
+            raise InputError(f"{where}: give exactly one of height_m (flat) and vertex_heights_m (a plane)")
+        if "height_m" in entry:
+            height = numeric_array(entry["height_m"], f"{where}.height_m")
+            if height.ndim != 0:
+                raise InputError(f"{where}.height_m: expected one number (metres)")
+            heights = np.full(len(polygon), float(height))
+        else:
+            heights = numeric_array(entry["vertex_heights_m"], f"{where}.vertex_heights_m")
+        try:
+            regions.append(FloorRegion.from_vertex_heights(name, polygon, heights))
+        except InputError as err:
+            raise InputError(f"{where}: {err.message}") from None
+    return Floor(tuple(regions))
+
+
+def floor_of_camera_file(camera: str | Path | None) -> Floor:
+    """The floor a camera file declares (``read_floor``), or the plain floor z = 0 when it declares none (or the
+    camera is not a JSON file)."""
+    if camera is None or not str(camera).lower().endswith(".json") or not Path(camera).is_file():
+        return FLAT_FLOOR
+    document = read_json(Path(camera))
+    return read_floor(camera) if isinstance(document, dict) and FLOOR_KEY in document else FLAT_FLOOR

@@ -26,7 +26,7 @@ UNITS = "metres"
 AXES = "world frame, right-handed: x and y horizontal, z up, floor at z = 0"
 CAMERA_AXES = "camera frame (OpenCV): x right, y down, z forward along the optical axis, origin at the lens"
 FRAME_AXES = {"world": AXES, "camera": CAMERA_AXES}
-CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated")
+CSV_COLUMNS = ("frame", "track", "joint", "x", "y", "z", "interpolated", "position_sd_along_m", "position_sd_across_m")
 
 
 def check_frame(frame: str) -> str:
@@ -44,7 +44,9 @@ def _frame_described(axes: str) -> str:
 @dataclasses.dataclass
 class LiftResult:
     """One person's world joints (T, 17, 3) in metres (z up, floor z = 0, H36M-17 order) at ``fps``, the frame
-    index of each row (T,), and which input joints were missing and filled in from neighbouring frames (T, 17)."""
+    index of each row (T,), which input joints were missing and filled in from neighbouring frames (T, 17), and
+    the root's position uncertainty (T, 2): one standard deviation along the camera's ray through it and across
+    that ray (per axis), metres (None in files from before 2026-12-04)."""
 
     joints: np.ndarray
     interpolated: np.ndarray
@@ -52,6 +54,7 @@ class LiftResult:
     frames: np.ndarray
     joint_names: tuple[str, ...] = H36M17.joint_names
     refinement: dict | None = None  # what ray3d.refine found (stature, scale, contact, uncertainty), if it ran
+    position_sd: np.ndarray | None = None
 
     @property
     def root(self) -> np.ndarray:
@@ -106,13 +109,15 @@ class World:
                              arguments=("track",))
         return self.tracks[str(name)]
 
-    def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every track's frames one after another: joints (N, 17, 3), frames (N,), tracks (N,), interpolated
-        (N, 17)."""
+        (N, 17), position uncertainty (N, 2) (NaN where a track has none)."""
         results = self.tracks.values()
         return (np.concatenate([r.joints for r in results]), np.concatenate([r.frames for r in results]),
                 np.concatenate([[t] * len(r.joints) for t, r in self.tracks.items()]),
-                np.concatenate([r.interpolated for r in results]))
+                np.concatenate([r.interpolated for r in results]),
+                np.concatenate([np.full((len(r.joints), 2), np.nan) if r.position_sd is None else r.position_sd
+                                for r in results]))
 
     def in_frame(self, frame: str) -> World:
         """The same people with their joints in the ``frame`` "world" (z up, floor z = 0) or "camera" (OpenCV:
@@ -173,11 +178,13 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
     if suffix == ".bvh":
         return _write_bvh(path, world, overwrite)
     meta = world.metadata()
-    joints, frames, tracks, interpolated = world.rows()
+    joints, frames, tracks, interpolated, position_sd = world.rows()
     with atomic_path(path, overwrite) as temporary:
         if suffix == ".json":
             document = {**meta, "tracks": {t: {"frames": r.frames.tolist(), "joints": np.round(r.joints, 5).tolist(),
                                                "interpolated_input_joints": r.interpolated.astype(int).tolist(),
+                                               "position_sd_m": (None if r.position_sd is None
+                                                                 else np.round(r.position_sd, 4).tolist()),
                                                "refinement": r.refinement}
                                            for t, r in world.tracks.items()}}
             temporary.write_text(json.dumps(document))
@@ -192,11 +199,13 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                 for i in range(len(joints)):
                     for j, name in enumerate(world.joint_names):
                         writer.writerow([frames[i], tracks[i], name, *(f"{v:.5f}" for v in joints[i, j]),
-                                         int(interpolated[i, j])])
+                                         int(interpolated[i, j]),
+                                         *("" if not np.isfinite(v) else f"{v:.4f}" for v in position_sd[i])])
         else:
             with temporary.open("wb") as handle:
                 np.savez_compressed(handle, joints=joints.astype(np.float32), frames=frames, tracks=tracks,
-                                    interpolated=interpolated, joint_names=np.array(world.joint_names),
+                                    interpolated=interpolated, position_sd=position_sd.astype(np.float32),
+                                    joint_names=np.array(world.joint_names),
                                     units=np.array(world.units), axes=np.array(world.axes), fps=np.array(world.fps),
                                     model=np.array(world.model), camera_json=np.array(json.dumps(meta["camera"])),
                                     refinement_json=np.array(json.dumps(world.refinements())))
@@ -241,12 +250,17 @@ def _trc_text(world: World, name: str) -> str:
 
 
 def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
-               refinements: dict) -> dict[str, LiftResult]:
+               refinements: dict, position_sd=None) -> dict[str, LiftResult]:
     tracks = np.asarray(tracks).astype(str)
+
+    def uncertainty(track: str) -> np.ndarray | None:
+        values = None if position_sd is None else np.asarray(position_sd, dtype=np.float64)[tracks == track]
+        return None if values is None or np.isnan(values).all() else values
+
     return {track: LiftResult(np.asarray(joints, dtype=np.float64)[tracks == track],
                               np.asarray(interpolated, dtype=bool)[tracks == track], float(fps),
                               np.asarray(frames, dtype=np.int64)[tracks == track], tuple(joint_names),
-                              refinements.get(track))
+                              refinements.get(track), uncertainty(track))
             for track in dict.fromkeys(tracks.tolist())}
 
 
@@ -264,10 +278,16 @@ def _read_csv(path: Path) -> World:
     count = len(rows) // len(names)
     joints = np.array([[float(r[a]) for a in "xyz"] for r in rows]).reshape(count, len(names), 3)
     interpolated = np.array([int(r.get("interpolated") or 0) for r in rows]).reshape(count, len(names))
+    # Files from before 2026-12-04 have no position uncertainty columns; a track without one leaves them empty.
+    position_sd = np.array([[float(r.get(key) or "nan") for key in CSV_COLUMNS[-2:]] for r in rows[::len(names)]])
     tracks = _from_rows(joints, [int(r["frame"]) for r in rows[::len(names)]],
                         [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names,
-                        refinements)
+                        refinements, position_sd)
     return World(tracks, camera, fields["model"], fields["units"], _frame_described(fields["axes"]), path)
+
+
+def _optional_array(values) -> np.ndarray | None:
+    return None if values is None else np.array(values, dtype=np.float64)
 
 
 @reads_file("world file")
@@ -282,7 +302,7 @@ def read_world(path: str | Path) -> World:
             data = read_npz_entries(path)
             tracks = _from_rows(data["joints"], data["frames"], data["tracks"], data["interpolated"],
                                 float(data["fps"]), [str(n) for n in data["joint_names"]],
-                                json.loads(str(data["refinement_json"])))
+                                json.loads(str(data["refinement_json"])), data.get("position_sd"))
             return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))), str(data["model"]),
                          str(data["units"]), _frame_described(str(data["axes"])), path)
         if suffix == ".json":
@@ -290,7 +310,7 @@ def read_world(path: str | Path) -> World:
             tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
                                          np.array(e["interpolated_input_joints"], dtype=bool), float(document["fps"]),
                                          np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]),
-                                         e["refinement"])
+                                         e["refinement"], _optional_array(e.get("position_sd_m")))
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
                          str(document["units"]), _frame_described(str(document["axes"])), path)

@@ -6,7 +6,9 @@ it lies outside the picture, a marker on the edge points to it. ``viewer.html#vi
 opens in that view.
 
 A sequence is either world joints (T, 17, 3) from frame 0 or a ``LiftResult`` (a track of a world file: it
-starts at its own frame, and frames it filled in rather than detected are drawn thin and grey)."""
+starts at its own frame, frames it filled in rather than detected are drawn thin and grey, and where it has a
+position uncertainty an ellipse on the floor under the pelvis shows one standard deviation: along the camera's
+ray, as seen from above, and across it)."""
 
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ _TEMPLATE = """<!doctype html>
  <label>view <select id="viewmode"><option>orbit</option><option>top</option><option>side</option><option>camera</option></select></label>
  <label>follow <select id="follow"><option value="">everybody</option></select></label>
  <span id="legend"></span>
- <span style="color: #777">drag to orbit, wheel to zoom; metres, z up; grey: filled in, not detected</span>
+ <span style="color: #777">drag to orbit, wheel to zoom; metres, z up; grey: filled in, not detected; disc on the floor: 1 sd of the position</span>
 </div>
 <canvas id="view"></canvas>
 <script>
@@ -124,6 +126,14 @@ function floorPlan(absolute) {
   if (DATA.camera_lines.length) { const q = at(DATA.camera_lines[0][0]); ctx.fillStyle = "#000";
     ctx.fillRect(q[0] - 3, q[1] - 3, 6, 6); ctx.fillText("camera", q[0] + 5, q[1] + 4); }
 }
+function uncertainty(pelvis, sd, colour) {  // [along the ray from above, across, ray direction x, y] on the floor
+  const [a, b, ux, uy] = sd, points = [];
+  for (let k = 0; k < 24; k++) { const t = k * Math.PI / 12, q = project([pelvis[0] + a * Math.cos(t) * ux - b * Math.sin(t) * uy,
+    pelvis[1] + a * Math.cos(t) * uy + b * Math.sin(t) * ux, 0]); if (!q) return; points.push(q); }
+  ctx.beginPath(); points.forEach((q, k) => k ? ctx.lineTo(q[0], q[1]) : ctx.moveTo(q[0], q[1])); ctx.closePath();
+  ctx.globalAlpha = 0.2; ctx.fillStyle = colour; ctx.fill(); ctx.globalAlpha = 0.8; ctx.strokeStyle = colour;
+  ctx.lineWidth = 1; ctx.stroke(); ctx.globalAlpha = 1;
+}
 function draw() {
   const absolute = first + frame;
   if (follow.value) { const seq = DATA.sequences[follow.value], row = pose(seq, absolute);
@@ -153,6 +163,7 @@ function draw() {
     for (let t = 1; t <= row; t++)
       line([seq.joints[t - 1][0][0], seq.joints[t - 1][0][1], 0], [seq.joints[t][0][0], seq.joints[t][0][1], 0], DATA.colours[i], 1);
     const p = seq.joints[row], filled = seq.filled[row], colour = filled ? "#aaaaaa" : DATA.colours[i];
+    if (seq.sd) uncertainty(p[0], seq.sd[row], DATA.colours[i]);
     DATA.parents.forEach((q, j) => { if (q >= 0) line(p[j], p[q], colour, filled ? 1 : (DATA.sides[j] ? 3 : 2)); });
     const head = project(p[10]); ctx.fillStyle = colour; ctx.font = "13px sans-serif";
     if (head) ctx.fillText(name, head[0] + 6, head[1] - 6);
@@ -189,17 +200,34 @@ resize();
 """
 
 
+def floor_ellipses(sequence: np.ndarray | LiftResult, camera) -> np.ndarray | None:
+    """(T, 4) the floor-plan ellipse of one sd of each frame's position: its semi-axis along the camera's ray as
+    seen from above (the along-ray sd and the vertical across-ray sd, each by its horizontal share), across it,
+    and the ray's horizontal direction (x, y); None without an uncertainty or a camera."""
+    if not isinstance(sequence, LiftResult) or sequence.position_sd is None or camera is None:
+        return None
+    ray = sequence.root - np.asarray(camera.center)
+    ray /= np.linalg.norm(ray, axis=-1, keepdims=True)
+    flat = np.linalg.norm(ray[:, :2], axis=-1, keepdims=True)
+    direction = np.where(flat > 1e-9, ray[:, :2] / np.maximum(flat, 1e-9), [1.0, 0.0])
+    steep = np.sqrt(np.maximum(1 - flat[:, 0] ** 2, 0.0))  # the vertical across-ray axis, seen from above
+    along, across = sequence.position_sd.T
+    return np.column_stack([np.hypot(along * flat[:, 0], across * steep), across, direction])
+
+
 def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult], fps: float, camera=None,
                  title: str = "ray3d viewer", overwrite: bool = False) -> Path:
     """Write the viewer for {name: world joints (T, 17, 3) or a LiftResult} (metres, z up) played at ``fps``."""
     tracks = {str(name): as_track(s) for name, s in sequences.items()}
+    ellipses = {str(name): floor_ellipses(s, camera) for name, s in sequences.items()}
     stacked = np.concatenate([j.reshape(-1, 3) for _, j, _ in tracks.values()])
     stacked = stacked[np.isfinite(stacked).all(-1)]
     centre = np.median(stacked, axis=0)
     camera_lines = [line.round(4).tolist() for line in frustum_lines(camera)] if camera is not None else []
     plan = np.concatenate([stacked[:, :2]] + ([np.asarray(camera.center[:2])[None]] if camera is not None else []))
     data = {
-        "sequences": {name: {"start": start, "joints": np.round(joints, 4).tolist(), "filled": filled.tolist()}
+        "sequences": {name: {"start": start, "joints": np.round(joints, 4).tolist(), "filled": filled.tolist(),
+                             "sd": None if ellipses[name] is None else np.round(ellipses[name], 4).tolist()}
                       for name, (start, joints, filled) in tracks.items()},
         "first": min(start for start, _, _ in tracks.values()),
         "last": max(start + len(joints) - 1 for start, joints, _ in tracks.values()),

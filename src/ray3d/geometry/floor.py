@@ -1,0 +1,111 @@
+"""The floor people stand on: the plane z = 0 of the world frame, except inside declared regions (a stage, a
+platform, a step, a ramp), each a polygon on the floor plan carrying a plane ``z = height + gradient . (xy -
+anchor)``. Pure NumPy; ``ray3d.io.camera_files.read_floor`` reads regions from a file."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from matplotlib.path import Path as PolygonPath
+
+from ray3d.errors import InputError
+
+PLANARITY_TOLERANCE_M = 0.02  # vertex heights further than this from one plane are not one region
+
+
+@dataclasses.dataclass(frozen=True)
+class FloorRegion:
+    """A region of floor: ``polygon`` (V, 2) world x, y in metres (V >= 3, no self-check beyond area), at
+    ``height_m`` above z = 0 at ``anchor`` (x, y), rising by ``gradient`` (dz/dx, dz/dy) per metre."""
+
+    name: str
+    polygon: np.ndarray
+    height_m: float
+    gradient: tuple[float, float] = (0.0, 0.0)
+    anchor: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        polygon = np.asarray(self.polygon, dtype=np.float64)
+        where = f"floor region {self.name!r}"
+        if polygon.ndim != 2 or polygon.shape[1] != 2 or len(polygon) < 3:
+            raise InputError(f"{where}: polygon must be 3 or more [x, y] points in metres, got shape {polygon.shape}",
+                             arguments=("floor",))
+        if not np.isfinite(polygon).all():
+            raise InputError(f"{where}: polygon has a non-finite coordinate", arguments=("floor",))
+        x, y = polygon.T
+        if abs(0.5 * np.dot(x, np.roll(y, 1)) - 0.5 * np.dot(y, np.roll(x, 1))) < 1e-4:
+            raise InputError(f"{where}: polygon encloses no area", arguments=("floor",))
+        numbers = (self.height_m, *self.gradient, *self.anchor)
+        if len(self.gradient) != 2 or len(self.anchor) != 2 or not np.isfinite(numbers).all():
+            raise InputError(f"{where}: height, gradient and anchor must be finite numbers", arguments=("floor",))
+        if np.hypot(*self.gradient) > 1.0:
+            raise InputError(f"{where}: slope {np.degrees(np.arctan(np.hypot(*self.gradient))):.0f} deg is steeper "
+                             "than 45 deg; declare stairs as flat steps or as the ramp through the middles of their treads",
+                             arguments=("floor",))
+        object.__setattr__(self, "polygon", polygon)
+
+    @classmethod
+    def from_vertex_heights(cls, name: str, polygon, heights) -> FloorRegion:
+        """The plane through a polygon's (V,) vertex heights (a ramp or a stage), refused unless they lie on one
+        plane within ``PLANARITY_TOLERANCE_M``."""
+        polygon, heights = np.asarray(polygon, dtype=np.float64), np.asarray(heights, dtype=np.float64)
+        if heights.shape != polygon.shape[:1]:
+            raise InputError(f"floor region {name!r}: {len(heights)} vertex heights for {len(polygon)} vertices",
+                             arguments=("floor",))
+        anchor = polygon.mean(axis=0)
+        design = np.column_stack([np.ones(len(polygon)), polygon - anchor])
+        (height, *gradient), *_ = np.linalg.lstsq(design, heights, rcond=None)
+        off = np.abs(design @ np.array([height, *gradient]) - heights).max()
+        if off > PLANARITY_TOLERANCE_M:
+            raise InputError(f"floor region {name!r}: vertex heights are {off:.3f} m off one plane; split it into "
+                             "planar regions", arguments=("floor",))
+        return cls(name, polygon, float(height), tuple(map(float, gradient)), tuple(map(float, anchor)))
+
+    def plane_height(self, xy: np.ndarray) -> np.ndarray:
+        """(..., 2) -> (...) the height of this region's plane over those floor-plan points."""
+        return self.height_m + (np.asarray(xy) - self.anchor) @ np.asarray(self.gradient)
+
+    def contains(self, xy: np.ndarray) -> np.ndarray:
+        """(..., 2) -> (...) whether the points lie inside the polygon."""
+        xy = np.asarray(xy, dtype=np.float64)
+        return PolygonPath(self.polygon).contains_points(xy.reshape(-1, 2)).reshape(xy.shape[:-1])
+
+
+@dataclasses.dataclass(frozen=True)
+class Floor:
+    """The floor: z = 0 outside every region; inside, the first region (in the order given) that holds a point
+    decides its height."""
+
+    regions: tuple[FloorRegion, ...] = ()
+
+    def region_index(self, xy: np.ndarray) -> np.ndarray:
+        """(..., 2) -> (...) the index of the region each point is in, -1 for the plain floor."""
+        xy = np.asarray(xy, dtype=np.float64)
+        index = np.full(xy.shape[:-1], -1)
+        for k, region in reversed(list(enumerate(self.regions))):
+            index[region.contains(xy)] = k
+        return index
+
+    def height(self, xy: np.ndarray) -> np.ndarray:
+        """(..., 2) floor-plan points -> (...) the floor's height under them, metres."""
+        return self.height_and_gradient(xy)[0]
+
+    def height_and_gradient(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(..., 2) -> the floor's height (...) and its gradient (..., 2) under the points."""
+        xy = np.asarray(xy, dtype=np.float64)
+        height, gradient = np.zeros(xy.shape[:-1]), np.zeros(xy.shape)
+        index = self.region_index(xy)
+        for k, region in enumerate(self.regions):
+            inside = index == k
+            height[inside] = region.plane_height(xy[inside])
+            gradient[inside] = region.gradient
+        return height, gradient
+
+    def to_dict(self) -> dict:
+        return {"regions": [{"name": r.name, "polygon": r.polygon.round(4).tolist(),
+                             "vertex_heights_m": np.round(r.plane_height(r.polygon), 4).tolist()}
+                            for r in self.regions]}
+
+
+FLAT_FLOOR = Floor()
