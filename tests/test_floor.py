@@ -216,3 +216,18 @@ def test_a_bad_floor_file_on_the_command_line_is_one_line_and_exit_2(tmp_path, t
     lifted = json.loads((tmp_path / "o.json").read_text())["tracks"]
     track = next(iter(lifted.values()))
     assert len(track["position_sd_m"]) == 12 and len(track["refinement"]["frames"]["floor_cue"]) == 12
+
+
+def test_a_model_states_its_own_distance_error_and_the_rest_stays_the_defaults():
+    from ray3d.checkpoints import load_model
+
+    document = {"uncertainty": {"depth_bias_sd": [[0, 0.05], [60, 0.05]], "residual_distance_sd": 0.003,
+                                "measured": "when and how"}}
+    config = RefineConfig.for_model(document, keypoint_error=0.0)
+    assert config.network_bias_sd(np.array([3.0, 30.0])) == pytest.approx([0.05, 0.05])
+    assert config.residual_distance_sd == 0.003 and config.keypoint_error == 0.0
+    assert config.floor_offset_sd_m == RefineConfig().floor_offset_sd_m
+    assert RefineConfig.for_model({}) == RefineConfig()
+    # The shipped detector model measured its own; the shipped ray3d's are the defaults.
+    assert RefineConfig.for_model(load_model("ray3d-real")[1]).network_bias_sd(30.0) == pytest.approx(0.05)
+    assert RefineConfig.for_model(load_model("ray3d")[1]) == RefineConfig()

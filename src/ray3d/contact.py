@@ -23,8 +23,8 @@ def floor_agreement(joints: np.ndarray, camera: Camera, fps: float, candidates: 
     plus the person's own contact height. A stretch whose median factor is further from 1 than
     ``agreement_sigmas`` of that is a floor that is not where the feet are, unless
     - the body's size sides with the floor: at the floor's distance the person is nearer an adult's size than at
-      the network's, by ``size_cue_margin`` (a network that is wrong about the distance is wrong about the size by the same factor; a
-      raised floor leaves the size as the network sees it);
+      the network's, by ``size_cue_margin`` (a network that is wrong about the distance is wrong about the size
+      by the same factor; a raised floor leaves the size as the network sees it);
     - the feet would then rest more than ``largest_floor_step_m`` off the floor (the network is the one wrong);
     - or the network's distance error puts the floor's height no better than ``floor_test_resolution_m`` (far
       away, or seen from near the floor's height): there the floor is believed, as the network cannot say

@@ -82,8 +82,8 @@ def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Ca
 def _per_frame(predicted: np.ndarray, target: np.ndarray, in_sds: np.ndarray | None = None) -> dict[str, np.ndarray]:
     mm = {"mrpe_mm": 1e3 * metrics.mrpe(predicted, target, reduction="none")}
     if in_sds is not None:
-        mm.update(within_1sd=(in_sds[:, 0] <= 1).astype(float), within_2sd=(in_sds[:, 0] <= 2).astype(float),
-                  across_within_1sd=(in_sds[:, 1] <= 1).astype(float), across_within_2sd=(in_sds[:, 1] <= 2).astype(float))
+        for prefix, column in (("", 0), ("across_", 1)):
+            mm.update({f"{prefix}within_{k}sd": (in_sds[:, column] <= k).astype(float) for k in (1, 2)})
     if not np.isnan(predicted[:, 1:]).all():
         mm["mpjpe_mm"] = 1e3 * metrics.mpjpe(predicted, target, reduction="none")
         mm["p_mpjpe_mm"] = 1e3 * metrics.p_mpjpe(predicted, target, reduction="none")
@@ -125,14 +125,15 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     if joints not in SCORED_LAYOUTS:
         raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
     scored = [H36M17.index(name) for name in layout_skeleton(joints).joint_names]
+    document = {}
     if isinstance(model, str) and model != RFRH:
-        model = load_model(model)[0]
+        model, document = load_model(model)
     if isinstance(model, LiftingNetwork):
         model = inference_network(model)
     window = _window(model)
     # GT 2D is exact: the refinement may put each joint on its ray; noisy 2D is weighed as a detector's.
     refine_config = (refine if isinstance(refine, RefineConfig)
-                     else RefineConfig(keypoint_error=0.0) if noise_px == 0 else RefineConfig())
+                     else RefineConfig.for_model(document, **({"keypoint_error": 0.0} if noise_px == 0 else {})))
     per_camera: dict[str, list] = defaultdict(list)
     per_clip: dict[str, list] = defaultdict(list)
     per_posture: dict[str, list] = defaultdict(list)

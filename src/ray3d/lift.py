@@ -202,7 +202,7 @@ class Lifter:
         joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress, model_scores)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
-        refinement, config = None, refine if isinstance(refine, RefineConfig) else RefineConfig()
+        refinement, config = None, refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document)
         position_sd = network_position_sd(joints, camera, config)
         if refine:
             measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement

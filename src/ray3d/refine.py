@@ -51,6 +51,7 @@ from ray3d.skeleton import H36M17, Skeleton
 EVIDENCE_FPS = 30.0  # per-frame evidence is weighed as if the footage ran at this rate
 UNCERTAINTY_SAMPLES = 200  # frames at which the covariance is evaluated; the rest are interpolated
 PINNED_SD = 1e-6  # the prior of a term held at its value
+UNCERTAINTY_FIELDS = ("depth_bias_sd", "floor_offset_sd_m", "residual_distance_sd")  # what a model measures of itself
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,7 +69,10 @@ class RefineConfig:
     # One person's planted-ankle height against the prior (the floor test), and where their pelvis rests over
     # the floor against the network's pose on the prior (that and the pose's error; the uncertainty), per track.
     contact_height_sd_m: float = 0.02
-    floor_offset_sd_m: float = 0.05
+    floor_offset_sd_m: float = 0.035
+    # What the cues leave of the distance's error, as a share of it (the network's pose seen from afar and from
+    # above: docs/RESULTS.md, "An honest uncertainty"); added to the solution's own uncertainty.
+    residual_distance_sd: float = 0.0065
     body_size_m: float = body.ADULT_BODY_SIZE_M      # prior on the size chain of an adult
     body_size_sd: float = body.ADULT_BODY_SIZE_SD    # relative
     frame_size_sd: float = 0.06              # relative error of one frame's predicted body size
@@ -90,6 +94,15 @@ class RefineConfig:
     # The floor is tested only where the network places it to within this (1 sd): near, and seen from above.
     floor_test_resolution_m: float = 0.15
     size_cue_margin: float = 0.05            # log size: how much nearer the floor's the size must be to side with it
+
+    @classmethod
+    def for_model(cls, document: dict, **changes) -> RefineConfig:
+        """The defaults (measured on the shipped ``ray3d``) with what a checkpoint document's ``uncertainty``
+        says of its own model (its distance errors by distance, what the cues leave of them), and ``changes``."""
+        measured = {key: value for key, value in document.get("uncertainty", {}).items() if key in UNCERTAINTY_FIELDS}
+        if "depth_bias_sd" in measured:
+            measured["depth_bias_sd"] = tuple(tuple(float(v) for v in pair) for pair in measured["depth_bias_sd"])
+        return cls(**{**measured, **changes})
 
     def network_bias_sd(self, distance: np.ndarray) -> np.ndarray:
         """(...) distances (m) -> (...) the relative sd of the network's distance error shared by a track."""
@@ -153,12 +166,11 @@ def scale_about(joints: np.ndarray, centre: np.ndarray, scale: np.ndarray) -> np
 
 def network_position_sd(joints: np.ndarray, camera: Camera, config: RefineConfig = RefineConfig()) -> np.ndarray:
     """(T, 17, 3) world joints as the network put them -> (T, 2) the root's standard deviation along its ray
-    and across it (per axis), metres, without the refinement: the network's shared and per-frame distance
-    errors, and the keypoints' error at the person."""
+    and across it (per axis), metres, without the refinement: the network's distance error as measured by the
+    distance it predicts (``depth_bias_sd``: mostly shared by a track), and the keypoints' error at the person."""
     distance = np.linalg.norm(np.asarray(joints)[:, 0] - camera.center, axis=-1)
-    relative = np.hypot(config.network_bias_sd(distance), config.network_frame_sd(distance))
     across = np.full(len(distance), _across_sd(config, np.median(body_sizes(joints))))
-    return np.stack([relative * distance, across], axis=-1)
+    return np.stack([config.network_bias_sd(distance) * distance, across], axis=-1)
 
 
 def _across_sd(config: RefineConfig, body_size: float) -> float:
@@ -363,6 +375,7 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     stature = body.stature(refined, sizes_up)
     return refined, Refinement(
         scale=scale, contact=contact, floor_cue=floored, floor_height_m=floor_height,
-        position_sd_m=np.stack([log_sd * distance, np.full(count, _across_sd(config, body_size))], axis=-1),
+        position_sd_m=np.stack([np.hypot(log_sd, config.residual_distance_sd) * distance,
+                                np.full(count, _across_sd(config, body_size))], axis=-1),
         body_size_m=body_size, stature_m=stature,
         stature_sd_m=float(stature * np.hypot(size_sd, config.frame_size_sd / np.sqrt(max(sizes_up.sum(), 1)))))
