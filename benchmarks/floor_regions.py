@@ -4,7 +4,8 @@ performers, every Nth frame.
     .venv/bin/python benchmarks/floor_regions.py --cameras h36m --frame-stride 16
 
 Each test clip (centred on the origin) is lifted onto a flight of ``--steps`` steps (rise 0.17 m, run 0.30 m)
-rising along +x from x = -0.9 m to a landing: every frame is raised by the height of the step under the pelvis.
+rising along +x from x = -0.9 m to a landing: every frame is raised by the height of the step under its lowest
+ankle (the planted foot's).
 Rows: the network alone; the refinement on the plain floor z = 0 (the floor test decides where the floor holds);
 the refinement with the stairs declared as one flat region per step and the landing (``ray3d.geometry.floor``);
 and with the flight declared as one ramp through the middles of its treads.
@@ -15,6 +16,7 @@ import argparse
 import numpy as np
 
 from ray3d import evaluate as evaluation
+from ray3d.body import lowest_ankles
 from ray3d.checkpoints import load_model
 from ray3d.data.virtual_cameras import centre_clip, grid
 from ray3d.geometry.floor import Floor, FloorRegion
@@ -54,7 +56,7 @@ def main() -> None:
     clips = []
     for i in range(motion.num_clips):
         clip = centre_clip(motion.clip(i).astype(np.float64))
-        clip[..., 2] += steps.height(clip[:, :1, :2])
+        clip[..., 2] += steps.height(lowest_ankles(clip)[:, None, :2])  # the planted foot's step carries the body
         clips.append((clip, float(motion.clips["fps"][i]) / args.frame_stride))
     config = RefineConfig(keypoint_error=0.0)
     rows = {"network only": [], "refined, plain floor": [], "refined, steps declared": [],

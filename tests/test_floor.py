@@ -231,3 +231,15 @@ def test_a_model_states_its_own_distance_error_and_the_rest_stays_the_defaults()
     # The shipped detector model measured its own; the shipped ray3d's are the defaults.
     assert RefineConfig.for_model(load_model("ray3d-real")[1]).network_bias_sd(30.0) == pytest.approx(0.05)
     assert RefineConfig.for_model(load_model("ray3d")[1]) == RefineConfig()
+
+
+def test_a_foot_feels_a_plane_exactly_and_a_step_over_its_length():
+    ramp = Floor((FloorRegion.from_vertex_heights("ramp", [[0, -5], [10, -5], [10, 5], [0, 5]], [0, 1, 1, 0]),))
+    height, gradient = ramp.under_foot(np.array([[5.0, 0.0]]))
+    np.testing.assert_allclose(height, [0.5]) and np.testing.assert_allclose(gradient, [[0.1, 0.0]], atol=1e-12)
+    step = Floor((FloorRegion("step", np.array([[0.0, -5.0], [5.0, -5.0], [5.0, 5.0], [0.0, 5.0]]), 0.2),))
+    at = np.array([[-1.0, 0.0], [0.0 + 1e-6, 0.0], [1.0, 0.0]])  # before the step, on its edge, on it
+    height, gradient = step.under_foot(at)
+    np.testing.assert_allclose(height, [0.0, 0.15, 0.2], atol=1e-9)  # three of the four samples are up at the edge
+    assert gradient[1, 0] == pytest.approx(0.2 / 0.25) and gradient[0, 0] == gradient[2, 0] == 0.0
+    assert FLAT_FLOOR.under_foot(at)[0].tolist() == [0.0, 0.0, 0.0]

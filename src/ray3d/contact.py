@@ -26,9 +26,10 @@ def floor_agreement(joints: np.ndarray, camera: Camera, fps: float, candidates: 
       the network's, by ``size_cue_margin`` (a network that is wrong about the distance is wrong about the size
       by the same factor; a raised floor leaves the size as the network sees it);
     - the feet would then rest more than ``largest_floor_step_m`` off the floor (the network is the one wrong);
-    - or the network's distance error puts the floor's height no better than ``floor_test_resolution_m`` (far
+    - the network's distance error puts the floor's height no better than ``floor_test_resolution_m`` (far
       away, or seen from near the floor's height): there the floor is believed, as the network cannot say
-      otherwise.
+      otherwise;
+    - or the feet are on a declared floor region: the user's knowledge of the scene is believed.
     """
     centre = camera.center
     ankle = lowest_ankles(joints)
@@ -51,8 +52,9 @@ def floor_agreement(joints: np.ndarray, camera: Camera, fps: float, candidates: 
     size_sides_with_floor = np.abs(sized - stretch) + config.size_cue_margin <= np.abs(sized)
     believable = np.abs(resting - under) <= config.largest_floor_step_m
     testable = config.network_bias_sd(distance) * wanted <= config.floor_test_resolution_m
+    declared = floor.region_index(ankle[:, :2]) >= 0  # the user's knowledge of the scene is not second-guessed
     agrees = valid & ((np.abs(stretch) <= config.agreement_sigmas * spread) | size_sides_with_floor
-                      | ~believable | ~testable)
+                      | ~believable | ~testable | declared)
     return agrees, resting
 
 

@@ -238,7 +238,7 @@ class _Problem:
         """The floored frames' factors, lowest ankles moved by them, and the floor's height and gradient there."""
         scale = np.exp(x[:self.count][self.floored])
         feet = self.centre + scale[:, None] * (self.ankle[self.floored] - self.centre)
-        height, gradient = self.floor.height_and_gradient(feet[:, :2])
+        height, gradient = self.floor.under_foot(feet[:, :2])
         return scale, feet, height, gradient
 
     def residuals(self, x: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ from matplotlib.path import Path as PolygonPath
 from ray3d.errors import InputError
 
 PLANARITY_TOLERANCE_M = 0.02  # vertex heights further than this from one plane are not one region
+FOOT_LENGTH_M = 0.25  # the floor under an ankle is felt over a foot's length
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,6 +102,20 @@ class Floor:
             height[inside] = region.plane_height(xy[inside])
             gradient[inside] = region.gradient
         return height, gradient
+
+    def under_foot(self, xy: np.ndarray, length: float = FOOT_LENGTH_M) -> tuple[np.ndarray, np.ndarray]:
+        """(..., 2) ankle points -> the floor's height (...) and gradient (..., 2) as a foot of ``length`` feels
+        it: the mean of the heights half a foot either way along x and along y, and their central differences.
+        Exact on planes; across a region's edge (a step) it ramps over a foot's length, so that a solver moving
+        the foot sees the step coming."""
+        xy = np.asarray(xy, dtype=np.float64)
+        if not self.regions:
+            return np.zeros(xy.shape[:-1]), np.zeros(xy.shape)
+        half = length / 2
+        shifts = np.array([[half, 0.0], [-half, 0.0], [0.0, half], [0.0, -half]])
+        heights = self.height(xy[..., None, :] + shifts)
+        gradient = np.stack([heights[..., 0] - heights[..., 1], heights[..., 2] - heights[..., 3]], axis=-1) / length
+        return heights.mean(axis=-1), gradient
 
     def to_dict(self) -> dict:
         return {"regions": [{"name": r.name, "polygon": r.polygon.round(4).tolist(),
