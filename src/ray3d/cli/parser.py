@@ -9,6 +9,7 @@ import ray3d
 from ray3d.body import ADULT_STATURE_M
 from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
+from ray3d.cli import site_commands as site_handlers
 from ray3d.temporal import OUTPUT_SMOOTHING
 
 
@@ -218,6 +219,16 @@ def build_parser() -> argparse.ArgumentParser:
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
     _add_force(viz, "replace existing outputs")
     viz.set_defaults(handler=handlers.viz)
+
+    site = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
+                                            "(lines crossed, zones entered and left) and per-track and per-place tables")
+    site.add_argument("world", type=Path, help="a world file (.json/.csv/.npz) of ray3d lift or ray3d video")
+    site.add_argument("--site", required=True, type=Path,
+                      help="the site file (JSON: zones and directed lines in world metres; docs/site.md)")
+    site.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "
+                                                             "places.csv")
+    _add_force(site, "replace existing tables")
+    site.set_defaults(handler=site_handlers.site)
 
     bench = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
     bench_commands = bench.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)

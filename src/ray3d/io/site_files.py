@@ -1,0 +1,85 @@
+"""Site files (the zones and counting lines of ``ray3d.site``) and the tables a site's analysis writes: events
+as JSON lines and CSV, per-track and per-place summaries as CSV, each written atomically."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ray3d.errors import InputError, reads_file
+from ray3d.geometry.arrays import numeric_array
+from ray3d.geometry.floor import FloorRegion
+from ray3d.io.atomic import atomic_path
+from ray3d.io.text_files import read_json
+from ray3d.site import CountingLine, Site, Zone
+
+SITE_TABLES = ("events.jsonl", "events.csv", "tracks.csv", "places.csv")
+
+
+def _point(value, where: str) -> np.ndarray:
+    point = numeric_array(value, where)
+    if point.shape != (2,) or not np.isfinite(point).all():
+        raise InputError(f"{where}: expected [x, y] in metres")
+    return point
+
+
+@reads_file("site file")
+def read_site(path: str | Path) -> Site:
+    """A site file (JSON): ``{"zones": [{"name", "polygon": [[x, y], ...]}], "lines": [{"name", "start": [x, y],
+    "end": [x, y]}]}`` in world metres; names must be unique within zones and within lines."""
+    path = Path(path)
+    document = read_json(path)
+    if not isinstance(document, dict) or not (set(document) & {"zones", "lines"}):
+        raise InputError(f"{path}: expected an object with zones and / or lines")
+    unknown = set(document) - {"zones", "lines"}
+    if unknown:
+        raise InputError(f"{path}: unknown field {sorted(unknown)[0]!r}")
+    zones, lines = [], []
+    for key, out in (("zones", zones), ("lines", lines)):
+        entries = document.get(key, [])
+        if not isinstance(entries, list):
+            raise InputError(f"{path}: {key}: expected a list")
+        for i, entry in enumerate(entries):
+            where = f"{path}: {key}[{i}]"
+            fields = {"name", "polygon"} if key == "zones" else {"name", "start", "end"}
+            if not isinstance(entry, dict) or set(entry) != fields:
+                raise InputError(f"{where}: expected exactly the fields {', '.join(sorted(fields))}")
+            name = str(entry["name"])
+            if any(item.name == name for item in out):
+                raise InputError(f"{where}.name: {name!r} is used twice")
+            if key == "zones":
+                polygon = numeric_array(entry["polygon"], f"{where}.polygon")
+                try:
+                    FloorRegion(name, polygon, 0.0)  # the same checks as a floor region's polygon
+                except InputError as err:
+                    raise InputError(f"{where}.polygon: {err.message}") from None
+                out.append(Zone(name, polygon))
+            else:
+                start, end = _point(entry["start"], f"{where}.start"), _point(entry["end"], f"{where}.end")
+                if np.linalg.norm(end - start) < 0.01:
+                    raise InputError(f"{where}: start and end are the same point")
+                out.append(CountingLine(name, start, end))
+    return Site(tuple(zones), tuple(lines))
+
+
+
+
+def write_site_tables(out_dir: str | Path, events: list[dict], tracks: list[dict], places: list[dict],
+                      overwrite: bool = False) -> list[Path]:
+    """``SITE_TABLES`` in ``out_dir`` (created): every event as a JSON line and a CSV row (lists as JSON text),
+    the per-track and the per-place summaries as CSV."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = [out_dir / name for name in SITE_TABLES]
+    with atomic_path(paths[0], overwrite) as temporary:
+        temporary.write_text("".join(json.dumps(event) + "\n" for event in events))
+    for path, rows in zip(paths[1:], (events, tracks, places)):
+        columns = list(dict.fromkeys(key for row in rows for key in row))
+        with atomic_path(path, overwrite) as temporary, temporary.open("w", newline="") as handle:
+            writer = csv.DictWriter(handle, columns)
+            writer.writeheader()
+            writer.writerows({k: json.dumps(v) if isinstance(v, list) else v for k, v in row.items()} for row in rows)
+    return paths
