@@ -3,6 +3,7 @@ dwell, and every event of a world's tracks in time order."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -71,8 +72,9 @@ def test_every_event_of_a_world_in_time_order_with_its_evidence():
     result = LiftResult(joints, np.zeros((len(points), 17), bool), 10.0, np.arange(100, 100 + len(points)))
     world = World({"7": result}, cameras.h36m("S9", "54138969"), "ray3d")
     events = site_events(world, Site((ROOM,), (DOOR,)))
-    assert [e["event"] for e in events] == ["line crossed", "zone entered", "zone left"]
-    crossed, entered, left = events
+    assert [e["event"] for e in events] == ["track started", "line crossed", "zone entered", "zone left",
+                                            "track ended"]
+    crossed, entered, left = events[1:4]
     assert crossed["track"] == "7" and crossed["time_s"] == pytest.approx(12.0) and crossed["frames"] == [119, 120]
     assert entered["time_s"] == pytest.approx(13.0) and entered["frames"] == [129, 130]
     assert left["dwell_s"] == pytest.approx(3.1) and left["place_m"][0] > 4.0
@@ -91,7 +93,10 @@ def test_a_site_file_reads_zones_and_lines(tmp_path):
     ({"zones": []}, None),
     ({"zones": [], "doors": []}, "unknown field 'doors'"),
     ({"zones": {}}, "zones: expected a list"),
-    ({"zones": [{"name": "a"}]}, r"zones\[0\]: expected exactly the fields name, polygon"),
+    ({"zones": [{"name": "a"}]}, r"zones\[0\]: expected the fields name, polygon"),
+    ({"zones": [{"name": "a", "polygon": [[0, 0], [1, 0], [1, 1]], "max_occupancy": 1.5}]}, "positive whole number"),
+    ({"zones": [{"name": "a", "polygon": [[0, 0], [1, 0], [1, 1]], "max_dwell_s": -3}]}, "positive number"),
+    ({"lines": [{"name": "l", "start": [0, 0], "end": [1, 0], "max_dwell_s": 3}]}, "expected the fields end, name"),
     ({"zones": [{"name": "a", "polygon": [[0, 0], [1, 0]]}]}, r"zones\[0\].polygon: .*3 or more"),
     ({"zones": [{"name": "a", "polygon": [[0, 0], [1, 0], [1, 1]]}] * 2}, r"zones\[1\].name: 'a' is used twice"),
     ({"lines": [{"name": "l", "start": [0, 0], "end": [0, 0]}]}, "start and end are the same point"),
@@ -128,12 +133,21 @@ def test_the_site_command_writes_its_tables_and_refuses_a_bad_site(tmp_path, cap
     out = capsys.readouterr().out
     assert "line door: 1 forward, 1 back" in out and "zone room: 2 entries, 2 exits" in out
     events = [json.loads(line) for line in (tmp_path / "report" / "events.jsonl").read_text().splitlines()]
-    assert [e["event"] for e in events] == ["line crossed", "zone entered", "zone left", "zone entered", "zone left",
-                                            "line crossed"]
+    assert [e["event"] for e in events] == ["track started", "line crossed", "zone entered", "zone left",
+                                            "zone entered", "zone left", "line crossed", "track ended"]
     with (tmp_path / "report" / "tracks.csv").open() as handle:
         (track,) = list(csv.DictReader(handle))
     assert float(track["distance_m"]) == pytest.approx(14.0) and json.loads(track["stature_interval_m"]) == [1.6, 1.8]
-    assert float(track["time_in_room_s"]) == pytest.approx(2 * 3.1, abs=0.11)
+    assert float(track["time_in_room_s"]) == pytest.approx(2 * 3.1, abs=0.11) and track["stature_class"] == "adult"
+    from PIL import Image
+
+    with Image.open(tmp_path / "report" / "floor-plan.png") as plan:
+        pixels = np.asarray(plan.convert("RGB")).astype(int)
+    red = (pixels[..., 0] > 180) & (pixels[..., 1] < 80) & (pixels[..., 2] < 80)  # the line
+    blue = (pixels[..., 2] > 150) & (pixels[..., 0] < 60) & (pixels[..., 1] < 140)  # the zone
+    assert red.sum() > 50 and blue.sum() > 50
+    with (tmp_path / "report" / "occupancy.csv").open() as handle:
+        assert max(int(row["room"]) for row in csv.DictReader(handle)) == 1
     # Run again: the tables exist and are not overwritten; a bad site file is one line and exit 2.
     assert main(["site", str(world), "--site", str(site), "--out", str(tmp_path / "report")]) == 2
     assert "already exists" in capsys.readouterr().err
@@ -141,3 +155,107 @@ def test_the_site_command_writes_its_tables_and_refuses_a_bad_site(tmp_path, cap
     assert main(["site", str(world), "--site", str(site), "--out", str(tmp_path / "other")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "same point" in err and str(site) in err
+
+
+def _standing(frames: int) -> np.ndarray:
+    from ray3d.demo import demo_clip
+
+    pose = demo_clip()[0].astype(np.float64)
+    pose[:, :2] -= pose[0, :2]
+    pose[:, 2] -= pose[[3, 6], 2].min() - 0.07
+    return np.repeat(pose[None], frames, axis=0)
+
+
+def _tipped(joints: np.ndarray, angles_deg: np.ndarray, about_pelvis: bool = False) -> np.ndarray:
+    """Each frame rotated about the y axis by its angle, about the feet (the whole body falls) or about the pelvis
+    (the upper body bends forward; the legs stay)."""
+    out = joints.copy()
+    for t, angle in enumerate(np.radians(angles_deg)):
+        rotation = np.array([[np.cos(angle), 0, np.sin(angle)], [0, 1, 0], [-np.sin(angle), 0, np.cos(angle)]])
+        pivot = joints[t, 0] if about_pelvis else np.array([joints[t, 0, 0], joints[t, 0, 1], 0.0])
+        moved = slice(7, 17) if about_pelvis else slice(None)
+        out[t, moved] = (joints[t, moved] - pivot) @ rotation.T + pivot
+    return out
+
+
+FPS = 30.0
+
+
+@pytest.mark.parametrize("motion, is_fall", [
+    ("fall", True), ("bend", False), ("sit", False), ("lie down slowly", False), ("fall and get up", False)])
+def test_falls_are_found_and_sitting_bending_and_lying_down_are_not(motion, is_fall):
+    from ray3d.site import falls
+
+    frames = int(6 * FPS)
+    t = np.arange(frames) / FPS
+    body = _standing(frames)
+    if motion == "fall":  # over 0.6 s from 1 s, then lying still
+        joints = _tipped(body, np.clip((t - 1.0) / 0.6, 0, 1) * 88)
+    elif motion == "fall and get up":  # down in 0.6 s, up again after 1 s: not lying still long enough
+        joints = _tipped(body, np.clip((t - 1.0) / 0.6, 0, 1) * 88 * (t < 2.6))
+    elif motion == "bend":  # the upper body forward over 0.8 s, held
+        joints = _tipped(body, np.clip((t - 1.0) / 0.8, 0, 1) * 90, about_pelvis=True)
+    elif motion == "sit":  # 0.45 m lower over 1.5 s, upright
+        joints = body - np.clip((t - 1.0) / 1.5, 0, 1)[:, None, None] * [0, 0, 0.45]
+    else:  # to the floor over 4 s
+        joints = _tipped(body, np.clip((t - 1.0) / 4.0, 0, 1) * 88)
+    found = falls(t, joints)
+    assert len(found) == int(is_fall)
+    if is_fall:
+        assert 1.0 <= found[0]["time_s"] <= 1.6 and found[0]["head_drop_m"] >= 1.0
+
+
+def test_stature_classes_say_unsure_across_the_threshold():
+    from ray3d.site import stature_class
+
+    assert stature_class(1.72, [1.6, 1.84]) == "adult" and stature_class(1.1, [1.0, 1.2]) == "child"
+    assert stature_class(1.3, [1.2, 1.4]) == "unsure" and stature_class(None, None) == "unsure"
+
+
+def test_a_zones_rules_fire_when_exceeded():
+    def walker(track, start_s, xs):
+        times, points = _walk(xs)
+        joints = np.zeros((len(points), 17, 3))
+        joints[:, :, :2] = points[:, None]
+        frames = np.arange(len(points)) + int(start_s * 10)
+        return track, LiftResult(joints, np.zeros((len(points), 17), bool), 10.0, frames)
+
+    # Two people in the room at once (the first stays 6 s, the second passes through).
+    tracks = dict([walker("a", 0.0, np.concatenate([np.linspace(0, 2, 21), np.full(60, 2.0), np.linspace(2, 5, 31)])),
+                   walker("b", 3.0, np.linspace(0, 5, 51))])
+    world = World(tracks, cameras.h36m("S9", "54138969"), "ray3d")
+    ruled = Zone("room", ROOM.polygon, max_occupancy=1, max_dwell_s=5.0)
+    events = site_events(world, Site((ruled,), ()))
+    crowded = [e for e in events if e["event"] == "occupancy above limit"]
+    assert len(crowded) == 1 and crowded[0]["track"] == "b" and crowded[0]["people"] == ["a", "b"]
+    long = [e for e in events if e["event"] == "dwell above limit"]
+    assert len(long) == 1 and long[0]["track"] == "a" and long[0]["time_s"] == pytest.approx(1.0 + 5.0)
+
+
+def test_person_frames_speed_heading_posture_zones_occupancy_and_heat():
+    from ray3d.site import heat_map, occupancy, person_frames
+
+    times, points = _walk(np.linspace(0, 5, 51))  # 1 m/s along +x through the room
+    joints = _standing(len(points)) + np.column_stack([points, np.zeros(len(points))])[:, None]
+    result = LiftResult(joints, np.zeros((len(points), 17), bool), 10.0, np.arange(len(points)))
+    world = World({"1": result, "2": dataclasses.replace(result)}, cameras.h36m("S9", "54138969"), "ray3d")
+    site = Site((ROOM,), ())
+    rows = person_frames(world, site)
+    middle = [r for r in rows if r["track"] == "1"][25]
+    assert middle["speed_m_s"] == pytest.approx(1.0, rel=0.01) and middle["heading_deg"] == pytest.approx(0.0, abs=1)
+    assert middle["posture"] == "upright" and middle["zones"] == ["room"]
+    times, counts = occupancy(rows, site, 10.0)
+    assert counts["room"].max() == 2 and counts["room"][0] == 0 and len(times) == 51
+    grid, corner = heat_map(rows, 10.0, cell_m=1.0)
+    assert grid.sum() == pytest.approx(2 * 51 / 10.0) and corner[0] <= 0.0
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(0, 2, allow_nan=False), min_size=1, max_size=60), st.integers(2, 12))
+def test_the_window_minimum_ahead_is_the_brute_force_one(values, horizon):
+    from ray3d.site import _window_minimum
+
+    values = np.array(values)
+    brute = [values[t + 1:t + horizon].min() if t + 1 < min(t + horizon, len(values)) else np.inf
+             for t in range(len(values))]
+    np.testing.assert_array_equal(_window_minimum(values, horizon), brute)

@@ -16,7 +16,7 @@ from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
 from ray3d.site import CountingLine, Site, Zone
 
-SITE_TABLES = ("events.jsonl", "events.csv", "tracks.csv", "places.csv")
+SITE_TABLES = ("events.jsonl", "events.csv", "tracks.csv", "places.csv", "frames.csv", "occupancy.csv")
 
 
 def _point(value, where: str) -> np.ndarray:
@@ -26,10 +26,22 @@ def _point(value, where: str) -> np.ndarray:
     return point
 
 
+def _limit(entry: dict, key: str, kind: type, where: str):
+    """A zone's optional rule: a positive number (a whole one for a count), or None when not given."""
+    if key not in entry:
+        return None
+    value = entry[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0 \
+            or (kind is int and value != int(value)):
+        raise InputError(f"{where}: expected a positive {'whole number' if kind is int else 'number'}, got {value!r}")
+    return kind(value)
+
+
 @reads_file("site file")
 def read_site(path: str | Path) -> Site:
-    """A site file (JSON): ``{"zones": [{"name", "polygon": [[x, y], ...]}], "lines": [{"name", "start": [x, y],
-    "end": [x, y]}]}`` in world metres; names must be unique within zones and within lines."""
+    """A site file (JSON): ``{"zones": [{"name", "polygon": [[x, y], ...][, "max_occupancy", "max_dwell_s"]}],
+    "lines": [{"name", "start": [x, y], "end": [x, y]}]}`` in world metres; names must be unique within zones and
+    within lines."""
     path = Path(path)
     document = read_json(path)
     if not isinstance(document, dict) or not (set(document) & {"zones", "lines"}):
@@ -45,8 +57,10 @@ def read_site(path: str | Path) -> Site:
         for i, entry in enumerate(entries):
             where = f"{path}: {key}[{i}]"
             fields = {"name", "polygon"} if key == "zones" else {"name", "start", "end"}
-            if not isinstance(entry, dict) or set(entry) != fields:
-                raise InputError(f"{where}: expected exactly the fields {', '.join(sorted(fields))}")
+            optional = {"max_occupancy", "max_dwell_s"} if key == "zones" else set()
+            if not isinstance(entry, dict) or not fields <= set(entry) <= fields | optional:
+                raise InputError(f"{where}: expected the fields {', '.join(sorted(fields))}"
+                                 + (f" (and optionally {', '.join(sorted(optional))})" if optional else ""))
             name = str(entry["name"])
             if any(item.name == name for item in out):
                 raise InputError(f"{where}.name: {name!r} is used twice")
@@ -56,7 +70,8 @@ def read_site(path: str | Path) -> Site:
                     FloorRegion(name, polygon, 0.0)  # the same checks as a floor region's polygon
                 except InputError as err:
                     raise InputError(f"{where}.polygon: {err.message}") from None
-                out.append(Zone(name, polygon))
+                out.append(Zone(name, polygon, _limit(entry, "max_occupancy", int, f"{where}.max_occupancy"),
+                                _limit(entry, "max_dwell_s", float, f"{where}.max_dwell_s")))
             else:
                 start, end = _point(entry["start"], f"{where}.start"), _point(entry["end"], f"{where}.end")
                 if np.linalg.norm(end - start) < 0.01:
@@ -68,15 +83,15 @@ def read_site(path: str | Path) -> Site:
 
 
 def write_site_tables(out_dir: str | Path, events: list[dict], tracks: list[dict], places: list[dict],
-                      overwrite: bool = False) -> list[Path]:
+                      frames: list[dict], occupancy: list[dict], overwrite: bool = False) -> list[Path]:
     """``SITE_TABLES`` in ``out_dir`` (created): every event as a JSON line and a CSV row (lists as JSON text),
-    the per-track and the per-place summaries as CSV."""
+    the per-track, per-place, per-person-frame and occupancy tables as CSV."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / name for name in SITE_TABLES]
     with atomic_path(paths[0], overwrite) as temporary:
         temporary.write_text("".join(json.dumps(event) + "\n" for event in events))
-    for path, rows in zip(paths[1:], (events, tracks, places)):
+    for path, rows in zip(paths[1:], (events, tracks, places, frames, occupancy)):
         columns = list(dict.fromkeys(key for row in rows for key in row))
         with atomic_path(path, overwrite) as temporary, temporary.open("w", newline="") as handle:
             writer = csv.DictWriter(handle, columns)

@@ -1,4 +1,5 @@
-"""Metric curves: one line per method against a swept variable, as the paper's robustness figures."""
+"""Plots: metric curves (one line per method against a swept variable, as the paper's robustness figures), and a
+site's floor plan and zone occupancy."""
 
 from __future__ import annotations
 
@@ -36,3 +37,57 @@ def plot_sweep(x: list[float], curves: dict[str, list[float]], xlabel: str, ylab
                path: str | Path) -> Path:
     """A single-panel sweep plot."""
     return plot_sweep_panels(x, {ylabel: curves}, xlabel, title, path)
+
+
+def _save(fig, path: str | Path, overwrite: bool) -> Path:
+    path = Path(path)
+    with atomic_path(path, overwrite=overwrite) as temporary:
+        fig.savefig(temporary, format="png")
+    plt.close(fig)
+    return path
+
+
+def plot_floor_plan(site, rows: list[dict], heat, corner: tuple[float, float], cell_m: float, path: str | Path,
+                    overwrite: bool = False) -> Path:
+    """The floor plan (metres, seen from above): time spent per square (``ray3d.site.heat_map``), everybody's
+    path, the site's zones and its directed lines (an arrow points from a line's left to its right: "forward")."""
+    import numpy as np
+
+    fig, axis = plt.subplots(figsize=(7.5, 6.5), dpi=110)
+    if heat.size:
+        extent = (corner[0], corner[0] + heat.shape[1] * cell_m, corner[1], corner[1] + heat.shape[0] * cell_m)
+        image = axis.imshow(np.ma.masked_equal(heat, 0), origin="lower", extent=extent, cmap="Oranges", alpha=0.8)
+        fig.colorbar(image, ax=axis, label=f"seconds spent per {cell_m:g} m square")
+    for track in dict.fromkeys(row["track"] for row in rows):
+        xy = np.array([[row["x_m"], row["y_m"]] for row in rows if row["track"] == track])
+        axis.plot(xy[:, 0], xy[:, 1], lw=0.8, alpha=0.6)
+    for zone in site.zones:
+        closed = np.vstack([zone.polygon, zone.polygon[:1]])
+        axis.plot(closed[:, 0], closed[:, 1], color="tab:blue", lw=2)
+        axis.text(*zone.polygon.mean(axis=0), zone.name, color="tab:blue", ha="center")
+    for line in site.lines:
+        axis.plot(*np.stack([line.start, line.end]).T, color="tab:red", lw=2.5)
+        middle, direction = (line.start + line.end) / 2, line.end - line.start
+        right = np.array([direction[1], -direction[0]]) / np.linalg.norm(direction) * 0.5
+        axis.annotate("", middle + right, middle, arrowprops={"arrowstyle": "->", "color": "tab:red"})
+        axis.text(*(line.end + 0.1), line.name, color="tab:red")
+    axis.set_aspect("equal")
+    axis.set_xlabel("x (m)")
+    axis.set_ylabel("y (m)")
+    axis.set_title("floor plan: paths, time spent, zones and lines (arrow: forward)")
+    axis.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path, overwrite)
+
+
+def plot_occupancy(times, counts: dict, path: str | Path, overwrite: bool = False) -> Path:
+    """People in each zone over time."""
+    fig, axis = plt.subplots(figsize=(8, 3.2), dpi=110)
+    for name, values in counts.items():
+        axis.step(times, values, where="post", label=name)
+    axis.set_xlabel("time (s)")
+    axis.set_ylabel("people in the zone")
+    axis.legend(fontsize=8)
+    axis.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, path, overwrite)
