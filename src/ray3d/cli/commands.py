@@ -301,16 +301,21 @@ def _print_refinements(tracks: dict) -> None:
 def video(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from ray3d.cli.site_commands import refuse_site_outputs, report_site
+    from ray3d.io.site_files import read_site
     from ray3d.lift import Lifter
     from ray3d.options import VideoOptions
     from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
+    if args.site is not None:  # refused before any work, not after it
+        refuse_site_outputs(args.out / "site", (args.input, args.site), args.force)
+        read_site(args.site)
     info = read_video_info(args.input)
     camera = camera_for_video(_camera(args, info.image_size), info)
     options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
     result = lift_video(info, camera, args.out, make_detector(args.detector, camera),
                         Lifter.load(args.checkpoint) if args.checkpoint else None, _lift_options(args), options,
-                        world_format=args.format, overlay=not args.no_overlay, overwrite=args.force)
+                        world_format=args.format, overlay=not (args.no_overlay or args.privacy), overwrite=args.force)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
     print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked by the {args.detector} detector and "
@@ -322,6 +327,8 @@ def video(args: argparse.Namespace) -> int:
     _print_refinements(tracks)
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
+    if args.site is not None:
+        report_site(result.world, args.site, args.out / "site", f"{args.input.name} on {args.site.name}", args.force)
     return 0
 
 

@@ -185,6 +185,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="world file format (.trc: OpenSim / Pose2Sim markers; .bvh: one skeleton per track)")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
+    video.add_argument("--site", type=Path, help="also analyse the people on this site file's zones and lines: a "
+                       "report, tables and plots in OUT/site (as ray3d site does; docs/site.md)")
+    video.add_argument("--privacy", action="store_true", help="write nothing derived from the pixels but "
+                       "skeletons, tracks and events: no overlay video")
     # Detector keypoints of real footage: the model trained for them.
     _add_lifting_arguments(video)
     _add_force(video, "replace existing outputs in --out")

@@ -1,41 +1,44 @@
-"""``ray3d site``: a world file's tracks on a site's zones and lines, as tables (``ray3d.site``)."""
+"""``ray3d site`` (and ``ray3d video --site``): a world's tracks on a site's zones and lines, as a report, tables
+and plots (``ray3d.viz.site_report.analyse_site``)."""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ray3d.io.atomic import check_output, refuse_existing
 
 
-PLOTS = ("floor-plan.png", "occupancy.png")
-CELL_M = 0.5
+def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool) -> None:
+    """Before any work: no output of the site analysis may be an input or exist (unless ``overwrite``)."""
+    from ray3d.viz.site_report import site_outputs
+
+    for path in site_outputs(out_dir):
+        refuse_existing(check_output(path, inputs), overwrite)
 
 
-def site(args: argparse.Namespace) -> int:
-    from ray3d.io.site_files import SITE_TABLES, read_site, write_site_tables
-    from ray3d.io.world import read_world
-    from ray3d.site import heat_map, occupancy, person_frames, site_events, track_summaries, zone_summaries
-    from ray3d.viz.plots import plot_floor_plan, plot_occupancy
+def report_site(world, site_path: Path, out_dir: Path, title: str, overwrite: bool) -> None:
+    """Analyse and print the counts per place and the events by kind."""
+    from ray3d.io.site_files import read_site
+    from ray3d.viz.site_report import analyse_site
 
-    for name in SITE_TABLES + PLOTS:  # refused before any work, not after it
-        refuse_existing(check_output(args.out / name, (args.world, args.site)), args.force)
-    plan, world = read_site(args.site), read_world(args.world)
-    events, frames = site_events(world, plan), person_frames(world, plan)
-    places = zone_summaries(events, plan)
-    times, counts = occupancy(frames, plan, world.fps)
-    series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
-              for k, t in enumerate(times)]
-    paths = write_site_tables(args.out, events, track_summaries(world, plan), places, frames, series, args.force)
-    heat, corner = heat_map(frames, world.fps, CELL_M)
-    paths.append(plot_floor_plan(plan, frames, heat, corner, CELL_M, args.out / PLOTS[0], args.force))
-    paths.append(plot_occupancy(times, counts, args.out / PLOTS[1], args.force))
+    events, places, paths = analyse_site(world, read_site(site_path), out_dir, title, overwrite)
     for row in places:
         tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
                  else f"{row['forward']} forward, {row['back']} back")
         print(f"{row['kind']} {row['place']}: {tally}")
-    kinds = {}
+    kinds: dict[str, int] = {}
     for event in events:
         kinds[event["event"]] = kinds.get(event["event"], 0) + 1
     print(f"{len(events)} events of {len(world.tracks)} tracks ({', '.join(f'{n} {k}' for k, n in kinds.items())}) "
-          f"-> {args.out}: {', '.join(p.name for p in paths)}")
+          f"-> {out_dir}: {', '.join(p.name for p in paths)}")
+
+
+def site(args: argparse.Namespace) -> int:
+    from ray3d.io.site_files import read_site
+    from ray3d.io.world import read_world
+
+    refuse_site_outputs(args.out, (args.world, args.site), args.force)
+    read_site(args.site)  # a bad site file is refused before the world file is read
+    report_site(read_world(args.world), args.site, args.out, f"{args.world.name} on {args.site.name}", args.force)
     return 0

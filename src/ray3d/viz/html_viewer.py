@@ -3,7 +3,7 @@ slider with the time, several people or methods at once (each in its own colour,
 grid with axes and a metre scale), a floor plan with everybody's path, a "follow" choice that keeps one person
 in the middle, and four views: orbit, top, side and through the camera itself. The camera stays in view: where
 it lies outside the picture, a marker on the edge points to it. ``viewer.html#view=top`` (or side, camera)
-opens in that view.
+opens in that view; ``#frame=N`` opens paused at frame N and ``#follow=TRACK`` follows one person (joined with &).
 
 A sequence is either world joints (T, 17, 3) from frame 0 or a ``LiftResult`` (a track of a world file: it
 starts at its own frame, frames it filled in rather than detected are drawn thin and grey, and where it has a
@@ -195,6 +195,12 @@ setInterval(() => { if (playing) { frame = (frame + 1) % frames; draw(); } }, 10
 const asked = (location.hash.match(/view=([a-z]+)/) || [])[1];
 if (Object.keys(PRESETS).includes(asked) && (asked !== "camera" || DATA.camera)) viewmode.value = asked;
 [yaw, elevation] = viewmode.value === "camera" ? [yaw, elevation] : PRESETS[viewmode.value];
+// #frame=N opens paused at that frame (of the input: as world files count them); #follow=TRACK follows one person.
+const askedFrame = (location.hash.match(/frame=(\\d+)/) || [])[1], askedTrack = (location.hash.match(/follow=([^&]+)/) || [])[1];
+if (askedFrame !== undefined) { frame = Math.max(0, Math.min(frames - 1, +askedFrame - first)); playing = false;
+  document.getElementById("play").textContent = "play"; }
+if (askedTrack !== undefined && names.includes(decodeURIComponent(askedTrack))) {
+  follow.value = decodeURIComponent(askedTrack); follow.onchange(); }
 resize();
 </script></body></html>
 """

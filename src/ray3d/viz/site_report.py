@@ -1,0 +1,135 @@
+"""A site's HTML report, self-contained and offline: the floor plan (paths, time spent, zones, lines), the
+counts per place, zone occupancy, a timeline of every event, and the events' table, each event linking to the 3D
+viewer (written beside it) opened at its moment and following its person."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from pathlib import Path
+
+from ray3d.io.atomic import atomic_path
+
+EVENT_COLOURS = {"line crossed": "#d62f2f", "zone entered": "#1f77b4", "zone left": "#7fb2e5", "fall": "#000000",
+                 "occupancy above limit": "#ff7f0e", "dwell above limit": "#9467bd", "track started": "#2ca02c",
+                 "track ended": "#98df8a"}
+
+_TEMPLATE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
+<style>
+ body { font-family: sans-serif; margin: 16px; background: #fafafa; }
+ img { max-width: 48%; border: 1px solid #ddd; background: #fff; margin-right: 1%; vertical-align: top; }
+ table { border-collapse: collapse; margin: 8px 0 16px; font-size: 13px; }
+ td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
+ #timeline { width: 100%; height: 160px; background: #fff; border: 1px solid #ddd; display: block; }
+ .note { color: #555; }
+</style></head>
+<body>
+<h1>__TITLE__</h1>
+<p class="note">__NOTE__</p>
+<h2>Floor plan and occupancy</h2>
+<img id="plan" alt="floor plan" src="data:image/png;base64,__PLAN__"><img id="occupancy" alt="occupancy" src="data:image/png;base64,__OCCUPANCY__">
+<h2>Places</h2>
+__PLACES__
+<h2>Timeline</h2>
+<canvas id="timeline"></canvas>
+<p class="note" id="legend"></p>
+<h2>Events</h2>
+<p class="note">Each event opens the 3D viewer (viewer.html) at its frame, following its person.</p>
+<table id="events"><tr><th>time (s)</th><th>event</th><th>track</th><th>where</th><th>details</th></tr></table>
+<script>
+const EVENTS = __EVENTS__, COLOURS = __COLOURS__, FPS = __FPS__;
+const table = document.getElementById("events");
+EVENTS.forEach(e => {
+  const row = table.insertRow(), frame = (e.frames || [Math.round(e.time_s * FPS)]).slice(-1)[0];
+  const link = `viewer.html#frame=${frame}&follow=${encodeURIComponent(e.track)}`;
+  const details = Object.entries(e).filter(([k]) => !["event", "track", "time_s", "frames", "place_m"].includes(k))
+    .map(([k, v]) => `${k}: ${JSON.stringify(v)}`).join("; ");
+  [e.time_s.toFixed(2), `<a href="${link}">${e.event}</a>`, e.track, e.line || e.zone || (e.place_m || []).join(", "),
+   details].forEach(text => { row.insertCell().innerHTML = text; });
+});
+const canvas = document.getElementById("timeline"), ctx = canvas.getContext("2d");
+function drawTimeline() {
+  canvas.width = canvas.clientWidth; canvas.height = canvas.clientHeight;
+  const kinds = Object.keys(COLOURS), end = Math.max(1e-3, ...EVENTS.map(e => e.time_s)), left = 150;
+  ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, canvas.width, canvas.height); ctx.font = "11px sans-serif";
+  kinds.forEach((kind, k) => {
+    const y = 10 + k * (canvas.height - 20) / kinds.length;
+    ctx.fillStyle = "#444"; ctx.fillText(kind, 4, y + 8);
+    ctx.fillStyle = COLOURS[kind];
+    EVENTS.filter(e => e.event === kind).forEach(e =>
+      ctx.fillRect(left + (canvas.width - left - 10) * e.time_s / end - 2, y, 4, 12));
+  });
+  ctx.fillStyle = "#444"; ctx.fillText(`0 s`, left, canvas.height - 2);
+  ctx.fillText(`${end.toFixed(1)} s`, canvas.width - 50, canvas.height - 2);
+}
+document.getElementById("legend").textContent = `${EVENTS.length} events over time, one row per kind`;
+window.onresize = drawTimeline; drawTimeline();
+</script></body></html>
+"""
+
+
+def _table(rows: list[dict]) -> str:
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape('' if row.get(c) is None else str(row.get(c)))}</td>"
+                                    for c in columns) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def write_site_report(path: str | Path, events: list[dict], places: list[dict], plan_png: Path, occupancy_png: Path,
+                      fps: float, title: str = "ray3d site report", note: str = "", overwrite: bool = False) -> Path:
+    """The report at ``path``, the two plots embedded in it; its events link to ``viewer.html`` beside it."""
+    def embedded(png: Path) -> str:
+        return base64.b64encode(Path(png).read_bytes()).decode("ascii")
+
+    page = (_TEMPLATE.replace("__TITLE__", html.escape(title)).replace("__NOTE__", html.escape(note))
+            .replace("__PLAN__", embedded(plan_png)).replace("__OCCUPANCY__", embedded(occupancy_png))
+            .replace("__PLACES__", _table(places)).replace("__COLOURS__", json.dumps(EVENT_COLOURS))
+            .replace("__FPS__", json.dumps(float(fps))).replace("__EVENTS__", json.dumps(events).replace("</", "<\\/")))
+    path = Path(path)
+    with atomic_path(path, overwrite) as temporary:
+        temporary.write_text(page)
+    return path
+
+
+PLOTS = ("floor-plan.png", "occupancy.png")
+PAGES = ("report.html", "viewer.html")
+PRIVACY = ("Written from the world file's skeletons and tracks only: no image, crop or overlay of the video is in "
+           "this report.")
+CELL_M = 0.5  # the heat map's squares
+
+
+def site_outputs(out_dir: str | Path) -> list[Path]:
+    """Every file ``analyse_site`` writes in ``out_dir``."""
+    from ray3d.io.site_files import SITE_TABLES
+
+    return [Path(out_dir) / name for name in (*PAGES, *SITE_TABLES, *PLOTS)]
+
+
+def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site report",
+                 overwrite: bool = False) -> tuple[list[dict], list[dict], list[Path]]:
+    """A ``World``'s tracks on a ``ray3d.site.Site``: the events, the per-place summaries and the files written in
+    ``out_dir`` (``site_outputs``: the report, the viewer, every table and both plots)."""
+    from ray3d.io.site_files import write_site_tables
+    from ray3d.site import heat_map, occupancy, person_frames, site_events, track_summaries, zone_summaries
+    from ray3d.viz.html_viewer import write_viewer
+    from ray3d.viz.plots import plot_floor_plan, plot_occupancy
+
+    out_dir = Path(out_dir)
+    world = world.in_frame("world")
+    events, frames = site_events(world, site), person_frames(world, site)
+    places = zone_summaries(events, site)
+    times, counts = occupancy(frames, site, world.fps)
+    series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
+              for k, t in enumerate(times)]
+    tables = write_site_tables(out_dir, events, track_summaries(world, site), places, frames, series, overwrite)
+    heat, corner = heat_map(frames, world.fps, CELL_M)
+    floor_plan = plot_floor_plan(site, frames, heat, corner, CELL_M, out_dir / PLOTS[0], overwrite)
+    people = plot_occupancy(times, counts, out_dir / PLOTS[1], overwrite)
+    viewer = write_viewer(out_dir / PAGES[1], world.tracks, world.fps, world.camera, title=f"{title}: every track",
+                          overwrite=overwrite)
+    report = write_site_report(out_dir / PAGES[0], events, places, floor_plan, people, world.fps, title=title,
+                               note=PRIVACY, overwrite=overwrite)
+    return events, places, [report, viewer, *tables, floor_plan, people]
