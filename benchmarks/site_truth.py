@@ -1,0 +1,93 @@
+"""Site events against known truth: the test performers' walks seen by virtual cameras, lifted as `ray3d lift`
+would (GT 2D pixels, the shipped model, refinement and savgol smoothing), against the same events read off the
+mocap itself.
+
+    .venv/bin/python benchmarks/site_truth.py --cameras h36m --clips 20
+
+For every test clip whose pelvis travels at least 2 m, a 6 m line is put across its path at the path's middle
+(perpendicular to its overall direction) and a 2 m square zone centred there. Per (camera, clip): whether the
+lifted track crosses the line as often and in the same directions as the truth, the time differences, and the
+dwell in the zone against the truth's. Then the same clips made child-sized (every bone x 0.7, re-grounded) for the
+stature class.
+"""
+
+import argparse
+
+import numpy as np
+
+from ray3d import Lifter
+from ray3d.data.samples import scale_bones
+from ray3d.data.virtual_cameras import centre_clip, grid
+from ray3d.evaluate import evaluation_motion
+from ray3d.io.world import LiftResult
+from ray3d.site import CountingLine, Zone, line_crossings, stature_class, zone_visits
+
+FPS = 30.0
+
+
+def scene(clip: np.ndarray) -> tuple[CountingLine, Zone] | None:
+    path = clip[:, 0, :2]
+    travel = path[-1] - path[0]
+    if np.linalg.norm(travel) < 2.0:
+        return None
+    middle = path[len(path) // 2]
+    across = np.array([-travel[1], travel[0]]) / np.linalg.norm(travel)
+    line = CountingLine("door", middle - 3 * across, middle + 3 * across)
+    square = middle + np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+    return line, Zone("square", square)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--cameras", default="h36m")
+    parser.add_argument("--camera-stride", type=int, default=4)
+    parser.add_argument("--clips", type=int, default=20)
+    args = parser.parse_args()
+    motion, _ = evaluation_motion(split="test")
+    lifter = Lifter.load()
+    cameras = grid(args.cameras)[::args.camera_stride]
+    same, crossings, time_errors, dwell_errors, classes, children = 0, 0, [], [], [], []
+    used = 0
+    for i in range(motion.num_clips):
+        if used >= args.clips:
+            break
+        step = int(round(float(motion.clips["fps"][i]) / FPS))
+        clip = centre_clip(motion.clip(i).astype(np.float64))[::step]
+        placed = scene(clip)
+        if placed is None or len(clip) < 30:
+            continue
+        used += 1
+        line, zone = placed
+        times = np.arange(len(clip)) / FPS
+        truth_crossings = line_crossings(times, clip[:, 0, :2], line)
+        truth_dwell = sum(v["dwell_s"] for v in zone_visits(times, clip[:, 0, :2], zone))
+        child = scale_bones(clip, np.full(clip.shape[:2], 0.7))
+        for camera in cameras:
+            if not camera.sees(clip):
+                continue
+            result: LiftResult = lifter.lift(camera.project(clip), camera, fps=FPS, smooth_3d="savgol")
+            lifted = line_crossings(times, result.root[:, :2], line)
+            crossings += 1
+            if [c["direction"] for c in lifted] == [c["direction"] for c in truth_crossings]:
+                same += 1
+                time_errors += [abs(a["time_s"] - b["time_s"]) for a, b in zip(lifted, truth_crossings)]
+            if truth_dwell > 0.5:
+                dwell = sum(v["dwell_s"] for v in zone_visits(times, result.root[:, :2], zone))
+                dwell_errors.append(abs(dwell - truth_dwell) / truth_dwell)
+            classes.append(stature_class(result.refinement["stature_m"], result.refinement["stature_interval_m"]))
+            if camera.sees(child):
+                small = lifter.lift(camera.project(child), camera, fps=FPS, smooth_3d="savgol").refinement
+                children.append(stature_class(small["stature_m"], small["stature_interval_m"]))
+    time_errors, dwell_errors = np.array(time_errors), np.array(dwell_errors)
+    print(f"{used} walking clips x {len(cameras)} {args.cameras} cameras: {crossings} (camera, clip) pairs")
+    print(f"line crossings as the truth's (count and directions): {same} of {crossings}; time error median "
+          f"{np.median(time_errors):.3f} s, max {time_errors.max():.3f} s, within 0.2 s "
+          f"{100 * np.mean(time_errors <= 0.2):.1f} % of {len(time_errors)}")
+    print(f"zone dwell: error median {100 * np.median(dwell_errors):.1f} %, within 5 % in "
+          f"{100 * np.mean(dwell_errors <= 0.05):.1f} % of {len(dwell_errors)} pairs")
+    print("stature classes, adults: " + ", ".join(f"{k} {classes.count(k)}" for k in ("adult", "unsure", "child"))
+          + "; child-sized (x0.7): " + ", ".join(f"{k} {children.count(k)}" for k in ("adult", "unsure", "child")))
+
+
+if __name__ == "__main__":
+    main()
