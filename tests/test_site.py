@@ -306,3 +306,15 @@ def test_the_site_report_renders_its_plan_timeline_and_events_in_headless_chromi
     blue = (pixels[..., 2] > 150) & (pixels[..., 0] < 60) & (pixels[..., 1] < 140)  # the zone, entries
     green = (pixels[..., 1] > 120) & (pixels[..., 0] < 80) & (pixels[..., 2] < 80)  # track started
     assert red.sum() > 100 and blue.sum() > 100 and green.sum() > 20
+
+
+def test_a_yaml_site_file_reads_as_its_json_twin_and_broken_yaml_is_refused(tmp_path):
+    path = tmp_path / "site.yaml"
+    path.write_text("zones:\n  - name: room\n    polygon: [[1, -2], [4, -2], [4, 2], [1, 2]]\n    max_dwell_s: 30\n"
+                    "lines:\n  - {name: door, start: [0, -1], end: [0, 1]}\n")
+    site = read_site(path)
+    assert site.zones[0].name == "room" and site.zones[0].max_dwell_s == 30.0 and site.lines[0].name == "door"
+    path.write_text("zones: [unclosed\n")
+    with pytest.raises(InputError, match="not valid YAML") as caught:
+        read_site(path)
+    assert str(path) in caught.value.message

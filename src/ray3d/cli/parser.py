@@ -228,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
                                             "(lines crossed, zones entered and left) and per-track and per-place tables")
     site.add_argument("world", type=Path, help="a world file (.json/.csv/.npz) of ray3d lift or ray3d video")
     site.add_argument("--site", required=True, type=Path,
-                      help="the site file (JSON: zones and directed lines in world metres; docs/site.md)")
+                      help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
     site.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "
                                                              "places.csv")
     _add_force(site, "replace existing tables")

@@ -37,13 +37,25 @@ def _limit(entry: dict, key: str, kind: type, where: str):
     return kind(value)
 
 
+def _document(path: Path):
+    """A site file's contents: YAML for .yaml / .yml (parsed safely: plain data only), else JSON."""
+    if path.suffix.lower() not in (".yaml", ".yml"):
+        return read_json(path)
+    import yaml
+
+    try:
+        return yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise InputError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+
+
 @reads_file("site file")
 def read_site(path: str | Path) -> Site:
-    """A site file (JSON): ``{"zones": [{"name", "polygon": [[x, y], ...][, "max_occupancy", "max_dwell_s"]}],
+    """A site file (JSON, or YAML as .yaml / .yml, the same fields): ``{"zones": [{"name", "polygon": [[x, y], ...][, "max_occupancy", "max_dwell_s"]}],
     "lines": [{"name", "start": [x, y], "end": [x, y]}]}`` in world metres; names must be unique within zones and
     within lines."""
     path = Path(path)
-    document = read_json(path)
+    document = _document(path)
     if not isinstance(document, dict) or not (set(document) & {"zones", "lines"}):
         raise InputError(f"{path}: expected an object with zones and / or lines")
     unknown = set(document) - {"zones", "lines"}
