@@ -318,3 +318,14 @@ def test_a_yaml_site_file_reads_as_its_json_twin_and_broken_yaml_is_refused(tmp_
     with pytest.raises(InputError, match="not valid YAML") as caught:
         read_site(path)
     assert str(path) in caught.value.message
+
+
+def test_a_reader_that_stops_reading_is_not_an_internal_error(tmp_path, monkeypatch, capsys):
+    from ray3d.cli import main, site_commands
+
+    def closed_pipe(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(site_commands, "site", closed_pipe)
+    assert main(["site", "w.json", "--site", "s.json", "--out", str(tmp_path)]) == 141
+    assert "internal error" not in capsys.readouterr().err

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import io
+import os
 import sys
 
 from ray3d.errors import InputError
@@ -35,6 +37,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"ray3d {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # whoever read the output stopped (`| head`): not a bug; stop as a SIGPIPE would
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error flushing at exit
+        except (OSError, ValueError, io.UnsupportedOperation):
+            pass
+        return 141
     except Exception as err:  # a bug, not bad input: one line and how to report it, the traceback with --debug
         if args.debug:
             raise
