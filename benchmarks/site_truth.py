@@ -11,7 +11,8 @@ dwell in the zone against the truth's. Then the same clips made child-sized (eve
 stature class; and each walk made a loiterer (stopping 20 s halfway, swaying 2 cm) for the dwell in a 2 m square
 around the spot. Falls: every lifted pair checked for falls (there are none in these walks), and a scripted fall
 (a test performer's first pose tipped over about the feet in 0.6 s, then lying still for 4 s; the mocap has no
-fall) lifted from every camera that sees it.
+fall) lifted from every camera that sees it; and falls made from the test performers' `lieDownFloor` clips
+(the drop from the last standing frame to lying played 3x faster, then lying held 4 s, then the clip's getting up).
 """
 
 import argparse
@@ -60,6 +61,24 @@ def loiterer(clip: np.ndarray, stay_s: float = 20.0) -> np.ndarray:
     sway = 0.02 * np.sin(np.arange(hold) / FPS * 2 * np.pi * 0.3)[:, None, None] * np.array([1.0, 0.0, 0.0])
     held = np.repeat(clip[half:half + 1], hold, axis=0) + sway
     return np.concatenate([clip[:half], held, clip[half:] + (held[-1, 0] - clip[half, 0]) * [1, 1, 0]])
+
+
+def fast_lying_down(clip: np.ndarray, speed: float = 3.0, hold_s: float = 4.0) -> np.ndarray | None:
+    """A fall made from a clip of lying down on the floor: the frames from the head's last standing height to its
+    lowest played ``speed`` times faster (every ``speed``-th frame), then the lying pose held ``hold_s``, then the
+    rest of the clip (getting up, where it has it). None if the head never drops 1 m."""
+    from ray3d.body import HEAD
+
+    head = clip[:, HEAD, 2]
+    lowest = int(np.argmin(head))
+    standing = np.flatnonzero(head[:lowest] > head[lowest] + 1.0)
+    if not len(standing):
+        return None
+    start = int(standing[-1]) - int(FPS)  # a second before the last standing frame
+    start = max(start, 0)
+    drop = clip[start:lowest + 1][::int(speed)]
+    return np.concatenate([clip[:start], drop, np.repeat(clip[lowest:lowest + 1], int(hold_s * FPS), axis=0),
+                           clip[lowest:]])
 
 
 def main() -> None:
@@ -114,6 +133,18 @@ def main() -> None:
             if camera.sees(child):
                 small = lifter.lift(camera.project(child), camera, fps=FPS, smooth_3d="savgol").refinement
                 children.append(stature_class(small["stature_m"], small["stature_interval_m"]))
+    made = []  # falls made from the test performers' lying down, found on the truth and through lifting
+    for i in np.flatnonzero(np.char.find(motion.clips["clip_id"].astype(str), "lieDownFloor") >= 0):
+        step = int(round(float(motion.clips["fps"][i]) / FPS))
+        fallen = fast_lying_down(centre_clip(motion.clip(i).astype(np.float64))[::step])
+        if fallen is None:
+            continue
+        made_times = np.arange(len(fallen)) / FPS
+        made.append(("truth", len(falls(made_times, fallen))))
+        for camera in cameras:
+            if camera.sees(fallen):
+                lifted = lifter.lift(camera.project(fallen), camera, fps=FPS, smooth_3d="savgol").joints
+                made.append(("lifted", len(falls(made_times, lifted))))
     fall = scripted_fall(centre_clip(motion.clip(0).astype(np.float64))[0])
     fall_times = np.arange(len(fall)) / FPS
     found_falls = [len(falls(fall_times, lifter.lift(camera.project(fall), camera, fps=FPS, smooth_3d="savgol").joints))
@@ -125,6 +156,10 @@ def main() -> None:
           f"{100 * np.mean(time_errors <= 0.2):.1f} % of {len(time_errors)}")
     print(f"zone dwell: error median {100 * np.median(dwell_errors):.1f} %, within 5 % in "
           f"{100 * np.mean(dwell_errors <= 0.05):.1f} % of {len(dwell_errors)} pairs")
+    for kind in ("truth", "lifted"):
+        counts = [n for k, n in made if k == kind]
+        print(f"falls made from the test performers' lying down (3x faster, then lying 4 s), {kind}: found once in "
+              f"{counts.count(1)} of {len(counts)}, missed in {counts.count(0)}")
     loiter_errors = np.array(loiter_errors)
     print(f"loiterers (each walk stopping 20 s halfway, a 2 m square around the spot): dwell error median "
           f"{100 * np.median(loiter_errors):.1f} %, largest {100 * loiter_errors.max():.1f} %, within 5 % in "
