@@ -11,12 +11,11 @@ ray, than the network (``keypoint_error`` against ``pose_lateral_sd_m``): onto i
 for a detector's keypoints of a person far away.
 
 - the network: ``log s_t = b`` frame by frame, with a standard deviation that grows with the distance
-  (``depth_sd``), where ``b`` is the network's error shared by the whole track (``depth_bias_sd``: the
-  network's distance errors of one person are alike from frame to frame, so many frames do not average them away);
+  (``depth_sd``), where ``b`` is the network's error shared by the whole track;
 - the floor: in every frame the detector saw, the lowest ankle lies ``contact_ankle_height_m + f`` above the
-  floor under it (``ray3d.geometry.floor``: z = 0, or a declared region), under a robust loss, so the frames where
-  no foot touches it (jumps, a foot on a step) cost little; ``f`` is the person's own contact height, shared
-  by the track (``floor_offset_sd_m``);
+  floor under it (``ray3d.geometry.floor``: z = 0, or a declared region, felt over a foot's length), under a
+  robust loss, so the frames where no foot touches it (jumps, a foot on a step) cost little; ``f`` is where the
+  person's pelvis rests over the floor against the prior, shared by the track;
 - the body: ``s_t`` times the frame's body size equals the track's size, which has an adult prior;
 - smoothness: the person's distance changes smoothly (the second difference of its log is small), so the
   network's frame-to-frame depth jitter is smoothed away while a steady approach or retreat costs nothing.
@@ -24,10 +23,14 @@ for a detector's keypoints of a person far away.
 Before solving, the floor is put to a test: over every stretch of ``agreement_window_s`` the distance at which
 the feet would rest on the floor is compared with the network's; where they differ by more than
 ``agreement_sigmas`` of their joint uncertainty (a platform, stairs, a bed, a person on a vehicle) the floor
-term is dropped for that stretch and the floor's height there is estimated from the network instead. The
-frames in contact are those the solution puts within two standard deviations of the floor. The answer's
-uncertainty is the solution's (Gauss-Newton) covariance: the root's standard deviation along its ray per
-frame, and across it from the keypoints' error. (A contact call from the ankles' speed was tried first: with
+term is dropped for that stretch and the floor's height there is estimated from the network instead
+(``ray3d.contact``). The frames in contact are those the solution puts within two standard deviations of the
+floor. ``b`` and ``f`` are held at 0 in the solution (each frame's network depth weighed on its own, the contact
+height at its prior: measured best on the test performers) and released to their spreads (``depth_bias_sd``: the
+network's distance errors of one person are alike from frame to frame, so many frames do not average them away;
+``floor_offset_sd_m``) for the answer's uncertainty: the solution's Gauss-Newton covariance, plus the share of the
+distance the cues leave (``residual_distance_sd``), is the root's standard deviation along its ray per frame;
+across it, a share of the keypoints' error. (A contact call from the ankles' speed was tried first: with
 detector jitter on people 100 px tall it found one planted foot in ten frames; docs/RESULTS.md.) Heights and
 sizes come from the training performers of the shipped mocap.
 """
