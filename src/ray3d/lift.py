@@ -159,17 +159,16 @@ class Lifter:
 
     def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
              smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
-             chunk: int = 8192, refine: bool | RefineConfig = True,
-             progress: bool | str = False, floor: Floor = FLAT_FLOOR) -> LiftResult | list[LiftResult]:
+             chunk: int = 8192, refine: bool | RefineConfig = True, progress: bool | str = False,
+             floor: Floor = FLAT_FLOOR) -> LiftResult | list[LiftResult]:
         """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
 
         Args:
             keypoints: pixels (u, v) in ``layout`` (h36m17, coco17, blazepose33, body25, ...); NaN = missing.
             confidences: optional (T, J) scores (0: missing); fps: the input's frame rate (default: the model's, 60).
             smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
-            refine: move the person along their rays so the feet rest on the floor and the body keeps one size
-                (``ray3d.refine``; a ``RefineConfig`` sets its uncertainties, ``floor`` the floor under the feet);
-                False keeps the network's output (the result has the root's position uncertainty either way).
+            refine: move the person along their rays so the feet rest on the ``floor``, one body size (``ray3d.refine``;
+                a ``RefineConfig`` sets its uncertainties); False keeps the network's (either has its uncertainty).
             progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
         """
         if fps is not None:
@@ -202,14 +201,15 @@ class Lifter:
         joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress, model_scores)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
-        refinement, config = None, refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document)
-        position_sd = network_position_sd(joints, camera, config)
+        config = refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document)
         if refine:
             measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement
             joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, measured, inputs),
                                            temporal.seen_frames(~h36m_found), config,
                                            feet_seen=h36m_found[:, list(ANKLES)].any(axis=1), floor=floor)
             refinement, position_sd = refined.summary(), refined.position_sd_m
+        else:
+            refinement, position_sd = None, network_position_sd(joints, camera, config)
         joints = temporal.smooth(joints, smooth_3d, input_fps)
         return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement,
                           position_sd=position_sd)

@@ -67,7 +67,7 @@ class RefineConfig:
     The planted ankle's height and the body-size prior are ``ray3d.body``'s, measured on the training
     performers of the shipped mocap. ``depth_bias_sd`` is (distance m, relative sd) pairs, interpolated: the rms
     of the shipped ``ray3d``'s relative distance error by the distance it predicts, GT 2D, test performers, every
-    camera set (docs/RESULTS.md, "An honest uncertainty": beyond 15 m it predicts people much too close).
+    camera set (docs/RESULTS.md, "Never worse than the network": beyond 15 m it predicts people much too close).
     """
 
     contact_ankle_height_m: float = body.PLANTED_ANKLE_HEIGHT_M
@@ -77,7 +77,7 @@ class RefineConfig:
     contact_height_sd_m: float = 0.02
     floor_offset_sd_m: float = 0.035
     # What the cues leave of the distance's error, as a share of it (the network's pose seen from afar and from
-    # above: docs/RESULTS.md, "An honest uncertainty"); added to the solution's own uncertainty.
+    # above: docs/RESULTS.md, "Never worse than the network"); added to the solution's own uncertainty.
     residual_distance_sd: float = 0.0065
     body_size_m: float = body.ADULT_BODY_SIZE_M      # prior on the size chain of an adult
     body_size_sd: float = body.ADULT_BODY_SIZE_SD    # relative

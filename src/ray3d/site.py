@@ -10,9 +10,11 @@ seconds from the world's frame 0 (``frame / fps``).
 from __future__ import annotations
 
 import dataclasses
+
 import numpy as np
 
-from ray3d.geometry.floor import FloorRegion
+from ray3d.body import HEAD, PELVIS, POSTURES, postures
+from ray3d.geometry.floor import polygon_contains
 from ray3d.io.world import World
 
 
@@ -35,7 +37,7 @@ class Zone:
 
     def contains(self, xy: np.ndarray) -> np.ndarray:
         """(..., 2) -> (...) whether the points lie inside."""
-        return FloorRegion(self.name, self.polygon, 0.0).contains(xy)
+        return polygon_contains(self.polygon, xy)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -211,8 +213,6 @@ def falls(times: np.ndarray, joints: np.ndarray) -> list[dict]:
     upright, pelvis under ``FALL_PELVIS_M``) and stays there, the pelvis moving less than ``FALL_STILL_M``, for
     ``FALL_STILL_S``. Sitting down (the torso stays upright), bending (the pelvis stays up) and lying down slowly
     are not falls. Each with its time (when the head has dropped ``FALL_DROP_M``), place and evidence."""
-    from ray3d.body import HEAD, PELVIS, POSTURES, postures
-
     head, pelvis = joints[:, HEAD, 2], joints[:, PELVIS]
     down = (postures(joints) == POSTURES.index("lying")) & (pelvis[:, 2] < FALL_PELVIS_M)
     # The lowest the head gets within FALL_DROP_S after each frame (a reverse cumulative window minimum).
@@ -256,8 +256,6 @@ def person_frames(world: World, site: Site) -> list[dict]:
     """Per person-frame: the track, frame, time, floor point (x, y, metres), speed (m/s) and heading (degrees from
     +x towards +y) over ``SPEED_WINDOW_S`` around it (None where the person is slower than 0.2 m/s: no heading),
     posture (``ray3d.body.postures``) and the zones the point is in."""
-    from ray3d.body import POSTURES, postures
-
     rows = []
     for track, result in world.in_frame("world").tracks.items():
         times, points = result.frames / result.fps, result.root[:, :2]

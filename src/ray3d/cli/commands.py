@@ -307,9 +307,10 @@ def video(args: argparse.Namespace) -> int:
     from ray3d.options import VideoOptions
     from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
+    plan = None
     if args.site is not None:  # refused before any work, not after it
         refuse_site_outputs(args.out / "site", (args.input, args.site), args.force)
-        read_site(args.site)
+        plan = read_site(args.site)
     info = read_video_info(args.input)
     camera = camera_for_video(_camera(args, info.image_size), info)
     options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
@@ -327,8 +328,8 @@ def video(args: argparse.Namespace) -> int:
     _print_refinements(tracks)
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
-    if args.site is not None:
-        report_site(result.world, args.site, args.out / "site", f"{args.input.name} on {args.site.name}", args.force)
+    if plan is not None:
+        report_site(result.world, plan, args.out / "site", f"{args.input.name} on {args.site.name}", args.force)
     return 0
 
 

@@ -17,12 +17,11 @@ def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool) -> None:
         refuse_existing(check_output(path, inputs), overwrite)
 
 
-def report_site(world, site_path: Path, out_dir: Path, title: str, overwrite: bool) -> None:
-    """Analyse and print the counts per place and the events by kind."""
-    from ray3d.io.site_files import read_site
+def report_site(world, site, out_dir: Path, title: str, overwrite: bool) -> None:
+    """Analyse a ``World`` on a ``ray3d.site.Site`` and print the counts per place and the events by kind."""
     from ray3d.viz.site_report import analyse_site
 
-    events, places, paths = analyse_site(world, read_site(site_path), out_dir, title, overwrite)
+    events, places, paths = analyse_site(world, site, out_dir, title, overwrite)
     for row in places:
         tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
                  else f"{row['forward']} forward, {row['back']} back")
@@ -39,6 +38,6 @@ def site(args: argparse.Namespace) -> int:
     from ray3d.io.world import read_world
 
     refuse_site_outputs(args.out, (args.world, args.site), args.force)
-    read_site(args.site)  # a bad site file is refused before the world file is read
-    report_site(read_world(args.world), args.site, args.out, f"{args.world.name} on {args.site.name}", args.force)
+    plan = read_site(args.site)  # a bad site file is refused before the world file is read
+    report_site(read_world(args.world), plan, args.out, f"{args.world.name} on {args.site.name}", args.force)
     return 0

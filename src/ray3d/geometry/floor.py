@@ -15,6 +15,27 @@ PLANARITY_TOLERANCE_M = 0.02  # vertex heights further than this from one plane 
 FOOT_LENGTH_M = 0.25  # the floor under an ankle is felt over a foot's length
 
 
+def checked_polygon(polygon, where: str, arguments: tuple[str, ...] = ()) -> np.ndarray:
+    """A floor-plan polygon as a (V, 2) float array in metres, refused (naming ``where``) unless it has 3 or more
+    finite points and encloses some area."""
+    polygon = np.asarray(polygon, dtype=np.float64)
+    if polygon.ndim != 2 or polygon.shape[1] != 2 or len(polygon) < 3:
+        raise InputError(f"{where}: must be 3 or more [x, y] points in metres, got shape {polygon.shape}",
+                         arguments=arguments)
+    if not np.isfinite(polygon).all():
+        raise InputError(f"{where}: has a non-finite coordinate", arguments=arguments)
+    x, y = polygon.T
+    if abs(0.5 * np.dot(x, np.roll(y, 1)) - 0.5 * np.dot(y, np.roll(x, 1))) < 1e-4:
+        raise InputError(f"{where}: encloses no area", arguments=arguments)
+    return polygon
+
+
+def polygon_contains(polygon: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """(V, 2) polygon, (..., 2) floor-plan points -> (...) whether the points lie inside it."""
+    xy = np.asarray(xy, dtype=np.float64)
+    return PolygonPath(polygon).contains_points(xy.reshape(-1, 2)).reshape(xy.shape[:-1])
+
+
 @dataclasses.dataclass(frozen=True)
 class FloorRegion:
     """A region of floor: ``polygon`` (V, 2) world x, y in metres (V >= 3, no self-check beyond area), at
@@ -27,16 +48,8 @@ class FloorRegion:
     anchor: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
-        polygon = np.asarray(self.polygon, dtype=np.float64)
         where = f"floor region {self.name!r}"
-        if polygon.ndim != 2 or polygon.shape[1] != 2 or len(polygon) < 3:
-            raise InputError(f"{where}: polygon must be 3 or more [x, y] points in metres, got shape {polygon.shape}",
-                             arguments=("floor",))
-        if not np.isfinite(polygon).all():
-            raise InputError(f"{where}: polygon has a non-finite coordinate", arguments=("floor",))
-        x, y = polygon.T
-        if abs(0.5 * np.dot(x, np.roll(y, 1)) - 0.5 * np.dot(y, np.roll(x, 1))) < 1e-4:
-            raise InputError(f"{where}: polygon encloses no area", arguments=("floor",))
+        polygon = checked_polygon(self.polygon, f"{where}: polygon", ("floor",))
         numbers = (self.height_m, *self.gradient, *self.anchor)
         if len(self.gradient) != 2 or len(self.anchor) != 2 or not np.isfinite(numbers).all():
             raise InputError(f"{where}: height, gradient and anchor must be finite numbers", arguments=("floor",))
@@ -69,8 +82,7 @@ class FloorRegion:
 
     def contains(self, xy: np.ndarray) -> np.ndarray:
         """(..., 2) -> (...) whether the points lie inside the polygon."""
-        xy = np.asarray(xy, dtype=np.float64)
-        return PolygonPath(self.polygon).contains_points(xy.reshape(-1, 2)).reshape(xy.shape[:-1])
+        return polygon_contains(self.polygon, xy)
 
 
 @dataclasses.dataclass(frozen=True)

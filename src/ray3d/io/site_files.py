@@ -11,7 +11,7 @@ import numpy as np
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry.arrays import numeric_array
-from ray3d.geometry.floor import FloorRegion
+from ray3d.geometry.floor import checked_polygon
 from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
 from ray3d.site import CountingLine, Site, Zone
@@ -77,11 +77,7 @@ def read_site(path: str | Path) -> Site:
             if any(item.name == name for item in out):
                 raise InputError(f"{where}.name: {name!r} is used twice")
             if key == "zones":
-                polygon = numeric_array(entry["polygon"], f"{where}.polygon")
-                try:
-                    FloorRegion(name, polygon, 0.0)  # the same checks as a floor region's polygon
-                except InputError as err:
-                    raise InputError(f"{where}.polygon: {err.message}") from None
+                polygon = checked_polygon(numeric_array(entry["polygon"], f"{where}.polygon"), f"{where}.polygon")
                 out.append(Zone(name, polygon, _limit(entry, "max_occupancy", int, f"{where}.max_occupancy"),
                                 _limit(entry, "max_dwell_s", float, f"{where}.max_dwell_s")))
             else:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -51,8 +52,6 @@ def plot_floor_plan(site, rows: list[dict], heat, corner: tuple[float, float], c
                     overwrite: bool = False) -> Path:
     """The floor plan (metres, seen from above): time spent per square (``ray3d.site.heat_map``), everybody's
     path, the site's zones and its directed lines (an arrow points from a line's left to its right: "forward")."""
-    import numpy as np
-
     fig, axis = plt.subplots(figsize=(7.5, 6.5), dpi=110)
     if heat.size:
         extent = (corner[0], corner[0] + heat.shape[1] * cell_m, corner[1], corner[1] + heat.shape[0] * cell_m)
