@@ -102,16 +102,80 @@ def test_a_site_file_reads_zones_and_lines(tmp_path):
     ({"lines": [{"name": "l", "start": [0, 0], "end": [0, 0]}]}, "start and end are the same point"),
     ({"lines": [{"name": "l", "start": [0, 0, 0], "end": [1, 0]}]}, r"lines\[0\].start: expected \[x, y\]"),
     ({"lines": [{"name": "l", "start": ["a", 0], "end": [1, 0]}]}, "not numeric"),
+    ({"zones": [], "floor_plan": {"image": "plan.png", "origin": [0, 0]}}, "floor_plan: expected the fields image"),
+    ({"zones": [], "floor_plan": {"image": "plan.png", "metres_per_pixel": 0, "origin": [0, 0]}},
+     "floor_plan.metres_per_pixel: expected a positive number"),
+    ({"zones": [], "floor_plan": {"image": "absent.png", "metres_per_pixel": 0.1, "origin": [0, 0]}},
+     "floor_plan.image: .*absent.png does not exist"),
+    ({"zones": [], "floor_plan": {"image": "site.json", "metres_per_pixel": 0.1, "origin": [0, 0]}},
+     "floor_plan.image: .*site.json is not a picture"),
+    ({"zones": [], "floor_plan": {"image": "plan.png", "metres_per_pixel": 0.1, "origin": [0]}},
+     r"floor_plan.origin: expected \[x, y\]"),
 ])
 def test_bad_site_files_are_refused_naming_the_file_and_field(tmp_path, document, message):
     path = tmp_path / "site.json"
     path.write_text(json.dumps(document))
+    _write_plan(tmp_path / "plan.png")
     if message is None:
         assert read_site(path) == Site()
         return
     with pytest.raises(InputError, match=message) as caught:
         read_site(path)
     assert str(path) in caught.value.message
+
+
+def _write_plan(path, size=(40, 20)):
+    """A floor picture: red in its left half, blue in its right half."""
+    from PIL import Image
+
+    pixels = np.zeros((size[1], size[0], 3), np.uint8)
+    pixels[:, : size[0] // 2] = (255, 0, 0)
+    pixels[:, size[0] // 2:] = (0, 0, 255)
+    Image.fromarray(pixels).save(path)
+
+
+def test_a_floor_plan_picture_lies_under_the_plot_where_its_origin_and_scale_put_it(tmp_path):
+    from PIL import Image
+
+    from ray3d.viz.plots import plot_floor_plan
+
+    _write_plan(tmp_path / "plan.png")  # 40 x 20 px at 0.25 m: x in [-6, 4], y in [2, 7]
+    (tmp_path / "site.json").write_text(json.dumps({
+        "zones": [], "floor_plan": {"image": "plan.png", "metres_per_pixel": 0.25, "origin": [-6, 2]}}))
+    site = read_site(tmp_path / "site.json")
+    assert site.floor_plan.extent() == (-6.0, 4.0, 2.0, 7.0)
+    assert site.floor_plan.image.shape == (20, 40, 3)
+    frames, heat, corner = [], np.zeros((0, 0)), (0.0, 0.0)  # nobody: the picture alone
+    plot = np.asarray(Image.open(plot_floor_plan(site, frames, heat, corner, 0.5, tmp_path / "plan-plot.png")))
+    red = (plot[..., 0] > 200) & (plot[..., 1] < 60) & (plot[..., 2] < 60)
+    blue = (plot[..., 2] > 200) & (plot[..., 0] < 60) & (plot[..., 1] < 60)
+    assert red.sum() > 1000 and blue.sum() > 1000
+    assert np.median(np.nonzero(red)[1]) < np.median(np.nonzero(blue)[1])  # the picture's left half drawn on the left
+
+
+def test_the_site_schema_accepts_what_the_reader_reads_and_refuses_wrong_shapes(tmp_path):
+    from importlib import resources
+
+    import jsonschema
+
+    schema = json.loads(resources.files("ray3d").joinpath("assets", "site.schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    validator = jsonschema.Draft202012Validator(schema)
+    _write_plan(tmp_path / "plan.png")
+    document = {"zones": [{"name": "room", "polygon": ROOM.polygon.tolist(), "max_occupancy": 3, "max_dwell_s": 60}],
+                "lines": [{"name": "door", "start": [0, -1], "end": [0, 1]}],
+                "floor_plan": {"image": "plan.png", "metres_per_pixel": 0.05, "origin": [-1, -2]}}
+    (tmp_path / "site.json").write_text(json.dumps(document))
+    read_site(tmp_path / "site.json")
+    validator.validate(document)
+    for wrong in ({}, dict(document, doors=[]), {"zones": [{"name": "a", "polygon": [[0, 0], [1, 0]]}]},
+                  {"lines": [{"name": "l", "start": [0, 0, 0], "end": [1, 0]}]},
+                  {"zones": [{"name": "a", "polygon": [[0, 0], [1, 0], [1, 1]], "max_occupancy": 1.5}]},
+                  dict(document, floor_plan={"image": "plan.png", "metres_per_pixel": 0, "origin": [0, 0]})):
+        assert not validator.is_valid(wrong)
+        (tmp_path / "wrong.json").write_text(json.dumps(wrong))
+        with pytest.raises(InputError):
+            read_site(tmp_path / "wrong.json")
 
 
 def test_the_site_command_writes_its_tables_and_refuses_a_bad_site(tmp_path, capsys):

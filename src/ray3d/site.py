@@ -55,10 +55,28 @@ class CountingLine:
         return direction[0] * offset[..., 1] - direction[1] * offset[..., 0]
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class FloorPlan:
+    """A picture of the floor seen from above, (H, W, 3 or 4) uint8, drawn under the site's places: each pixel is
+    ``metres_per_pixel`` square, the picture's bottom-left corner lies at ``origin`` (world x, y in metres), its
+    columns run along +x and its rows up the picture along +y (the convention of ROS occupancy maps)."""
+
+    image: np.ndarray
+    metres_per_pixel: float
+    origin: np.ndarray
+
+    def extent(self) -> tuple[float, float, float, float]:
+        """(x min, x max, y min, y max) of the picture on the floor, metres."""
+        height, width = self.image.shape[:2]
+        x, y = float(self.origin[0]), float(self.origin[1])
+        return x, x + width * self.metres_per_pixel, y, y + height * self.metres_per_pixel
+
+
 @dataclasses.dataclass(frozen=True)
 class Site:
     zones: tuple[Zone, ...] = ()
     lines: tuple[CountingLine, ...] = ()
+    floor_plan: FloorPlan | None = None
 
 
 def line_crossings(times: np.ndarray, points: np.ndarray, line: CountingLine) -> list[dict]:

@@ -14,7 +14,7 @@ from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import checked_polygon
 from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
-from ray3d.site import CountingLine, Site, Zone
+from ray3d.site import CountingLine, FloorPlan, Site, Zone
 
 SITE_TABLES = ("events.jsonl", "events.csv", "tracks.csv", "places.csv", "frames.csv", "occupancy.csv")
 
@@ -49,16 +49,42 @@ def _document(path: Path):
         raise InputError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
 
 
+def _floor_plan(entry, site_path: Path) -> FloorPlan:
+    """A site file's ``floor_plan``: the picture (a path relative to the site file's folder), its metres per pixel
+    and the world (x, y) of its bottom-left corner."""
+    where = f"{site_path}: floor_plan"
+    fields = {"image", "metres_per_pixel", "origin"}
+    if not isinstance(entry, dict) or set(entry) != fields:
+        raise InputError(f"{where}: expected the fields {', '.join(sorted(fields))}")
+    scale = entry["metres_per_pixel"]
+    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not np.isfinite(scale) or scale <= 0:
+        raise InputError(f"{where}.metres_per_pixel: expected a positive number, got {scale!r}")
+    if not isinstance(entry["image"], str):
+        raise InputError(f"{where}.image: expected the picture's path, got {entry['image']!r}")
+    image_path = site_path.parent / entry["image"]
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(image_path) as picture:
+            image = np.asarray(picture.convert("RGBA" if "A" in picture.getbands() else "RGB"))
+    except FileNotFoundError:
+        raise InputError(f"{where}.image: {image_path} does not exist") from None
+    except (UnidentifiedImageError, OSError) as err:
+        raise InputError(f"{where}.image: {image_path} is not a picture ({err})") from None
+    return FloorPlan(image, float(scale), _point(entry["origin"], f"{where}.origin"))
+
+
 @reads_file("site file")
 def read_site(path: str | Path) -> Site:
-    """A site file (JSON, or YAML as .yaml / .yml, the same fields): ``{"zones": [{"name", "polygon": [[x, y], ...][, "max_occupancy", "max_dwell_s"]}],
-    "lines": [{"name", "start": [x, y], "end": [x, y]}]}`` in world metres; names must be unique within zones and
-    within lines."""
+    """A site file (JSON, or YAML as .yaml / .yml, the same fields; ``assets/site.schema.json``):
+    ``{"zones": [{"name", "polygon": [[x, y], ...][, "max_occupancy", "max_dwell_s"]}], "lines": [{"name", "start":
+    [x, y], "end": [x, y]}][, "floor_plan": {"image", "metres_per_pixel", "origin": [x, y]}]}`` in world metres;
+    names must be unique within zones and within lines."""
     path = Path(path)
     document = _document(path)
     if not isinstance(document, dict) or not (set(document) & {"zones", "lines"}):
         raise InputError(f"{path}: expected an object with zones and / or lines")
-    unknown = set(document) - {"zones", "lines"}
+    unknown = set(document) - {"zones", "lines", "floor_plan"}
     if unknown:
         raise InputError(f"{path}: unknown field {sorted(unknown)[0]!r}")
     zones, lines = [], []
@@ -85,7 +111,8 @@ def read_site(path: str | Path) -> Site:
                 if np.linalg.norm(end - start) < 0.01:
                     raise InputError(f"{where}: start and end are the same point")
                 out.append(CountingLine(name, start, end))
-    return Site(tuple(zones), tuple(lines))
+    floor_plan = _floor_plan(document["floor_plan"], path) if "floor_plan" in document else None
+    return Site(tuple(zones), tuple(lines), floor_plan)
 
 
 

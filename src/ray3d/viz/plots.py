@@ -50,9 +50,11 @@ def _save(fig, path: str | Path, overwrite: bool) -> Path:
 
 def plot_floor_plan(site, rows: list[dict], heat, corner: tuple[float, float], cell_m: float, path: str | Path,
                     overwrite: bool = False) -> Path:
-    """The floor plan (metres, seen from above): time spent per square (``ray3d.site.heat_map``), everybody's
+    """The floor plan (metres, seen from above) over the site's picture of the floor if it has one: time spent per square (``ray3d.site.heat_map``), everybody's
     path, the site's zones and its directed lines (an arrow points from a line's left to its right: "forward")."""
     fig, axis = plt.subplots(figsize=(7.5, 6.5), dpi=110)
+    if site.floor_plan is not None:
+        axis.imshow(site.floor_plan.image, extent=site.floor_plan.extent(), zorder=0)
     if heat.size:
         extent = (corner[0], corner[0] + heat.shape[1] * cell_m, corner[1], corner[1] + heat.shape[0] * cell_m)
         image = axis.imshow(np.ma.masked_equal(heat, 0), origin="lower", extent=extent, cmap="Oranges", alpha=0.8)
