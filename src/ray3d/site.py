@@ -234,7 +234,7 @@ def falls(times: np.ndarray, joints: np.ndarray) -> list[dict]:
     head, pelvis = joints[:, HEAD, 2], joints[:, PELVIS]
     down = (postures(joints) == POSTURES.index("lying")) & (pelvis[:, 2] < FALL_PELVIS_M)
     # The lowest the head gets within FALL_DROP_S after each frame (a reverse cumulative window minimum).
-    horizon = np.searchsorted(times, times + FALL_DROP_S, side="right")
+    horizon = np.searchsorted(times, times + FALL_DROP_S + 1e-9, side="right")  # up to FALL_DROP_S, rounding aside
     lowest_ahead = np.array([head[t + 1:end].min() if end > t + 1 else np.inf for t, end in enumerate(horizon)]) \
         if len(times) < 2 or np.ptp(np.diff(times)) > 1e-6 else _window_minimum(head, int(horizon[0]))
     found, resume = [], 0
