@@ -158,6 +158,38 @@ def test_streaming_equals_offline_lifting(camera, name, frames):
     assert stream.flush() == []
 
 
+def test_a_causal_stream_at_ten_frames_a_second_equals_offline_lifting_at_that_rate(camera):
+    lifter = _untrained("ray3d-causal")
+    pixels = camera.project(_walk(15))
+    stream = lifter.stream(camera, fps=10.0)
+    streamed = np.stack([stream.push(p) for p in pixels])  # an answer for every frame, at once
+    np.testing.assert_allclose(streamed, lifter.lift(pixels, camera, fps=10.0, refine=False).joints, atol=1e-5)
+
+
+def test_a_centred_stream_without_waiting_answers_at_once_close_to_offline_and_batches_like_one_by_one(camera):
+    from ray3d.lift_stream import lift_streams
+
+    lifter = _untrained("ray3d")
+    pixels = camera.project(_walk(20))
+    stream = lifter.stream(camera, fps=10.0, wait_for_future=False)
+    streamed = np.stack([stream.push(p) for p in pixels])
+    offline = lifter.lift(pixels, camera, fps=10.0, refine=False).joints
+    np.testing.assert_allclose(streamed[-1], offline[-1], atol=1e-5)  # the end: offline stands the future in too
+    assert np.abs(streamed - offline).max() < 0.5  # elsewhere it sees 4 model frames (67 ms) less of the future
+    one, two = (lifter.stream(camera, fps=10.0, wait_for_future=False) for _ in range(2))
+    together = []
+    for p in pixels:
+        one.add(p)
+        two.add(p + 5.0)
+        together.append(lift_streams([one, two]))
+    alone = lifter.stream(camera, fps=10.0, wait_for_future=False)
+    shifted = np.stack([alone.push(p + 5.0) for p in pixels])
+    np.testing.assert_allclose(np.stack([a for _, a in together]), shifted, atol=1e-5)
+    np.testing.assert_allclose(np.stack([a for a, _ in together]), streamed, atol=1e-5)
+    with pytest.raises(InputError, match="centred model waits for future frames only at its own 60"):
+        lifter.stream(camera, fps=10.0)
+
+
 def test_a_causal_model_never_looks_ahead(camera):
     lifter = _untrained("ray3d-causal")
     pixels = camera.project(_walk(40))

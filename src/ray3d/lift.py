@@ -28,86 +28,10 @@ from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.tensor_batch import TensorBatch
 from ray3d.options import LiftOptions
 from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
-from ray3d.skeleton import (Skeleton, conversion_matrix, convert_confidences, convert_keypoints,
-                            layout_skeleton)
-
-MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
-
-
-def _check_in_image(keypoints: np.ndarray, camera: Camera) -> None:
-    """Refuse keypoints normalised to 0-1 and keypoints that do not fit the camera's image."""
-    seen = keypoints[np.isfinite(keypoints).all(-1)]
-    width, height = camera.image_size
-    if not len(seen):
-        return
-    if np.abs(seen).max() <= 1.5 and max(width, height) > 16:
-        raise InputError("keypoints: every coordinate lies within 0-1.5: they look normalised to the image size; "
-                         "give them in pixels")
-    margin = 0.25 * np.array([width, height])
-    inside = np.mean(((seen >= -margin) & (seen <= [width, height] + margin)).all(-1))
-    if inside < 0.5:
-        raise InputError(f"keypoints: {100 * (1 - inside):.0f}% lie outside camera {camera.name or ''}'s "
-                         f"{width}x{height} image (by more than a quarter of it): the wrong camera or image size?")
-
-
-# Feet seen above the horizon (rays rising by more than ~2 degrees) from a camera higher than this cannot be
-# feet on the floor: the camera's pitch or orientation is wrong (e.g. a sign error: up instead of down).
-_HIGHEST_FEET_CAMERA_M = 0.3
-_FEET_RISE = 0.035
-
-
-def _check_feet_below_horizon(pixels: np.ndarray, found: np.ndarray, camera: Camera) -> None:
-    """Refuse a camera that would see the person's feet, most of the time, on rays rising above the horizon:
-    (T, 17, 2) H36M-17 pixels, (T, 17) which were detected (the ankles are the detector's own)."""
-    if camera.center[2] <= _HIGHEST_FEET_CAMERA_M:
-        return
-    seen = pixels[:, ANKLES][found[:, ANKLES]]
-    if not len(seen):
-        return
-    directions = camera.pixels_to_world_directions(seen)
-    rising = np.mean(directions[:, 2] / np.linalg.norm(directions, axis=-1) > _FEET_RISE)
-    if rising > 0.5:
-        raise InputError(f"keypoints: through camera {camera.name or ''} ({camera.center[2]:.1f} m above the floor) "
-                         f"the feet lie above the horizon in {100 * rising:.0f}% of "
-                         "detections, where no one standing on the floor can be: check the camera's pitch "
-                         "(positive looks down) or its rotation", arguments=("camera",))
-
-
-def checked_keypoints(keypoints, confidences, skeleton: Skeleton,
-                      leading: tuple[str, ...] = ()) -> tuple[np.ndarray, np.ndarray | None]:
-    """``keypoints`` (*leading, J, 2) pixels of ``skeleton``'s layout and optional ``confidences`` (*leading, J)
-    as float arrays, their shapes checked."""
-    keypoints = np.asarray(keypoints, dtype=np.float64)
-    if keypoints.ndim != len(leading) + 2 or keypoints.shape[len(leading):] != (skeleton.num_joints, 2):
-        expected = ", ".join([*leading, str(skeleton.num_joints), "2"])
-        raise InputError(f"keypoints: expected ({expected}) for layout {skeleton.name}, got {keypoints.shape}")
-    if confidences is not None:
-        confidences = np.asarray(confidences, dtype=np.float64)
-        if confidences.shape != keypoints.shape[:-1]:
-            raise InputError(f"confidences: expected shape {keypoints.shape[:-1]}, got {confidences.shape}")
-    return keypoints, confidences
-
-
-def stand_in_for_unseen(pixels: np.ndarray, never_seen: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(T, J, 2) pixels of ``skeleton`` with each joint ``never_seen`` (J,) placed on its parent (parents come
-    first), as training simulates a detector's miss: the network then predicts it from the rest of the body,
-    and the output flags it as filled in."""
-    pixels = pixels.copy()
-    for joint, parent in enumerate(skeleton.parents):
-        if never_seen[joint] and parent >= 0:
-            pixels[:, joint] = pixels[:, parent]
-    return pixels
-
-
-def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np.ndarray | None,
-                      inputs: Skeleton) -> np.ndarray:
-    """The (T, J_inputs) confidences a model reads: the detector's (clipped to [0, 1]; 1 where it gave none),
-    0 where a joint is missing, converted to the model's input layout (a derived joint as sure as its least
-    sure source)."""
-    seen = np.isfinite(keypoints).all(-1)
-    scores = np.ones(seen.shape) if confidences is None else np.clip(np.nan_to_num(confidences), 0.0, 1.0)
-    return convert_confidences(np.where(seen, scores, 0.0), skeleton, inputs)
-
+from ray3d.keypoint_input import (MODEL_FPS, check_feet_below_horizon, check_in_image, checked_keypoints,
+                                 model_confidences, stand_in_for_unseen)
+from ray3d.lift_stream import LiftStream
+from ray3d.skeleton import Skeleton, conversion_matrix, convert_keypoints, layout_skeleton
 
 class LiftedTracks(dict):
     """{track id: LiftResult} of the tracks lifted, and ``unliftable``: {track id: why} of those that could not
@@ -182,9 +106,9 @@ class Lifter:
         keypoints, confidences = checked_keypoints(keypoints, confidences, skeleton, ("frames",))
         if len(keypoints) == 0:
             raise InputError("keypoints: no frames")
-        _check_in_image(keypoints, camera)
+        check_in_image(keypoints, camera)
         h36m_pixels, h36m_found = convert_keypoints(keypoints, skeleton, confidences)
-        _check_feet_below_horizon(h36m_pixels, h36m_found, camera)
+        check_feet_below_horizon(h36m_pixels, h36m_found, camera)
         inputs = self._input_skeleton(skeleton)
         pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
         scores = model_confidences(keypoints, skeleton, confidences, inputs)
@@ -293,9 +217,10 @@ class Lifter:
         batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device, confidences)
         return predict_world(self.model, batch, cameras, flip_test).cpu().numpy()
 
-    def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False) -> LiftStream:
+    def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False, fps: float | None = None,
+               wait_for_future: bool = True) -> LiftStream:
         """Lift frame by frame as keypoints arrive (live use); see ``LiftStream``."""
-        return LiftStream(self, camera, layout, flip_test)
+        return LiftStream(self, camera, layout, flip_test, fps, wait_for_future)
 
 
 def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifter: Lifter | None = None,
@@ -319,82 +244,3 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
     world = (lifter or Lifter.load(layout=keypoints.layout)).lift_keypoints(keypoints, camera, options, progress)
     write_world(out, world, overwrite=overwrite)
     return keypoints, world
-
-
-class LiftStream:
-    """Live lifting: ``push`` one frame's keypoints (J, 2) and get world joints (17, 3) back.
-
-    A causal model (``ModelConfig.causal``, e.g. the ``ray3d-causal`` preset) answers for the frame just
-    pushed. A centred model needs ``delay`` (half its window) future frames, so it answers for the frame pushed
-    ``delay`` calls earlier (None until then) and ``flush()`` gives the last frames when the stream ends. The
-    window starts by repeating the first frame and ends by repeating the last, as offline lifting does, so the
-    outputs equal ``Lifter.lift`` on the whole sequence to float rounding (frames at the model's 60 fps, no
-    smoothing, no refinement, which needs the whole track).
-
-    A joint missing from a frame (NaN or confidence 0) keeps its last seen position (with confidence 0); one
-    not seen yet takes its parent's, as a detector's miss is simulated in training.
-    """
-
-    def __init__(self, lifter: Lifter, camera: Camera, layout: str = "h36m17", flip_test: bool = False):
-        config = lifter.model.config
-        self.lifter, self.camera, self.skeleton, self.flip_test = lifter, camera, layout_skeleton(layout), flip_test
-        self.frames = lifter.receptive_field
-        self.delay = config.window.delay
-        self.remove_roll = config.remove_roll
-        self.inputs = lifter._input_skeleton(self.skeleton)  # the joints the model reads
-        self._pixels: np.ndarray | None = None   # (F, J, 2) the current window, of the model's input layout
-        self._rays: np.ndarray | None = None     # (F, J, 3)
-        self._scores: np.ndarray | None = None   # (F, J) confidences
-        self._last_seen = np.full((self.inputs.num_joints, 2), np.nan)
-        self.pushed = 0       # frames pushed so far
-        self.answered = 0     # frames answered so far
-
-    def push(self, keypoints, confidences=None) -> np.ndarray | None:
-        """One frame's pixels (J, 2) in the stream's layout -> world joints (17, 3) of frame ``answered``
-        (the frame just pushed for a causal model), or None while a centred model waits for future frames."""
-        self._append(*self._prepare(keypoints, confidences))
-        self.pushed += 1
-        return self._answer() if self.pushed > self.delay else None
-
-    def flush(self) -> list[np.ndarray]:
-        """The frames still unanswered at the end of the stream (none for a causal model)."""
-        answers, window_end = [], self.pushed - 1  # the frame index the window ends at
-        while self.answered < self.pushed:
-            while window_end < self.answered + self.delay:
-                self._append(self._pixels[-1], self._scores[-1])
-                window_end += 1
-            answers.append(self._answer())
-        return answers
-
-    def _prepare(self, keypoints, confidences) -> tuple[np.ndarray, np.ndarray]:
-        keypoints, confidences = checked_keypoints(keypoints, confidences, self.skeleton)
-        pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences, self.inputs)
-        scores = model_confidences(keypoints[None], self.skeleton, None if confidences is None else confidences[None],
-                                   self.inputs)[0]
-        self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
-        filled = self._last_seen.copy()
-        if np.isnan(filled[0]).any():
-            raise InputError("keypoints: the root (pelvis, or both hips) has not been seen yet")
-        for joint, parent in enumerate(self.inputs.parents):  # parents come before their children
-            if parent >= 0 and np.isnan(filled[joint]).any():
-                filled[joint] = filled[parent]
-        return filled, scores
-
-    def _append(self, pixels: np.ndarray, scores: np.ndarray) -> None:
-        rays = self.camera.pixels_to_rays(pixels, remove_roll=self.remove_roll)
-        if not np.isfinite(rays).all():
-            raise InputError(f"keypoints: some lie where camera {self.camera.name or ''}'s lens model cannot be "
-                             "inverted (far outside the image?)")
-        if self._pixels is None:
-            self._pixels = np.repeat(pixels[None], self.frames, axis=0)
-            self._rays = np.repeat(rays[None], self.frames, axis=0)
-            self._scores = np.repeat(scores[None], self.frames, axis=0)
-        else:
-            self._pixels = np.concatenate([self._pixels[1:], pixels[None]])
-            self._rays = np.concatenate([self._rays[1:], rays[None]])
-            self._scores = np.concatenate([self._scores[1:], scores[None]])
-
-    def _answer(self) -> np.ndarray:
-        self.answered += 1
-        return self.lifter._lift_windows(self._pixels[None], self._rays[None], self.camera, self.flip_test,
-                                         self._scores[None])[0]

@@ -1,0 +1,137 @@
+"""``LiftStream``: lifting one person frame by frame as their keypoints arrive (live use), and ``lift_streams``:
+one network call for every stream that has a new frame."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.geometry import Camera
+from ray3d.keypoint_input import MODEL_FPS, checked_keypoints, model_confidences
+from ray3d.skeleton import convert_keypoints, layout_skeleton
+
+
+class LiftStream:
+    """Live lifting: ``push`` one frame's keypoints (J, 2) and get world joints (17, 3) back.
+
+    ``fps`` is the input's frame rate (default: the model's, 60). Frames at another rate are brought to the
+    model's as offline lifting does, by linear interpolation in time, causally: each frame adds the model-rate
+    frames since the one before it, and the answer is for the last of them (the frame itself when the rates divide).
+
+    A causal model (``ModelConfig.causal``, e.g. ``ray3d-causal``) answers for the frame just pushed. A centred
+    model needs ``delay`` (half its window) model-rate frames of the future. With ``wait_for_future`` it answers
+    for the frame pushed that much earlier (None until then) and ``flush()`` gives the last frames when the
+    stream ends: the outputs then equal ``Lifter.lift`` on the whole sequence to float rounding (no smoothing, no
+    refinement, which needs the whole track). Without it, it answers at once with the future stood in by the
+    present frame, as offline lifting does at a sequence's end: never later than the frame, a little less sure.
+
+    A joint missing from a frame (NaN or confidence 0) keeps its last seen position (with confidence 0); one
+    not seen yet takes its parent's, as a detector's miss is simulated in training.
+    """
+
+    def __init__(self, lifter, camera: Camera, layout: str = "h36m17", flip_test: bool = False,
+                 fps: float | None = None, wait_for_future: bool = True):
+        config = lifter.model.config
+        self.lifter, self.camera, self.skeleton, self.flip_test = lifter, camera, layout_skeleton(layout), flip_test
+        self.frames = lifter.receptive_field
+        self.delay = config.window.delay if wait_for_future else 0
+        self.lookahead = config.window.delay - self.delay  # future frames stood in by the present
+        self.step = MODEL_FPS / (fps or MODEL_FPS)      # model-rate frames per input frame
+        if self.delay and abs(self.step - 1) > 1e-3:
+            raise InputError(f"fps: a centred model waits for future frames only at its own {MODEL_FPS:g} frames/s; "
+                             "stream without waiting for them", arguments=("wait_for_future",))
+        self.remove_roll = config.remove_roll
+        self.inputs = lifter._input_skeleton(self.skeleton)  # the joints the model reads
+        self._pixels: np.ndarray | None = None   # (F, J, 2) the current window, of the model's input layout
+        self._rays: np.ndarray | None = None     # (F, J, 3)
+        self._scores: np.ndarray | None = None   # (F, J) confidences
+        self._last_seen = np.full((self.inputs.num_joints, 2), np.nan)
+        self._model_frames = 0  # model-rate frames made so far
+        self.pushed = 0       # frames pushed so far
+        self.answered = 0     # frames answered so far
+
+    def push(self, keypoints, confidences=None) -> np.ndarray | None:
+        """One frame's pixels (J, 2) in the stream's layout -> world joints (17, 3) of frame ``answered``
+        (the frame just pushed for a causal model, or without waiting), or None while a centred model waits
+        for future frames."""
+        self.add(keypoints, confidences)
+        return lift_streams([self])[0] if self.ready() else None
+
+    def add(self, keypoints, confidences=None) -> None:
+        """Take one frame's pixels (J, 2) without answering (``lift_streams`` answers several streams at once)."""
+        pixels, scores = self._prepare(keypoints, confidences)
+        if self._pixels is None:
+            self._append(pixels, scores)
+            self._model_frames = 1
+        else:
+            # The model-rate frames after the last one made, up to this frame's time, interpolated in time.
+            last_pixels, last_scores = self._pixels[-1], self._scores[-1]
+            until = int(np.floor(self.pushed * self.step + 1e-6)) + 1
+            for m in range(self._model_frames, until):
+                share = (m - (self.pushed - 1) * self.step) / self.step
+                self._append(last_pixels + share * (pixels - last_pixels), last_scores + share * (scores - last_scores))
+            self._model_frames = max(until, self._model_frames)
+        self.pushed += 1
+
+    def ready(self) -> bool:
+        """Whether the stream can answer for a frame it has not answered yet."""
+        return self.pushed > self.answered + self.delay
+
+    def flush(self) -> list[np.ndarray]:
+        """The frames still unanswered at the end of the stream (none for a causal model or without waiting)."""
+        answers, window_end = [], self.pushed - 1  # the frame the window ends at (waiting is at the model's rate)
+        while self.answered < self.pushed:
+            while window_end < self.answered + self.delay:
+                self._append(self._pixels[-1], self._scores[-1])
+                window_end += 1
+            answers.append(lift_streams([self])[0])
+        return answers
+
+    def window(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The (F, J, 2) pixels, (F, J, 3) rays and (F, J) confidences the next answer reads: with the future
+        stood in by the present when not waiting for it."""
+        if not self.lookahead:
+            return self._pixels, self._rays, self._scores
+        return tuple(np.concatenate([a[self.lookahead:], np.repeat(a[-1:], self.lookahead, axis=0)])
+                     for a in (self._pixels, self._rays, self._scores))
+
+    def _prepare(self, keypoints, confidences) -> tuple[np.ndarray, np.ndarray]:
+        keypoints, confidences = checked_keypoints(keypoints, confidences, self.skeleton)
+        pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences, self.inputs)
+        scores = model_confidences(keypoints[None], self.skeleton, None if confidences is None else confidences[None],
+                                   self.inputs)[0]
+        self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
+        filled = self._last_seen.copy()
+        if np.isnan(filled[0]).any():
+            raise InputError("keypoints: the root (pelvis, or both hips) has not been seen yet")
+        for joint, parent in enumerate(self.inputs.parents):  # parents come before their children
+            if parent >= 0 and np.isnan(filled[joint]).any():
+                filled[joint] = filled[parent]
+        return filled, scores
+
+    def _append(self, pixels: np.ndarray, scores: np.ndarray) -> None:
+        rays = self.camera.pixels_to_rays(pixels, remove_roll=self.remove_roll)
+        if not np.isfinite(rays).all():
+            raise InputError(f"keypoints: some lie where camera {self.camera.name or ''}'s lens model cannot be "
+                             "inverted (far outside the image?)")
+        if self._pixels is None:
+            self._pixels = np.repeat(pixels[None], self.frames, axis=0)
+            self._rays = np.repeat(rays[None], self.frames, axis=0)
+            self._scores = np.repeat(scores[None], self.frames, axis=0)
+        else:
+            self._pixels = np.concatenate([self._pixels[1:], pixels[None]])
+            self._rays = np.concatenate([self._rays[1:], rays[None]])
+            self._scores = np.concatenate([self._scores[1:], scores[None]])
+
+
+def lift_streams(streams: list[LiftStream]) -> list[np.ndarray]:
+    """One answer (17, 3) for each of ``streams`` (of one lifter and camera, each ``ready()``) from a single
+    call of the network."""
+    if not streams:
+        return []
+    first = streams[0]
+    pixels, rays, scores = (np.stack(parts) for parts in zip(*(stream.window() for stream in streams)))
+    answers = first.lifter._lift_windows(pixels, rays, first.camera, first.flip_test, scores)
+    for stream in streams:
+        stream.answered += 1
+    return list(answers)
