@@ -61,15 +61,15 @@ class LiftStream:
         """Take one frame's pixels (J, 2) without answering (``lift_streams`` answers several streams at once)."""
         pixels, scores = self._prepare(keypoints, confidences)
         if self._pixels is None:
-            self._append(pixels, scores)
+            self._append(pixels[None], scores[None])
             self._model_frames = 1
         else:
             # The model-rate frames after the last one made, up to this frame's time, interpolated in time.
-            last_pixels, last_scores = self._pixels[-1], self._scores[-1]
             until = int(np.floor(self.pushed * self.step + 1e-6)) + 1
-            for m in range(self._model_frames, until):
-                share = (m - (self.pushed - 1) * self.step) / self.step
-                self._append(last_pixels + share * (pixels - last_pixels), last_scores + share * (scores - last_scores))
+            shares = (np.arange(self._model_frames, until) - (self.pushed - 1) * self.step) / self.step
+            if len(shares):
+                self._append(self._pixels[-1] + shares[:, None, None] * (pixels - self._pixels[-1]),
+                             self._scores[-1] + shares[:, None] * (scores - self._scores[-1]))
             self._model_frames = max(until, self._model_frames)
         self.pushed += 1
 
@@ -82,7 +82,7 @@ class LiftStream:
         answers, window_end = [], self.pushed - 1  # the frame the window ends at (waiting is at the model's rate)
         while self.answered < self.pushed:
             while window_end < self.answered + self.delay:
-                self._append(self._pixels[-1], self._scores[-1])
+                self._append(self._pixels[-1:], self._scores[-1:])
                 window_end += 1
             answers.append(lift_streams([self])[0])
         return answers
@@ -110,18 +110,19 @@ class LiftStream:
         return filled, scores
 
     def _append(self, pixels: np.ndarray, scores: np.ndarray) -> None:
+        """Model-rate frames (K, J, 2) and their confidences (K, J) onto the window's end."""
         rays = self.camera.pixels_to_rays(pixels, remove_roll=self.remove_roll)
         if not np.isfinite(rays).all():
             raise InputError(f"keypoints: some lie where camera {self.camera.name or ''}'s lens model cannot be "
                              "inverted (far outside the image?)")
         if self._pixels is None:
-            self._pixels = np.repeat(pixels[None], self.frames, axis=0)
-            self._rays = np.repeat(rays[None], self.frames, axis=0)
-            self._scores = np.repeat(scores[None], self.frames, axis=0)
+            self._pixels = np.repeat(pixels[-1:], self.frames, axis=0)
+            self._rays = np.repeat(rays[-1:], self.frames, axis=0)
+            self._scores = np.repeat(scores[-1:], self.frames, axis=0)
         else:
-            self._pixels = np.concatenate([self._pixels[1:], pixels[None]])
-            self._rays = np.concatenate([self._rays[1:], rays[None]])
-            self._scores = np.concatenate([self._scores[1:], scores[None]])
+            self._pixels = np.concatenate([self._pixels, pixels])[-self.frames:]
+            self._rays = np.concatenate([self._rays, rays])[-self.frames:]
+            self._scores = np.concatenate([self._scores, scores])[-self.frames:]
 
 
 def lift_streams(streams: list[LiftStream]) -> list[np.ndarray]:

@@ -18,7 +18,8 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "checkpoint": "--checkpoint", "stride": "--stride", "frame": "--frame", "floor_points": "--floor-points",
          "manifest": "MANIFEST", "animation": "--animation", "camera": "--camera", "camera_height": "--camera-height",
          "pitch": "--pitch", "roll": "--roll", "image_size": "--image-size", "hfov": "--hfov", "focal": "--focal",
-         "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d"}
+         "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d", "source": "SOURCE", "token": "--token",
+         "port": "--port", "page": "--no-page", "wait_for_future": "--checkpoint (a causal one)"}
 
 
 def main(argv: list[str] | None = None) -> int:

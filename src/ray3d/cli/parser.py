@@ -9,6 +9,7 @@ import ray3d
 from ray3d.body import ADULT_STATURE_M
 from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
+from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
 from ray3d.temporal import OUTPUT_SMOOTHING
 
@@ -193,6 +194,32 @@ def build_parser() -> argparse.ArgumentParser:
     _add_lifting_arguments(video)
     _add_force(video, "replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
+
+    live = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
+                                            "a growing world file, a page on localhost (pip install 'ray3d[video,live]')")
+    live.add_argument("source", help="a video file (played at its own rate), a camera device number, or a stream "
+                                     "URL OpenCV opens (rtsp://, http://)")
+    _add_camera_arguments(live, image_size_note=" (default: the stream's)")
+    live.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, world.csv and site/")
+    live.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
+    live.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    live.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")
+    live.add_argument("--unpaced", action="store_true", help="read a file as fast as it decodes, not at its rate")
+    live.add_argument("--stall-timeout", type=float, default=5.0,
+                      help="seconds without a frame before the stream counts as stalled (default 5; exit code 3)")
+    live.add_argument("--max-gap", type=float, default=0.5,
+                      help="seconds a person may go undetected and keep their track (default 0.5)")
+    live.add_argument("--min-track", type=float, default=1.0,
+                      help="tracks shorter than this (seconds) stay out of the world file (default 1)")
+    live.add_argument("--no-page", action="store_true", help="serve no page")
+    live.add_argument("--host", default="127.0.0.1", help="address the page listens on (default 127.0.0.1; any "
+                      "other needs --token)")
+    live.add_argument("--port", type=int, default=8765, help="the page's port (default 8765; 0: any free one)")
+    live.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
+    live.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
+    live.add_argument("--quiet", action="store_true", help="no events on stdout (they are still in events.jsonl)")
+    _add_lifting_arguments(live)
+    live.set_defaults(handler=live_handlers.live)
 
     batch = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
                                               "cluster or a local Ray (pip install 'ray3d[cluster]')")

@@ -192,15 +192,8 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
             temporary.write_text(_trc_text(world, path.name))
         elif suffix == ".csv":
             with temporary.open("w", newline="") as handle:
-                handle.write(f"# units: {world.units}; axes: {world.axes}; fps: {world.fps:g}; model: {world.model}; "
-                             f"camera: {json.dumps(meta['camera'])}\n# refinement: {json.dumps(world.refinements())}\n")
-                writer = csv.writer(handle)
-                writer.writerow(CSV_COLUMNS)
-                for i in range(len(joints)):
-                    for j, name in enumerate(world.joint_names):
-                        writer.writerow([frames[i], tracks[i], name, *(f"{v:.5f}" for v in joints[i, j]),
-                                         int(interpolated[i, j]),
-                                         *("" if not np.isfinite(v) else f"{v:.4f}" for v in position_sd[i])])
+                handle.write(_csv_header(world, world.refinements()))
+                _write_csv_rows(handle, world)
         else:
             with temporary.open("wb") as handle:
                 np.savez_compressed(handle, joints=joints.astype(np.float32), frames=frames, tracks=tracks,
@@ -209,6 +202,42 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                                     units=np.array(world.units), axes=np.array(world.axes), fps=np.array(world.fps),
                                     model=np.array(world.model), camera_json=np.array(json.dumps(meta["camera"])),
                                     refinement_json=np.array(json.dumps(world.refinements())))
+    return path
+
+
+def _csv_header(world: World, refinements: dict) -> str:
+    meta = world.metadata()
+    return (f"# units: {world.units}; axes: {world.axes}; fps: {world.fps:g}; model: {world.model}; "
+            f"camera: {json.dumps(meta['camera'])}\n# refinement: {json.dumps(refinements)}\n"
+            + ",".join(CSV_COLUMNS) + "\n")
+
+
+def _write_csv_rows(handle, world: World) -> None:
+    joints, frames, tracks, interpolated, position_sd = world.rows()
+    writer = csv.writer(handle, lineterminator="\n")
+    for i in range(len(joints)):
+        for j, name in enumerate(world.joint_names):
+            writer.writerow([frames[i], tracks[i], name, *(f"{v:.5f}" for v in joints[i, j]), int(interpolated[i, j]),
+                             *("" if not np.isfinite(v) else f"{v:.4f}" for v in position_sd[i])])
+
+
+def append_world_csv(path: str | Path, world: World) -> Path:
+    """Add ``world``'s tracks to the CSV world file at ``path`` (made, with ``world``'s header, when it does not
+    exist): each track's refinement on a comment line before its rows, then the rows, in one write. A reader
+    meanwhile sees whole tracks (``read_world`` leaves out a track it catches half written): what ``ray3d live``
+    writes as people leave."""
+    import io
+
+    path = Path(path)
+    text = io.StringIO()
+    if not path.exists():
+        text.write(_csv_header(world, {}))
+    for track, result in world.tracks.items():
+        text.write(f"# refinement of track {json.dumps(track)}: {json.dumps(result.refinement)}\n")
+        _write_csv_rows(text, World({track: result}, world.camera, world.model, world.units, world.frame))
+    with path.open("a", newline="") as handle:
+        handle.write(text.getvalue())
+        handle.flush()
     return path
 
 
@@ -266,16 +295,25 @@ def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
 
 def _read_csv(path: Path) -> World:
     with path.open(newline="") as handle:
-        lines = handle.read().splitlines()
+        text = handle.read()
+    # A file being written (``append_world_csv``) may end in a line cut short: it is left out.
+    lines = text.splitlines() if text.endswith("\n") else text.splitlines()[:-1]
     header = lines[0].removeprefix("#").strip()
     # Files from before 2026-12 have no refinement line and no interpolated column.
     refined = len(lines) > 1 and lines[1].startswith("# refinement:")
     refinements = json.loads(lines[1].removeprefix("# refinement:")) if refined else {}
-    rows = list(csv.DictReader(lines[2 if refined else 1:]))
+    for line in lines[2:]:
+        if line.startswith("# refinement of track "):
+            track, refinement = line.removeprefix("# refinement of track ").split(": ", 1)
+            refinements[json.loads(track)] = json.loads(refinement)
+    rows = list(csv.DictReader(line for line in lines[2 if refined else 1:] if not line.startswith("#")))
     fields = dict(part.split(": ", 1) for part in header.split("; camera: ", 1)[0].split("; "))
     camera = Camera.from_dict(json.loads(header.split("; camera: ", 1)[1]))
     names = list(dict.fromkeys(r["joint"] for r in rows))
+    if not names:
+        raise InputError(f"{path}: no tracks yet")
     count = len(rows) // len(names)
+    rows = rows[:count * len(names)]  # a frame caught half written is left out
     joints = np.array([[float(r[a]) for a in "xyz"] for r in rows]).reshape(count, len(names), 3)
     interpolated = np.array([int(r.get("interpolated") or 0) for r in rows]).reshape(count, len(names))
     # Files from before 2026-12-04 have no position uncertainty columns; a track without one leaves them empty.

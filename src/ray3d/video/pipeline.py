@@ -104,12 +104,11 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
     shortest = min(options.min_track_s, SHORT_CLIP_SHARE * read / fps)
     kept, dropped, seen_for = {}, {}, {}
     for track in tracker.tracks():
-        seen_for[track.id] = seconds = (track.frames[-1] - track.frames[0] + 1) / fps
+        seen_for[track.id] = seconds = track.seconds(fps)
         if seconds < shortest:
             dropped[track.id] = f"seen for {seconds:.2f} s (under {shortest:.2f} s)"
         else:
-            kept[track.id] = TrackDetections(np.array(track.frames), np.stack([d.pixels for d in track.detections]),
-                                             np.stack([d.confidences for d in track.detections]))
+            kept[track.id] = track.as_detections()
     if not kept:
         raise InputError(_nobody_followed(info.path, read, fps, shortest, seen_for, tracker.frames_with_people,
                                           detector_name), arguments=("min_track_s",) if seen_for else ("detector",))

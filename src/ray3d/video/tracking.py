@@ -17,6 +17,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ray3d.geometry import Camera
+from ray3d.io.keypoints import TrackDetections
 from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.boxes import box_overlap
 from ray3d.video.detectors import Detection
@@ -41,6 +42,15 @@ class Track:
     id: int
     frames: list[int] = dataclasses.field(default_factory=list)
     detections: list[Detection] = dataclasses.field(default_factory=list)
+
+    def seconds(self, fps: float) -> float:
+        """How long the person was followed, first to last frame."""
+        return (self.frames[-1] - self.frames[0] + 1) / fps
+
+    def as_detections(self) -> TrackDetections:
+        """The frames, pixels and confidences as one record (what lifting reads)."""
+        return TrackDetections(np.array(self.frames), np.stack([d.pixels for d in self.detections]),
+                               np.stack([d.confidences for d in self.detections]))
 
 
 class _Person:
@@ -103,6 +113,7 @@ class FloorTracker:
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
+        self._confirmed = 0  # tracks confirmed so far (their ids), including those handed over by ``finished``
         self.frames_with_people = 0  # frames in which the detector found anybody
 
     def update(self, frame_index: int, detections: list[Detection], frame: np.ndarray) -> None:
@@ -163,8 +174,16 @@ class FloorTracker:
         self._active = survivors
 
     def tracks(self) -> list[Track]:
-        """Every confirmed track so far, in the order they were confirmed."""
+        """Every confirmed track so far (less those ``finished`` handed over), in the order they were confirmed."""
         return list(self._tracks)
+
+    def finished(self) -> list[Track]:
+        """The tracks whose person has left (unseen for longer than ``max_gap_s``), handed over and forgotten:
+        live use keeps only the people in view."""
+        following = {id(person.track) for person in self._active}
+        done = [track for track in self._tracks if id(track) not in following]
+        self._tracks = [track for track in self._tracks if id(track) in following]
+        return done
 
     def _record(self, person: _Person, frame_index: int, detection: Detection) -> None:
         person.box = detection.box
@@ -174,7 +193,8 @@ class FloorTracker:
             return
         person.waiting.append((frame_index, detection))
         if person.hits >= self.confirm_hits:
-            person.track = Track(len(self._tracks), [f for f, _ in person.waiting], [d for _, d in person.waiting])
+            person.track = Track(self._confirmed, [f for f, _ in person.waiting], [d for _, d in person.waiting])
+            self._confirmed += 1
             self._tracks.append(person.track)
 
     def _measure(self, detections: list[Detection], frame: np.ndarray) -> list:

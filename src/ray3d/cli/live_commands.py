@@ -1,0 +1,61 @@
+"""``ray3d live``: a camera stream followed as it arrives (``ray3d.live.run_live``): events as JSON lines on
+stdout and in OUT/events.jsonl, the world file OUT/world.csv growing as people leave, a page on localhost.
+
+Exit codes: 0 the stream ended; 3 it stalled (no frame for --stall-timeout seconds); 4 it broke off; 130 / 143
+stopped by SIGINT (Ctrl-C) / SIGTERM; 2 bad input (not a video, a bad camera or site file). Every output is
+complete in each case."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+
+EXIT_CODES = {"ended": 0, "stalled": 3, "broke off": 4}
+
+
+def live(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from ray3d.cli.commands import _camera, _lift_options
+    from ray3d.io.site_files import read_site
+    from ray3d.lift import Lifter
+    from ray3d.live.runner import LiveOptions, run_live
+    from ray3d.live.source import FrameSource
+    from ray3d.video import VideoInfo, camera_for_video, make_detector
+
+    plan = read_site(args.site) if args.site else None
+    lift_options = _lift_options(args)
+    source = FrameSource.open(args.source, args.fps, False if args.unpaced else None, args.stall_timeout)
+    camera = camera_for_video(_camera(args, source.image_size),
+                              VideoInfo(args.source, 0, source.fps, source.image_size))
+    stop, caught = threading.Event(), []
+
+    def on_signal(number, _frame) -> None:
+        caught.append(number)
+        stop.set()
+        source.close()
+
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, on_signal)
+    detector = make_detector(args.detector, camera)
+    detector.prepare([])
+    options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
+                          None if args.quiet else sys.stdout, args.min_track, args.max_gap)
+    summary = run_live(source, camera, args.out, detector, Lifter.load(args.checkpoint) if args.checkpoint else None,
+                       plan, options, lift_options, stop,
+                       started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True))
+    latency = summary.latency_ms
+    print(f"{summary.why}: {summary.processed} of {summary.read} frames processed ({summary.dropped} dropped, "
+          f"{100 * summary.dropped / max(summary.read, 1):.1f} %); latency median "
+          f"{np.median(latency) if len(latency) else float('nan'):.0f} ms, 99th percentile "
+          f"{np.percentile(latency, 99) if len(latency) else float('nan'):.0f} ms; {summary.events} events; "
+          f"{summary.tracks} people in {summary.files['world']} ({len(summary.left_out)} short tracks left out)",
+          file=sys.stderr)
+    if summary.webhook:
+        print(f"webhook: {summary.webhook['delivered']} delivered, {summary.webhook['failed']} failed, "
+              f"{summary.webhook['dropped']} dropped", file=sys.stderr)
+    if caught:
+        return 128 + caught[0]
+    return EXIT_CODES[summary.ending]

@@ -1,0 +1,115 @@
+"""Where live events go besides the page: a JSON-lines file (flushed event by event, so nothing written is lost
+when the process ends) and a webhook (HTTP POST of each event as JSON, retried, from a bounded queue on a thread
+of its own, so a receiver that refuses or hangs never slows the stream: what it cannot take is counted)."""
+
+from __future__ import annotations
+
+import json
+import queue
+import sys
+import threading
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Callable
+from pathlib import Path
+from typing import TextIO
+
+
+class EventLog:
+    """Events as JSON lines in ``path`` (appended) and, if given, on ``echo`` (say stdout)."""
+
+    def __init__(self, path: str | Path, echo: TextIO | None = None):
+        self.path, self.echo = Path(path), echo
+        self._file = self.path.open("a")
+
+    def write(self, events: list[dict]) -> None:
+        if not events:
+            return
+        text = "".join(json.dumps(event) + "\n" for event in events)
+        self._file.write(text)
+        self._file.flush()
+        if self.echo is not None:
+            try:
+                self.echo.write(text)
+                self.echo.flush()
+            except BrokenPipeError:  # a reader of stdout that stopped reading: the file still has every event
+                self.echo = None
+
+    def close(self) -> None:
+        self._file.close()
+
+
+class Webhook:
+    """POST each event (JSON) to ``url``: ``attempts`` tries ``timeout_s`` each, waiting ``backoff_s`` doubling in
+    between; at most ``queue_size`` events wait (a new one beyond that pushes out the oldest). ``report`` is told,
+    once, in one line, the first time the receiver cannot be reached. ``delivered``, ``failed`` (given up after
+    every attempt) and ``dropped`` (pushed out of the queue, or still queued at ``close``) count the events."""
+
+    def __init__(self, url: str, queue_size: int = 1000, attempts: int = 3, timeout_s: float = 2.0,
+                 backoff_s: float = 0.25, report: Callable[[str], None] = lambda line: print(line, file=sys.stderr),
+                 token: str | None = None):
+        self.url, self.attempts, self.timeout_s, self.backoff_s, self.report = url, attempts, timeout_s, backoff_s, report
+        self.headers = {"Content-Type": "application/json", **({"Authorization": f"Bearer {token}"} if token else {})}
+        self.delivered = self.failed = self.dropped = 0
+        self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
+        self._reported = False
+        self._stop = threading.Event()
+        self._sender = threading.Thread(target=self._send_all, name="webhook", daemon=True)
+        self._sender.start()
+
+    def post(self, events: list[dict]) -> None:
+        for event in events:
+            while True:
+                try:
+                    self._queue.put_nowait(event)
+                    break
+                except queue.Full:
+                    try:
+                        self._queue.get_nowait()
+                        self.dropped += 1
+                    except queue.Empty:
+                        pass
+
+    def _send_all(self) -> None:
+        while not (self._stop.is_set() and self._queue.empty()):
+            try:
+                event = self._queue.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            self._send(event)
+
+    def _send(self, event: dict) -> None:
+        body = json.dumps(event).encode()
+        for attempt in range(self.attempts):
+            try:
+                request = urllib.request.Request(self.url, data=body, headers=self.headers, method="POST")
+                with urllib.request.urlopen(request, timeout=self.timeout_s) as response:
+                    response.read()
+                self.delivered += 1
+                return
+            except (urllib.error.URLError, OSError, ValueError) as err:
+                why = getattr(err, "reason", None) or err
+                if self._stop.is_set():
+                    break
+                if attempt + 1 < self.attempts:
+                    time.sleep(self.backoff_s * 2 ** attempt)
+        self.failed += 1
+        if not self._reported:
+            self._reported = True
+            self.report(f"webhook {self.url}: not delivered after {self.attempts} attempts ({why}); events stay "
+                        "in events.jsonl")
+
+    def close(self, wait_s: float = 3.0) -> None:
+        """Send what is queued for up to ``wait_s`` seconds, then count the rest as dropped."""
+        deadline = time.monotonic() + wait_s
+        while not self._queue.empty() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        self._stop.set()
+        self._sender.join(timeout=max(0.0, deadline - time.monotonic()) + self.timeout_s)
+        while True:
+            try:
+                self._queue.get_nowait()
+                self.dropped += 1
+            except queue.Empty:
+                break

@@ -1,0 +1,112 @@
+"""Who is where, frame by frame, causally: the detector and the floor tracker of ``ray3d video``, each person
+lifted as their frame arrives (``LiftStream`` without waiting for the future, everybody in one network call), and
+a causal form of the track-level refinement: every ``refine_every_s`` the refinement runs on the person's last
+``refine_window_s`` and its factor along the rays for the latest frame carries the frames until the next run.
+
+A person who has left (unseen for longer than the tracker's gap) is handed over as a finished track; its final
+answer is the offline one (``Lifter.lift_tracks`` on the whole track, as ``ray3d video`` lifts it)."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import deque
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.geometry import Camera
+from ray3d.geometry.floor import FLAT_FLOOR, Floor
+from ray3d.lift import Lifter
+from ray3d.lift_stream import LiftStream, lift_streams
+from ray3d.live.source import LiveFrame
+from ray3d.refine import RefineConfig, network_position_sd, refine_track, scale_about
+from ray3d.video.detectors import PoseDetector
+from ray3d.video.pipeline import CONFIRM_FRAMES
+from ray3d.video.tracking import FloorTracker, Track
+
+
+@dataclasses.dataclass(frozen=True)
+class PersonNow:
+    """One person in the frame just processed: their track id, world joints (17, 3), the root's standard
+    deviation along and across its ray (2,) and their stature so far (None before the first refinement)."""
+
+    track: int
+    joints: np.ndarray
+    position_sd: np.ndarray
+    stature_m: float | None
+
+
+@dataclasses.dataclass
+class _Following:
+    stream: LiftStream
+    pushed: int = 0                   # the track's detections lifted so far
+    history: deque = None             # (frame, raw joints (17, 3)) over the refinement's window
+    scale: float = 1.0                # the refinement's factor along the rays for the latest frame
+    position_sd: np.ndarray | None = None
+    stature_m: float | None = None
+    next_refinement: int = 0          # the frame from which the refinement runs again
+
+
+class LivePeople:
+    """``update(frame)`` -> the people in it, and the tracks finished since the last call."""
+
+    def __init__(self, camera: Camera, detector: PoseDetector, lifter: Lifter, fps: float,
+                 floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 2.0,
+                 refine_window_s: float = 20.0):
+        self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
+        self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES)
+        self.config = RefineConfig.for_model(lifter.document)
+        self.refine_every = max(1, int(round(refine_every_s * fps)))
+        self.window = max(2, int(round(refine_window_s * fps)))
+        self._following: dict[int, _Following] = {}
+
+    def update(self, frame: LiveFrame) -> tuple[list[PersonNow], list[Track]]:
+        self.tracker.update(frame.index, self.detector(frame.image), frame.image)
+        waiting: list[tuple[int, _Following]] = []
+        for track in self.tracker.tracks():
+            following = self._following.get(track.id) or self._start(track)
+            # A track just confirmed brings the detections that confirmed it: all but the latest are lifted one
+            # by one (for the refinement's history); the latest of every track goes into one network call.
+            for k in range(following.pushed, len(track.frames)):
+                detection = track.detections[k]
+                try:
+                    following.stream.add(detection.pixels, detection.confidences)
+                except InputError:  # a detection the lifter cannot read (its root unseen): skipped
+                    continue
+                finally:
+                    following.pushed = k + 1
+                if k < len(track.frames) - 1:
+                    following.history.append((track.frames[k], lift_streams([following.stream])[0]))
+                elif track.frames[k] == frame.index:
+                    waiting.append((track.id, following))
+        people = []
+        for (track_id, following), raw in zip(waiting, lift_streams([f.stream for _, f in waiting])):
+            following.history.append((frame.index, raw))
+            if frame.index >= following.next_refinement and len(following.history) >= 2:
+                self._refine(following)
+                following.next_refinement = frame.index + self.refine_every
+            joints = scale_about(raw[None], self.camera.center, np.array([following.scale]))[0]
+            sd = following.position_sd if following.position_sd is not None else \
+                network_position_sd(raw[None], self.camera, self.config)[0]
+            people.append(PersonNow(track_id, joints, sd, following.stature_m))
+        finished = self.tracker.finished()
+        for track in finished:
+            self._following.pop(track.id, None)
+        return people, finished
+
+    def _start(self, track: Track) -> _Following:
+        stream = self.lifter.stream(self.camera, self.detector.layout, fps=self.fps, wait_for_future=False)
+        self._following[track.id] = following = _Following(stream, history=deque(maxlen=self.window))
+        return following
+
+    def _refine(self, following: _Following) -> None:
+        """The refinement on the person's recent frames; its answer for the latest frame carries on."""
+        joints = np.stack([raw for _, raw in following.history])
+        _, refined = refine_track(joints, self.camera, self.fps, config=self.config, floor=self.floor)
+        following.scale = float(refined.scale[-1])
+        following.position_sd = refined.position_sd_m[-1]
+        following.stature_m = float(refined.stature_m) if np.isfinite(refined.stature_m) else None
+
+    def in_view(self) -> list[Track]:
+        """The tracks still followed (at the stream's end, to be finished too)."""
+        return self.tracker.tracks()

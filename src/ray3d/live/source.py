@@ -1,0 +1,133 @@
+"""Frames as they arrive: a video file played at its own rate, a camera device or a network stream (anything
+OpenCV / FFmpeg opens: RTSP, HTTP), read on a thread of their own into a slot that holds only the newest frame.
+A frame not taken before the next one arrives is dropped on purpose and counted, so whoever takes frames is
+never behind the stream by more than one frame, however slow they are."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ray3d.errors import InputError
+
+
+@dataclasses.dataclass(frozen=True)
+class LiveFrame:
+    """A frame: its number in the stream (from 0), the (H, W, 3) uint8 RGB image and when it was read
+    (``time.monotonic()``)."""
+
+    index: int
+    image: np.ndarray
+    arrived: float
+
+
+class StreamStalled(Exception):
+    """No frame arrived for the stall timeout while the stream had not ended."""
+
+    def __init__(self, source: str, seconds: float):
+        super().__init__(f"{source}: no frame for {seconds:g} s: the stream stalled")
+        self.message = str(self)
+
+
+def _device_or_location(source: str) -> int | str:
+    return int(source) if source.isdigit() else source
+
+
+def _opened(source: str) -> tuple[cv2.VideoCapture, np.ndarray, float]:
+    """The capture, its first frame (BGR) and its frame rate (0 when it does not say)."""
+    capture = cv2.VideoCapture(_device_or_location(source))
+    if not capture.isOpened():
+        capture.release()
+        raise InputError(f"{source}: cannot be opened as a video file, camera device or stream", ("source",))
+    ok, first = capture.read()
+    if not ok:
+        capture.release()
+        raise InputError(f"{source}: no frame could be read: not a video, or an empty one", ("source",))
+    return capture, first, float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
+
+
+def _frames_of(capture: cv2.VideoCapture, first: np.ndarray) -> Iterator[np.ndarray]:
+    try:
+        frame = first
+        while frame is not None:
+            yield cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)
+            ok, frame = capture.read()
+            frame = frame if ok else None
+    finally:
+        capture.release()
+
+
+class FrameSource:
+    """``next()`` gives the newest frame not taken yet (waiting for one), None once the stream has ended, and
+    raises ``StreamStalled`` when none has come for ``stall_s`` seconds. ``paced`` plays the frames at ``fps``
+    (a file at its own rate); a camera or a stream paces itself. ``read`` counts the frames read, ``dropped``
+    those replaced by a newer one before they were taken."""
+
+    def __init__(self, frames: Iterator[np.ndarray], fps: float, name: str, paced: bool = False,
+                 stall_s: float = 5.0, image_size: tuple[int, int] | None = None):
+        if not fps > 0:
+            raise InputError(f"{name}: the stream reports no frame rate; give it", ("fps",))
+        self.fps, self.name, self.stall_s, self.image_size = float(fps), name, float(stall_s), image_size
+        self.read = self.dropped = 0
+        self._frames, self._paced = frames, paced
+        self._slot: LiveFrame | None = None
+        self._ended = self._closed = False
+        self._failure: BaseException | None = None
+        self._changed = threading.Condition()
+        self._reader = threading.Thread(target=self._read, name="frames", daemon=True)
+        self._reader.start()
+
+    @classmethod
+    def open(cls, source: str | Path, fps: float | None = None, paced: bool | None = None,
+             stall_s: float = 5.0) -> FrameSource:
+        """A video file (played at its own rate unless ``paced`` is False), a camera device number or a stream
+        URL; ``fps`` where the source does not say its rate."""
+        source = str(source)
+        capture, first, reported = _opened(source)
+        return cls(_frames_of(capture, first), fps or reported, source,
+                   Path(source).is_file() if paced is None else paced, stall_s, (first.shape[1], first.shape[0]))
+
+    def _read(self) -> None:
+        start = time.monotonic()
+        try:
+            for index, image in enumerate(self._frames):
+                if self._paced:
+                    time.sleep(max(0.0, start + index / self.fps - time.monotonic()))
+                with self._changed:
+                    if self._closed:
+                        return
+                    self.dropped += self._slot is not None
+                    self._slot = LiveFrame(index, image, time.monotonic())
+                    self.read += 1
+                    self._changed.notify_all()
+        except Exception as err:  # a broken stream ends it; next() reports why
+            self._failure = err
+        finally:
+            with self._changed:
+                self._ended = True
+                self._changed.notify_all()
+
+    def next(self) -> LiveFrame | None:
+        """The newest frame not taken yet; None once the stream has ended or ``close`` was called."""
+        with self._changed:
+            if not self._changed.wait_for(lambda: self._slot is not None or self._ended or self._closed,
+                                          timeout=self.stall_s):
+                raise StreamStalled(self.name, self.stall_s)
+            if self._closed:
+                return None
+            frame, self._slot = self._slot, None
+        if frame is None and self._failure is not None:
+            raise InputError(f"{self.name}: the stream broke off: {self._failure}", ("source",))
+        return frame
+
+    def close(self) -> None:
+        """Stop reading (the reader thread ends with its next frame)."""
+        with self._changed:
+            self._closed = True
+            self._changed.notify_all()
