@@ -8,7 +8,6 @@ complete in each case."""
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import threading
 
@@ -21,7 +20,7 @@ def live(args: argparse.Namespace) -> int:
     from ray3d.cli.commands import _camera, _lift_options
     from ray3d.io.site_files import read_site
     from ray3d.lift import Lifter
-    from ray3d.live.runner import LiveOptions, run_live
+    from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
     from ray3d.live.source import FrameSource
     from ray3d.video import VideoInfo, camera_for_video, make_detector
 
@@ -30,15 +29,8 @@ def live(args: argparse.Namespace) -> int:
     source = FrameSource.open(args.source, args.fps, False if args.unpaced else None, args.stall_timeout)
     camera = camera_for_video(_camera(args, source.image_size),
                               VideoInfo(args.source, 0, source.fps, source.image_size))
-    stop, caught = threading.Event(), []
-
-    def on_signal(number, _frame) -> None:
-        caught.append(number)
-        stop.set()
-        source.close()
-
-    for number in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(number, on_signal)
+    stop = threading.Event()
+    caught = stop_on_signals(stop, source)
     detector = make_detector(args.detector, camera)
     detector.prepare([])
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,

@@ -53,7 +53,8 @@ class Webhook:
         self.headers = {"Content-Type": "application/json", **({"Authorization": f"Bearer {token}"} if token else {})}
         self.delivered = self.failed = self.dropped = 0
         self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
-        self._reported = False
+        self._reported = self._sending = False
+        self._counting = threading.Lock()
         self._stop = threading.Event()
         self._sender = threading.Thread(target=self._send_all, name="webhook", daemon=True)
         self._sender.start()
@@ -77,28 +78,37 @@ class Webhook:
                 event = self._queue.get(timeout=0.1)
             except queue.Empty:
                 continue
-            self._send(event)
+            with self._counting:
+                self._sending = True
+            outcome = self._send(event)
+            with self._counting:
+                if self._sending:  # not yet given up by ``close``
+                    self._sending = False
+                    if outcome:
+                        self.delivered += 1
+                    else:
+                        self.failed += 1
 
-    def _send(self, event: dict) -> None:
+    def _send(self, event: dict) -> bool:
+        """Whether ``event`` was delivered."""
         body = json.dumps(event).encode()
         for attempt in range(self.attempts):
             try:
                 request = urllib.request.Request(self.url, data=body, headers=self.headers, method="POST")
                 with urllib.request.urlopen(request, timeout=self.timeout_s) as response:
                     response.read()
-                self.delivered += 1
-                return
+                return True
             except (urllib.error.URLError, OSError, ValueError) as err:
                 why = getattr(err, "reason", None) or err
                 if self._stop.is_set():
                     break
                 if attempt + 1 < self.attempts:
                     time.sleep(self.backoff_s * 2 ** attempt)
-        self.failed += 1
         if not self._reported:
             self._reported = True
             self.report(f"webhook {self.url}: not delivered after {self.attempts} attempts ({why}); events stay "
                         "in events.jsonl")
+        return False
 
     def close(self, wait_s: float = 3.0) -> None:
         """Send what is queued for up to ``wait_s`` seconds, then count the rest as dropped."""
@@ -107,6 +117,10 @@ class Webhook:
             time.sleep(0.02)
         self._stop.set()
         self._sender.join(timeout=max(0.0, deadline - time.monotonic()) + self.timeout_s)
+        with self._counting:
+            if self._sending:  # one still on its way to a receiver that hangs: given up
+                self._sending = False
+                self.dropped += 1
         while True:
             try:
                 self._queue.get_nowait()

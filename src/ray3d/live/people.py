@@ -1,7 +1,8 @@
 """Who is where, frame by frame, causally: the detector and the floor tracker of ``ray3d video``, each person
 lifted as their frame arrives (``LiftStream`` without waiting for the future, everybody in one network call), and
-a causal form of the track-level refinement: every ``refine_every_s`` the refinement runs on the person's last
-``refine_window_s`` and its factor along the rays for the latest frame carries the frames until the next run.
+a causal form of the track-level refinement: every ``refine_every_s`` (at most one person a frame) the
+refinement runs on the person's last ``refine_window_s`` and its factor along the rays for the latest frame
+carries the frames until the next run.
 
 A person who has left (unseen for longer than the tracker's gap) is handed over as a finished track; its final
 answer is the offline one (``Lifter.lift_tracks`` on the whole track, as ``ray3d video`` lifts it)."""
@@ -51,7 +52,7 @@ class LivePeople:
     """``update(frame)`` -> the people in it, and the tracks finished since the last call."""
 
     def __init__(self, camera: Camera, detector: PoseDetector, lifter: Lifter, fps: float,
-                 floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 2.0,
+                 floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 3.0,
                  refine_window_s: float = 20.0):
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
         self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES)
@@ -79,12 +80,17 @@ class LivePeople:
                     following.history.append((track.frames[k], lift_streams([following.stream])[0]))
                 elif track.frames[k] == frame.index:
                     waiting.append((track.id, following))
-        people = []
-        for (track_id, following), raw in zip(waiting, lift_streams([f.stream for _, f in waiting])):
+        answers = lift_streams([f.stream for _, f in waiting])
+        for (_, following), raw in zip(waiting, answers):
             following.history.append((frame.index, raw))
-            if frame.index >= following.next_refinement and len(following.history) >= 2:
-                self._refine(following)
-                following.next_refinement = frame.index + self.refine_every
+        # At most one refinement a frame, the most overdue: several at once would hold up that frame.
+        due = [f for _, f in waiting if frame.index >= f.next_refinement and len(f.history) >= 2]
+        if due:
+            overdue = min(due, key=lambda f: f.next_refinement)
+            self._refine(overdue)
+            overdue.next_refinement = frame.index + self.refine_every
+        people = []
+        for (track_id, following), raw in zip(waiting, answers):
             joints = scale_about(raw[None], self.camera.center, np.array([following.scale]))[0]
             sd = following.position_sd if following.position_sd is not None else \
                 network_position_sd(raw[None], self.camera, self.config)[0]

@@ -9,6 +9,7 @@ finished the same way, every output is closed, and with a site the report of ``r
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import queue
 import threading
@@ -123,6 +124,43 @@ def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dic
             "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats}
 
 
+@contextlib.contextmanager
+def _one_thread_for_numerics():
+    """NumPy's BLAS and torch held to one thread each while the stream runs: their idle threads spin, taking
+    the cores the detector's network runs on, and the lifting's matrices are small. Given back at the end."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # without the live extra: BLAS as it is
+        def threadpool_limits(**_):
+            return contextlib.nullcontext()
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield
+    finally:
+        torch.set_num_threads(threads)
+
+
+def stop_on_signals(stop: threading.Event, source: FrameSource) -> list[int]:
+    """SIGINT (Ctrl-C) and SIGTERM end the stream cleanly: ``stop`` is set and ``source`` closed, the outputs
+    are then completed by ``run_live``. Returns the list the signals caught are added to (for the exit code)."""
+    import signal
+
+    caught: list[int] = []
+
+    def on_signal(number, _frame) -> None:
+        caught.append(number)
+        stop.set()
+        source.close()
+
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, on_signal)
+    return caught
+
+
 def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector, lifter: Lifter | None = None,
              site: Site | None = None, options: LiveOptions = LiveOptions(),
              lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
@@ -165,40 +203,41 @@ def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector,
     try:
         if server:
             started(server.start())
-        while not stop.is_set():
-            try:
-                frame = source.next()
-            except StreamStalled as err:
-                ending, why = "stalled", err.message
-                break
-            except InputError as err:
-                ending, why = "broke off", err.message
-                break
-            if frame is None:
-                if not stop.is_set():
-                    ending, why = "ended", f"{source.name}: the stream ended"
-                break
-            persons, finished = people.update(frame)
-            events = monitor.update(frame.index, persons)
-            for track in finished:
-                events += monitor.ended(track.id, frame.index)
-                trails.pop(track.id, None)
-                finisher.put(track)
-            emit(events)
-            for person in persons:
-                trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * source.fps))))
-                trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
-            processed += 1
-            now = time.monotonic()
-            recent_times.append(now)
-            latency = 1000.0 * (now - frame.arrived)
-            latencies.append(latency)
-            recent_latency.append(latency)
-            rate = (len(recent_times) - 1) / (recent_times[-1] - recent_times[0]) if len(recent_times) > 1 else 0.0
-            board.publish(_snapshot(frame.index, source.fps, persons, trails, monitor, latest, {
-                "fps": rate, "latency_median_ms": float(np.median(recent_latency)),
-                "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": source.dropped,
-                "read": source.read}))
+        with _one_thread_for_numerics():
+            while not stop.is_set():
+                try:
+                    frame = source.next()
+                except StreamStalled as err:
+                    ending, why = "stalled", err.message
+                    break
+                except InputError as err:
+                    ending, why = "broke off", err.message
+                    break
+                if frame is None:
+                    if not stop.is_set():
+                        ending, why = "ended", f"{source.name}: the stream ended"
+                    break
+                persons, finished = people.update(frame)
+                events = monitor.update(frame.index, persons)
+                for track in finished:
+                    events += monitor.ended(track.id, frame.index)
+                    trails.pop(track.id, None)
+                    finisher.put(track)
+                emit(events)
+                for person in persons:
+                    trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * source.fps))))
+                    trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
+                processed += 1
+                now = time.monotonic()
+                recent_times.append(now)
+                latency = 1000.0 * (now - frame.arrived)
+                latencies.append(latency)
+                recent_latency.append(latency)
+                rate = (len(recent_times) - 1) / (recent_times[-1] - recent_times[0]) if len(recent_times) > 1 else 0.0
+                board.publish(_snapshot(frame.index, source.fps, persons, trails, monitor, latest, {
+                    "fps": rate, "latency_median_ms": float(np.median(recent_latency)),
+                    "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": source.dropped,
+                    "read": source.read}))
     finally:
         source.close()
         for track in people.in_view():

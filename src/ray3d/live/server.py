@@ -60,11 +60,14 @@ def live_app(board: LiveBoard, token: str | None = None):
     async def stream(request):
         async def snapshots():
             seen = -1
-            while not board.closed:
+            while True:
+                closed = board.closed  # read first: the snapshot sent after it is the last one
                 version, text = board.latest()
                 if version != seen:
                     seen = version
                     yield f"data: {text}\n\n"
+                if closed:
+                    break
                 await asyncio.sleep(POLL_S)
             yield "event: end\ndata: {}\n\n"
 

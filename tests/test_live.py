@@ -1,0 +1,400 @@
+"""Live: the frame source's dropping, stalling and ending; causal lifting whose final answer is the offline one;
+the site's events as they happen equal to the report's; the page's endpoints; the webhook; the world file read
+while it grows; signals."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from ray3d import InputError, cameras
+from ray3d.demo import demo_clip
+from ray3d.io.world import LiftResult, World, append_world_csv, read_world
+from ray3d.live.source import FrameSource, StreamStalled
+from ray3d.site import CountingLine, Site, Zone, site_events
+
+CAMERA = cameras.h36m("S9", "54138969")
+FPS = 10.0
+
+
+def _ground_axes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A spot on the floor 5 m in front of the camera, the camera's horizontal viewing direction there and the
+    direction across the image (people walk along it)."""
+    looking = CAMERA.pixels_to_world_directions(np.array([[512.0, 515.0]]))[0][:2]
+    looking /= np.linalg.norm(looking)
+    across = np.array([looking[1], -looking[0]])
+    return CAMERA.center[:2] + 5.0 * looking, looking, across
+
+
+SPOT, LOOKING, ACROSS = _ground_axes()
+DOOR = CountingLine("door", SPOT + 0.5 * ACROSS - 3 * LOOKING, SPOT + 0.5 * ACROSS + 3 * LOOKING)
+ROOM = Zone("room", np.array([SPOT + a * ACROSS + b * LOOKING for a, b in ((1, -3), (4, -3), (4, 3), (1, 3))]))
+
+
+def _scene(frames: int = 40) -> np.ndarray:
+    """Two people walking across the door line in opposite directions, 2 m apart, at 10 frames/s:
+    (frames, 2, 17, 3) world joints."""
+    clip = demo_clip()[::6]
+    clip = clip[np.arange(frames) % len(clip)]
+    clip = clip - clip[:, :1] * [1, 1, 0]  # walking on the spot; the walks below move them
+    walk = np.linspace(-1.2, 1.2, frames)[:, None] * ACROSS
+    one = clip + np.concatenate([SPOT + walk - 1.0 * LOOKING, np.zeros((frames, 1))], axis=1)[:, None]
+    two = clip + np.concatenate([SPOT - walk + 1.0 * LOOKING, np.zeros((frames, 1))], axis=1)[:, None]
+    return np.stack([one, two], axis=1)
+
+
+class _ScriptedDetector:
+    """A detector that finds, frame after frame, the scene's people where the camera sees them."""
+
+    layout = "h36m17"
+    name = "scripted"
+
+    def __init__(self, people: np.ndarray):
+        self.pixels = CAMERA.project(people)  # (T, P, 17, 2)
+        self.calls: list[int] = []  # the frames it looked at
+
+    def prepare(self, frames) -> None:
+        pass
+
+    def __call__(self, frame):
+        from ray3d.video.detectors import Detection
+
+        index = int(frame[0, 0, 0]) + 256 * int(frame[0, 0, 1])  # the frame carries its own number
+        self.calls.append(index)
+        return [Detection(p, np.ones(17), 0.9) for p in self.pixels[index]]
+
+
+CLOTHES = ((200, 40, 40), (40, 60, 200))
+
+
+def _frames(count: int, sleep_s: float = 0.0, stall_after: int | None = None, stall_s: float = 0.0,
+            people: np.ndarray | None = None):
+    """Frames carrying their number in the first pixel; with ``people``, the camera's full picture with each
+    person's torso painted in their own colour (what the tracker tells clothes by)."""
+    import cv2
+
+    pixels = None if people is None else CAMERA.project(people)
+    for index in range(count):
+        if stall_after is not None and index == stall_after:
+            time.sleep(stall_s)
+        if pixels is None:
+            image = np.zeros((8, 8, 3), np.uint8)
+        else:
+            image = np.full((CAMERA.image_size[1], CAMERA.image_size[0], 3), 128, np.uint8)
+            for person, colour in zip(pixels[index], CLOTHES):
+                torso = person[[1, 4, 11, 14]]
+                cv2.rectangle(image, tuple(int(v) for v in torso.min(0) - 8), tuple(int(v) for v in torso.max(0) + 8),
+                              colour, -1)
+        image[0, 0, :2] = index % 256, index // 256
+        yield image
+        time.sleep(sleep_s)
+
+
+def test_a_slow_reader_gets_the_newest_frame_and_the_rest_are_dropped_and_counted():
+    source = FrameSource(_frames(60, sleep_s=0.002), 100.0, "test", paced=False)
+    taken = []
+    while (frame := source.next()) is not None:
+        taken.append(frame.index)
+        time.sleep(0.03)
+    assert source.read == 60 and source.dropped > 20
+    assert len(taken) + source.dropped == 60  # every frame either taken or counted as dropped
+    assert taken == sorted(taken) and len(set(taken)) == len(taken)
+
+
+def test_a_file_plays_at_its_own_rate_and_then_ends():
+    source = FrameSource(_frames(6), 20.0, "test", paced=True)
+    start = time.monotonic()
+    taken = [frame.index for frame in iter(source.next, None)]
+    assert taken == list(range(6)) and source.dropped == 0
+    assert 0.2 <= time.monotonic() - start < 1.5  # 6 frames at 20 frames/s: 0.25 s
+
+
+def test_a_stalled_stream_is_reported_after_its_timeout_with_what_came_before_kept():
+    source = FrameSource(_frames(10, stall_after=3, stall_s=2.0), 50.0, "camera 7", paced=False, stall_s=0.3)
+    taken = []
+    with pytest.raises(StreamStalled, match="camera 7: no frame for 0.3 s"):
+        while True:
+            time.sleep(0.05)  # slower than the frames: the slot holds the newest
+            taken.append(source.next().index)
+    assert taken and taken[-1] == 2
+    source.close()
+
+
+def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
+    from ray3d.cli import main
+
+    text = tmp_path / "notes.txt"
+    text.write_text("not a video")
+    with pytest.raises(InputError, match="notes.txt: (cannot be opened|no frame could be read)"):
+        FrameSource.open(text)
+    assert main(["live", str(text), "--camera", "h36m:S9:54138969", "--out", str(tmp_path / "out")]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 40.0, **options):
+    """run_live over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
+    from ray3d.live.runner import LiveOptions, run_live
+
+    source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
+    detector = _ScriptedDetector(people)
+    return run_live(source, CAMERA, tmp_path / "live", detector, site=site,
+                    options=LiveOptions(**{"page": False, "min_track_s": 0.5, **options})), detector
+
+
+def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_it(tmp_path):
+    from ray3d.lift import Lifter
+    from ray3d.live.people import LivePeople
+    from ray3d.live.source import LiveFrame
+    from ray3d.options import LiftOptions
+
+    people = _scene()
+    detector = _ScriptedDetector(people)
+    lifter = Lifter.load()
+    live = LivePeople(CAMERA, detector, lifter, FPS)
+    answers: dict[int, list] = {}
+    for index, image in enumerate(_frames(len(people), people=people)):
+        now, _ = live.update(LiveFrame(index, image, time.monotonic()))
+        for person in now:
+            answers.setdefault(person.track, []).append((index, person.joints))
+    tracks = live.in_view()
+    assert len(tracks) == 2 and all(len(t.frames) == len(people) for t in tracks)
+    for track in tracks:
+        offline = lifter.lift_tracks({track.id: track.as_detections()}, CAMERA, "h36m17", FPS,
+                                     **LiftOptions().lift_arguments())[track.id]
+        truth = people[:, np.argmin([np.linalg.norm(people[0, p, 0] - offline.root[0]) for p in range(2)])]
+        frames = np.array([f for f, _ in answers[track.id]])
+        causal = np.stack([j for _, j in answers[track.id]])
+        # Live answers from the frame a track is confirmed (its third detection) on, each at once.
+        assert frames[0] == 2 and np.array_equal(frames, np.arange(2, len(people)))
+        causal_error = np.linalg.norm(causal[:, 0, :2] - truth[frames, 0, :2], axis=-1)
+        offline_error = np.linalg.norm(offline.root[:, :2] - truth[:, 0, :2], axis=-1)
+        assert np.median(offline_error) < 0.15 and np.median(causal_error) < 0.3
+    # The refinement at a track's end, on its whole history, is the offline refinement of those joints.
+    from ray3d.refine import refine_track
+
+    following = live._following[tracks[0].id]
+    live._refine(following)
+    raw = np.stack([j for _, j in following.history])
+    _, offline_refinement = refine_track(raw, CAMERA, FPS, config=live.config)
+    assert following.scale == pytest.approx(offline_refinement.scale[-1], abs=1e-12)
+
+
+def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answer(tmp_path):
+    from ray3d.lift import Lifter
+    from ray3d.options import LiftOptions
+
+    people = _scene()
+    summary, detector = _run(tmp_path, people, Site((ROOM,), (DOOR,)))
+    assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == len(people)
+    lines = (tmp_path / "live" / "events.jsonl").read_text().splitlines()
+    events = [json.loads(line) for line in lines]
+    assert len(events) == summary.events
+    crossings = sorted(e["direction"] for e in events if e["event"] == "line crossed")
+    assert crossings == ["back", "forward"]  # one each way
+    assert sum(e["event"] == "track started" for e in events) == sum(e["event"] == "track ended" for e in events) == 2
+    world = read_world(tmp_path / "live" / "world.csv")
+    assert len(world.tracks) == 2 and summary.tracks == 2
+    lifter = Lifter.load()
+    seen = np.array(detector.calls)  # the frames processed (the others were dropped)
+    for track, result in world.tracks.items():
+        person = int(np.argmin(np.linalg.norm(people[result.frames[0], :, 0] - result.joints[0, 0], axis=-1)))
+        expected = lifter.lift_tracks({0: (seen, detector.pixels[seen, person])}, CAMERA, "h36m17", world.fps,
+                                      **LiftOptions().lift_arguments())[0]  # at the stream's rate (played fast)
+        np.testing.assert_allclose(result.joints, expected.joints, atol=2e-5)  # CSV keeps 5 decimals
+        assert result.refinement["stature_m"] == pytest.approx(expected.refinement["stature_m"])
+    assert (tmp_path / "live" / "site" / "report.html").exists()
+
+
+def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions():
+    from ray3d.live.events import LiveSite
+    from ray3d.live.people import PersonNow
+
+    people = _scene(60)
+    fall = people[:, 1].copy()
+    fall[30:] = fall[30] * [1, 1, 0] + (fall[30] - fall[30, 0] * [1, 1, 0])[..., [2, 1, 0]] * [1, 1, 0.1]
+    fall[30:, :, 2] += 0.05
+    tracks = {"0": people[:, 0], "1": fall}
+    ruled = Zone("room", ROOM.polygon, max_occupancy=1, max_dwell_s=1.0)
+    site = Site((ruled,), (DOOR,))
+    world = World({t: LiftResult(j, np.zeros(j.shape[:2], bool), FPS, np.arange(len(j))) for t, j in tracks.items()},
+                  CAMERA, "test")
+    live = LiveSite(site, FPS)
+    found = []
+    for index in range(len(people)):
+        found += live.update(index, [PersonNow(int(t), j[index], np.zeros(2), None) for t, j in tracks.items()])
+    for track in tracks:
+        found += live.ended(track, len(people) - 1)
+    offline = site_events(world, site)
+    key = lambda e: (e["event"], e["track"], round(e["time_s"], 6))  # noqa: E731
+    assert sorted(map(key, found)) == sorted(map(key, offline))
+    assert any(e["event"] == "fall" for e in found)
+
+
+def test_the_page_its_state_and_its_feed_and_a_token_when_asked(tmp_path):
+    from starlette.testclient import TestClient
+
+    from ray3d.live.server import LiveBoard, LiveServer, live_app
+
+    board = LiveBoard({"zones": [], "lines": [{"name": "door", "start": [0, -1], "end": [0, 1]}]})
+    board.publish({"frame": 3, "people": []})
+    client = TestClient(live_app(board))
+    assert "<canvas" in client.get("/").text
+    assert client.get("/state").json()["frame"] == 3
+    assert client.get("/site").json()["lines"][0]["name"] == "door"
+    board.close()  # the feed sends the newest snapshot, then ends with the stream
+    with client.stream("GET", "/stream") as feed:
+        text = "".join(feed.iter_text())
+    assert 'data: {"frame": 3' in text and "event: end" in text
+    guarded = TestClient(live_app(board, token="s3cret"))
+    assert guarded.get("/state").status_code == 401
+    assert guarded.get("/state?token=s3cret").status_code == 200
+    assert guarded.get("/state", headers={"Authorization": "Bearer s3cret"}).status_code == 200
+    with pytest.raises(InputError, match="needs a token"):
+        LiveServer(board, host="0.0.0.0")
+    server = LiveServer(LiveBoard(), port=0)
+    url = server.start()
+    assert url.startswith("http://127.0.0.1:")
+    import urllib.request
+    assert b"<canvas" in urllib.request.urlopen(url, timeout=5).read()
+    server.stop()
+
+
+def test_the_webhook_delivers_every_event_and_a_refusing_one_is_reported_once_without_slowing_anyone():
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    from ray3d.live.outputs import Webhook
+
+    received = []
+
+    class Receiver(BaseHTTPRequestHandler):
+        def do_POST(self):
+            received.append(json.loads(self.rfile.read(int(self.headers["Content-Length"]))))
+            self.send_response(204)
+            self.end_headers()
+
+        def log_message(self, *args):
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Receiver)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    hook = Webhook(f"http://127.0.0.1:{server.server_address[1]}/")
+    hook.post([{"event": "line crossed", "n": n} for n in range(20)])
+    hook.close()
+    server.shutdown()
+    assert [e["n"] for e in received] == list(range(20)) and hook.delivered == 20
+    lines = []
+    refused = Webhook(f"http://127.0.0.1:{server.server_address[1]}/", attempts=2, backoff_s=0.01,
+                      report=lines.append, queue_size=5)
+    start = time.monotonic()
+    refused.post([{"event": "x", "n": n} for n in range(8)])
+    assert time.monotonic() - start < 0.1  # posting never waits for the receiver
+    refused.close(wait_s=1.0)
+    assert len(lines) == 1 and "not delivered after 2 attempts" in lines[0]
+    assert refused.delivered == 0 and refused.failed + refused.dropped == 8 and refused.dropped >= 3
+
+
+def test_a_world_file_read_while_it_grows_gives_whole_frames(tmp_path, rng):
+    result = LiftResult(rng.normal(size=(5, 17, 3)), np.zeros((5, 17), bool), FPS, np.arange(5),
+                        refinement={"stature_m": 1.7})
+    path = tmp_path / "world.csv"
+    append_world_csv(path, World({"4": result}, CAMERA, "test"))
+    append_world_csv(path, World({"9": result}, CAMERA, "test"))
+    whole = read_world(path)
+    assert list(whole.tracks) == ["4", "9"] and whole.tracks["9"].refinement == {"stature_m": 1.7}
+    np.testing.assert_allclose(whole.tracks["9"].joints, result.joints, atol=1e-5)
+    text = path.read_text()
+    path.write_text(text[:-300])  # a reader catching the last write half done
+    cut = read_world(path)
+    assert len(cut.tracks["9"].frames) == 4 and np.allclose(cut.tracks["9"].joints, result.joints[:4], atol=1e-5)
+
+
+SIGNAL_SCRIPT = """
+import sys, threading, numpy as np
+sys.path.insert(0, {tests!r})
+from test_live import _scene, _ScriptedDetector, _frames, CAMERA
+from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
+from ray3d.live.source import FrameSource
+people = _scene(400)
+source = FrameSource(_frames(400, people=people), 10.0, "scene", paced=True)
+stop = threading.Event()
+caught = stop_on_signals(stop, source)
+print("started", flush=True)
+summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), options=LiveOptions(page=False, min_track_s=0.5), stop=stop)
+print(summary.ending, summary.processed, flush=True)
+sys.exit(128 + caught[0] if caught else 0)
+"""
+
+
+@pytest.mark.parametrize("number", ["SIGINT", "SIGTERM"])
+def test_a_signal_ends_the_stream_with_every_output_complete(tmp_path, number):
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = tmp_path / "run.py"
+    script.write_text(SIGNAL_SCRIPT.format(tests=str(Path(__file__).parent), out=str(tmp_path / "out")))
+    process = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    assert process.stdout.readline().strip() == "started"
+    time.sleep(2.5)
+    process.send_signal(getattr(signal, number))
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 128 + getattr(signal, number), err
+    assert out.split()[0] == "stopped"
+    events = [json.loads(line) for line in (tmp_path / "out" / "events.jsonl").read_text().splitlines()]
+    assert sum(e["event"] == "track ended" for e in events) == sum(e["event"] == "track started" for e in events) == 2
+    world = read_world(tmp_path / "out" / "world.csv")
+    assert len(world.tracks) == 2 and all(len(r.frames) > 10 for r in world.tracks.values())
+
+
+CHROMIUM = __import__("shutil").which("chromium") or __import__("shutil").which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="needs a headless Chromium")
+def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_headless_chromium(tmp_path):
+    import subprocess
+    import urllib.request
+
+    from PIL import Image
+
+    from ray3d.live.runner import LiveOptions, run_live
+
+    people = _scene(120)
+    source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=True)
+    listening = threading.Event()
+    urls = []
+
+    def started(url):
+        urls.append(url)
+        listening.set()
+
+    runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people)),
+                              kwargs={"site": Site((ROOM,), (DOOR,)), "started": started,
+                                      "options": LiveOptions(port=0, min_track_s=0.5)})
+    runner.start()
+    assert listening.wait(30)
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+             "--disable-component-update", "--no-first-run", "--window-size=1100,800"]
+    shots = []
+    for k in range(2):
+        time.sleep(1.5 if k == 0 else 1.0)
+        shot = tmp_path / f"page{k}.png"
+        subprocess.run([CHROMIUM, *flags, f"--user-data-dir={tmp_path / f'profile{k}'}", "--timeout=1500",
+                        f"--screenshot={shot}", urls[0]], capture_output=True, timeout=120)
+        shots.append(np.asarray(Image.open(shot).convert("RGB")).astype(int))
+    state = json.loads(urllib.request.urlopen(urls[0] + "state", timeout=5).read())
+    runner.join(timeout=60)
+    plan = [shot[60:540, 8:630] for shot in shots]  # the floor plan's canvas
+    coloured = [(np.abs(p - p.mean(axis=-1, keepdims=True)).max(axis=-1) > 60) for p in plan]  # dots, trails, zones
+    assert all(c.sum() > 200 for c in coloured)
+    assert (np.abs(plan[0] - plan[1]).max(axis=-1) > 60).sum() > 50  # the people moved between the two
+    events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
+    upto = [e for e in events if e["frames"][-1] <= state["frame"] and e["event"] == "line crossed"]
+    assert state["counts"]["door"] == {"forward": sum(e["direction"] == "forward" for e in upto),
+                                       "back": sum(e["direction"] == "back" for e in upto)}
+    assert len(state["people"]) == 2
