@@ -135,13 +135,16 @@ def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 40.0, **options):
+def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, **options):
     """run_live over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
     from ray3d.live.runner import LiveOptions, run_live
 
-    source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
+    from ray3d.lift import Lifter
+
+    lifter = Lifter.load()  # before the stream starts: frames that come while it loads would be dropped
     detector = _ScriptedDetector(people)
-    return run_live(source, CAMERA, tmp_path / "live", detector, site=site,
+    source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
+    return run_live(source, CAMERA, tmp_path / "live", detector, lifter, site=site,
                     options=LiveOptions(**{"page": False, "min_track_s": 0.5, **options})), detector
 
 
