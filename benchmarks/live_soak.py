@@ -67,7 +67,7 @@ def main() -> None:
     camera = read_camera(args.camera)
     _, _, fps = _opened(args.video)
     source = FrameSource(_looped(args.video, 60 * args.minutes, fps), fps, f"{args.video} looped", paced=True)
-    detector = make_detector("combined", camera)
+    detector = make_detector("combined", camera, live=True)
     detector.prepare([])
     samples, stop, snapshots = [], threading.Event(), [0]
     start = time.monotonic()

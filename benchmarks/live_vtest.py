@@ -87,7 +87,7 @@ def main() -> None:
         return frame
 
     source.next = next_frame
-    detector = make_detector(args.detector, camera)
+    detector = make_detector(args.detector, camera, live=True)
     detector.prepare([])
     page_latency: list[float] = []
     stop_feed = threading.Event()

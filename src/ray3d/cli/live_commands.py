@@ -31,7 +31,7 @@ def live(args: argparse.Namespace) -> int:
                               VideoInfo(args.source, 0, source.fps, source.image_size))
     stop = threading.Event()
     caught = stop_on_signals(stop, source)
-    detector = make_detector(args.detector, camera)
+    detector = make_detector(args.detector, camera, live=True)
     detector.prepare([])
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
                           None if args.quiet else sys.stdout, args.min_track, args.max_gap)

@@ -61,8 +61,11 @@ class LivePeople:
         self.window = max(2, int(round(refine_window_s * fps)))
         self._following: dict[int, _Following] = {}
 
-    def update(self, frame: LiveFrame) -> tuple[list[PersonNow], list[Track]]:
-        self.tracker.update(frame.index, self.detector(frame.image), frame.image)
+    def update(self, frame: LiveFrame, detections: list | None = None) -> tuple[list[PersonNow], list[Track]]:
+        """The people in ``frame`` (its ``detections`` when the detector already ran on it) and the tracks
+        finished since the last call."""
+        self.tracker.update(frame.index, self.detector(frame.image) if detections is None else detections,
+                            frame.image)
         waiting: list[tuple[int, _Following]] = []
         for track in self.tracker.tracks():
             following = self._following.get(track.id) or self._start(track)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import os
 import queue
 import threading
 import time
@@ -90,6 +91,10 @@ class _Finisher:
         self._queue.put(track)
 
     def _run(self) -> None:
+        try:  # below the stream's priority: it takes the time the stream leaves (Linux: threads have their own)
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
+        except (AttributeError, OSError):
+            pass
         while (track := self._queue.get()) is not None:
             self._finish(track)
 

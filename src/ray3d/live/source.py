@@ -1,10 +1,12 @@
 """Frames as they arrive: a video file played at its own rate, a camera device or a network stream (anything
-OpenCV / FFmpeg opens: RTSP, HTTP), read on a thread of their own into a slot that holds only the newest frame.
-A frame not taken before the next one arrives is dropped on purpose and counted, so whoever takes frames is
-never behind the stream by more than one frame, however slow they are."""
+OpenCV / FFmpeg opens: RTSP, HTTP), read on a thread of their own into a buffer that holds only the newest ``keep`` frames (2 by default). A frame
+pushed out by newer ones before it was taken is dropped on purpose and counted, so whoever takes frames is never
+behind the stream by more than ``keep`` frames, however slow they are; the second frame absorbs a short burst of
+slow frames (a crowded moment) without a drop."""
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import threading
 import time
@@ -64,19 +66,19 @@ def _frames_of(capture: cv2.VideoCapture, first: np.ndarray) -> Iterator[np.ndar
 
 
 class FrameSource:
-    """``next()`` gives the newest frame not taken yet (waiting for one), None once the stream has ended, and
-    raises ``StreamStalled`` when none has come for ``stall_s`` seconds. ``paced`` plays the frames at ``fps``
-    (a file at its own rate); a camera or a stream paces itself. ``read`` counts the frames read, ``dropped``
-    those replaced by a newer one before they were taken."""
+    """``next()`` gives the oldest of the (at most ``keep``) newest frames not taken yet (waiting for one), None
+    once the stream has ended, and raises ``StreamStalled`` when none has come for ``stall_s`` seconds. ``paced``
+    plays the frames at ``fps`` (a file at its own rate); a camera or a stream paces itself. ``read`` counts the
+    frames read, ``dropped`` those pushed out by newer ones before they were taken."""
 
     def __init__(self, frames: Iterator[np.ndarray], fps: float, name: str, paced: bool = False,
-                 stall_s: float = 5.0, image_size: tuple[int, int] | None = None):
+                 stall_s: float = 5.0, image_size: tuple[int, int] | None = None, keep: int = 2):
         if not fps > 0:
             raise InputError(f"{name}: the stream reports no frame rate; give it", ("fps",))
         self.fps, self.name, self.stall_s, self.image_size = float(fps), name, float(stall_s), image_size
         self.read = self.dropped = 0
         self._frames, self._paced = frames, paced
-        self._slot: LiveFrame | None = None
+        self._waiting: collections.deque = collections.deque(maxlen=max(1, int(keep)))
         self._ended = self._closed = False
         self._failure: BaseException | None = None
         self._changed = threading.Condition()
@@ -85,13 +87,13 @@ class FrameSource:
 
     @classmethod
     def open(cls, source: str | Path, fps: float | None = None, paced: bool | None = None,
-             stall_s: float = 5.0) -> FrameSource:
+             stall_s: float = 5.0, keep: int = 2) -> FrameSource:
         """A video file (played at its own rate unless ``paced`` is False), a camera device number or a stream
         URL; ``fps`` where the source does not say its rate."""
         source = str(source)
         capture, first, reported = _opened(source)
         return cls(_frames_of(capture, first), fps or reported, source,
-                   Path(source).is_file() if paced is None else paced, stall_s, (first.shape[1], first.shape[0]))
+                   Path(source).is_file() if paced is None else paced, stall_s, (first.shape[1], first.shape[0]), keep)
 
     def _read(self) -> None:
         start = time.monotonic()
@@ -102,8 +104,8 @@ class FrameSource:
                 with self._changed:
                     if self._closed:
                         return
-                    self.dropped += self._slot is not None
-                    self._slot = LiveFrame(index, image, time.monotonic())
+                    self.dropped += len(self._waiting) == self._waiting.maxlen  # the oldest is pushed out
+                    self._waiting.append(LiveFrame(index, image, time.monotonic()))
                     self.read += 1
                     self._changed.notify_all()
         except Exception as err:  # a broken stream ends it; next() reports why
@@ -116,12 +118,12 @@ class FrameSource:
     def next(self) -> LiveFrame | None:
         """The newest frame not taken yet; None once the stream has ended or ``close`` was called."""
         with self._changed:
-            if not self._changed.wait_for(lambda: self._slot is not None or self._ended or self._closed,
+            if not self._changed.wait_for(lambda: self._waiting or self._ended or self._closed,
                                           timeout=self.stall_s):
                 raise StreamStalled(self.name, self.stall_s)
             if self._closed:
                 return None
-            frame, self._slot = self._slot, None
+            frame = self._waiting.popleft() if self._waiting else None
         if frame is None and self._failure is not None:
             raise InputError(f"{self.name}: the stream broke off: {self._failure}", ("source",))
         return frame

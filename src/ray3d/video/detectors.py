@@ -70,12 +70,17 @@ class PeopleDetector:
         min_score: the landmark network's person score below which a crop holds nobody.
         threads: CPU threads for the networks.
         full_frame: also look where the full-frame person detector finds somebody (``combined``).
+        full_frame_every: run the full-frame detector on every n-th frame only (live use: the people it found
+            are followed from frame to frame anyway; somebody new who stands still is found up to n - 1 frames
+            later).
     """
 
     layout = BLAZEPOSE33.name
 
-    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2, full_frame: bool = False):
-        self.camera, self.min_score = camera, min_score
+    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2, full_frame: bool = False,
+                 full_frame_every: int = 1):
+        self.camera, self.min_score, self.full_frame_every = camera, min_score, max(1, int(full_frame_every))
+        self._frames_seen = 0
         self.name = "combined" if full_frame else "people"
         self._landmarks = BlazePoseLandmarks(threads)
         self._full_frame = FullFramePeople(threads) if full_frame else None
@@ -92,7 +97,9 @@ class PeopleDetector:
         # moving blob is looked at only where it is none of these; then, once more, where part of a blob is left
         # that nobody found explains (the second of two walking together).
         known = as_regions([self._region_around(d) for d in self._previous])
-        whole = self._full_frame(frame)[0] if self._full_frame is not None else as_regions([])
+        looks_whole = self._full_frame is not None and self._frames_seen % self.full_frame_every == 0
+        self._frames_seen += 1
+        whole = self._full_frame(frame)[0] if looks_whole else as_regions([])
         new = whole[~_near(whole, known)]
         blobs = self._proposals.blobs(frame)
         proposed = as_regions(self._proposals.split_blobs(blobs))
@@ -217,11 +224,16 @@ class MediaPipeDetector:
 DETECTORS = {"combined": functools.partial(PeopleDetector, full_frame=True), "people": PeopleDetector,
              "mediapipe": MediaPipeDetector}
 DEFAULT_DETECTOR = "combined"
+LIVE_FULL_FRAME_EVERY = 3  # live: the full-frame detector every third frame (0.3 s at 10 frames/s)
 DETECTOR_HELP = ("combined (default): everybody in view of a fixed camera, moving or still, near or far; people: "
                  "the same from motion and the previous frame only; mediapipe: one person, close up")
 
 
-def make_detector(name: str, camera: Camera) -> PoseDetector:
+def make_detector(name: str, camera: Camera, live: bool = False) -> PoseDetector:
+    """The detector ``name`` for ``camera``; ``live``: as ``ray3d live`` runs it (the full-frame detector on
+    every ``LIVE_FULL_FRAME_EVERY``-th frame)."""
     if name not in DETECTORS:
         raise InputError(f"unknown detector {name!r}; one of {', '.join(DETECTORS)}", arguments=("detector",))
+    if live and name == "combined":
+        return DETECTORS[name](camera, full_frame_every=LIVE_FULL_FRAME_EVERY)
     return DETECTORS[name](camera)
