@@ -401,3 +401,45 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
     assert state["counts"]["door"] == {"forward": sum(e["direction"] == "forward" for e in upto),
                                        "back": sum(e["direction"] == "back" for e in upto)}
     assert len(state["people"]) == 2
+
+
+def test_a_stream_that_stalls_ends_the_run_with_its_outputs_complete(tmp_path):
+    from ray3d.lift import Lifter
+    from ray3d.live.runner import LiveOptions, run_live
+
+    people = _scene(60)
+    lifter = Lifter.load()
+    source = FrameSource(_frames(60, people=people, stall_after=40, stall_s=3.0), 20.0, "camera 3", paced=True,
+                         stall_s=0.5)
+    summary = run_live(source, CAMERA, tmp_path / "live", _ScriptedDetector(people), lifter,
+                       options=LiveOptions(page=False, min_track_s=0.5))
+    assert summary.ending == "stalled" and summary.why == "camera 3: no frame for 0.5 s: the stream stalled"
+    events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
+    assert sum(e["event"] == "track ended" for e in events) == 2
+    world = read_world(tmp_path / "live" / "world.csv")
+    assert len(world.tracks) == 2 and max(r.frames[-1] for r in world.tracks.values()) == 39
+
+
+def test_a_webhook_that_hangs_never_holds_up_the_stream_and_closing_it_is_bounded():
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    from ray3d.live.outputs import Webhook
+
+    class Hanging(BaseHTTPRequestHandler):
+        def do_POST(self):
+            time.sleep(3.0)
+
+        def log_message(self, *args):
+            pass
+
+    server = ThreadingHTTPServer(("127.0.0.1", 0), Hanging)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    lines = []
+    hook = Webhook(f"http://127.0.0.1:{server.server_address[1]}/", timeout_s=0.3, attempts=1, report=lines.append)
+    start = time.monotonic()
+    hook.post([{"event": "fall", "n": n} for n in range(5)])
+    assert time.monotonic() - start < 0.1
+    hook.close(wait_s=0.5)
+    assert time.monotonic() - start < 2.5  # the queue's wait plus one attempt's timeout
+    assert hook.delivered == 0 and hook.failed + hook.dropped == 5 and len(lines) == 1
+    server.shutdown()
