@@ -195,6 +195,22 @@ def build_parser() -> argparse.ArgumentParser:
     _add_force(video, "replace existing outputs in --out")
     video.set_defaults(handler=handlers.video)
 
+    fuse = commands.add_parser("fuse", help="several cameras' world files (ray3d lift / video, one per camera) -> "
+                                            "one world, one track per person, joints fused where cameras overlap")
+    fuse.add_argument("worlds", nargs="+", type=Path, help="world files (.json/.csv/.npz), one per camera; the "
+                                                           "first sets the clock and frame numbers")
+    fuse.add_argument("--out", required=True, type=Path, help="the fused world file (.json)")
+    fuse.add_argument("--offsets", help="seconds each camera's clock is ahead of the first's, comma separated "
+                                        "(the first 0; default all 0)")
+    fuse.add_argument("--find-offsets", action="store_true", help="find the offsets from the people both cameras "
+                                                                  "see at once")
+    fuse.add_argument("--max-offset", type=float, default=2.0, help="the largest offset searched, seconds (default 2)")
+    fuse.add_argument("--handover", type=float, default=2.0,
+                      help="a person leaving one view and entering another within this many seconds keeps their "
+                           "track (default 2)")
+    _add_force(fuse, "replace --out if it exists")
+    fuse.set_defaults(handler=site_handlers.fuse)
+
     live = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
                                             "a growing world file, a page on localhost (pip install 'ray3d[video,live]')")
     live.add_argument("source", help="a video file (played at its own rate), a camera device number, or a stream "

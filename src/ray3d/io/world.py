@@ -55,6 +55,7 @@ class LiftResult:
     joint_names: tuple[str, ...] = H36M17.joint_names
     refinement: dict | None = None  # what ray3d.refine found (stature, scale, contact, uncertainty), if it ran
     position_sd: np.ndarray | None = None
+    seen_by: np.ndarray | None = None  # (T, C) which of the world's cameras saw each frame (several cameras)
 
     @property
     def root(self) -> np.ndarray:
@@ -79,10 +80,12 @@ class World:
     frame: str = "world"
     path: Path | None = None  # the file it was read from
     unliftable: dict[str, str] = dataclasses.field(default_factory=dict)
+    cameras: tuple[Camera, ...] = ()  # every camera, the first being ``camera``, when several saw the people
 
     def __post_init__(self) -> None:
         if not self.tracks:
             raise InputError("world: no tracks")
+        self.cameras = tuple(self.cameras) or (self.camera,)
         check_frame(self.frame)
         self.tracks = {str(track): result for track, result in self.tracks.items()}
         self.unliftable = {str(track): why for track, why in self.unliftable.items()}
@@ -175,6 +178,9 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
     MotionBuilder (``ray3d.io.bvh_export``; one file per track, see ``export_paths``)."""
     path = Path(path)
     suffix = check_world_output(path, world.frame)
+    if len(world.cameras) > 1 and suffix != ".json":
+        raise InputError(f"{path}: a world of several cameras (which saw each frame) is written as .json",
+                         arguments=("out",))
     if suffix == ".bvh":
         return _write_bvh(path, world, overwrite)
     meta = world.metadata()
@@ -185,8 +191,11 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                                                "interpolated_input_joints": r.interpolated.astype(int).tolist(),
                                                "position_sd_m": (None if r.position_sd is None
                                                                  else np.round(r.position_sd, 4).tolist()),
-                                               "refinement": r.refinement}
-                                           for t, r in world.tracks.items()}}
+                                               "refinement": r.refinement,
+                                               **({} if r.seen_by is None else
+                                                  {"seen_by": [np.flatnonzero(row).tolist() for row in r.seen_by]})}
+                                           for t, r in world.tracks.items()},
+                        **({"cameras": [c.to_dict() for c in world.cameras]} if len(world.cameras) > 1 else {})}
             temporary.write_text(json.dumps(document))
         elif suffix == ".trc":
             temporary.write_text(_trc_text(world, path.name))
@@ -345,13 +354,23 @@ def read_world(path: str | Path) -> World:
                          str(data["units"]), _frame_described(str(data["axes"])), path)
         if suffix == ".json":
             document = read_json(path)
+            cameras = tuple(Camera.from_dict(c) for c in document.get("cameras", [document["camera"]]))
+
+            def seen_by(entry: dict) -> np.ndarray | None:
+                if "seen_by" not in entry:
+                    return None
+                table = np.zeros((len(entry["seen_by"]), len(cameras)), bool)
+                for row, which in enumerate(entry["seen_by"]):
+                    table[row, which] = True
+                return table
+
             tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
                                          np.array(e["interpolated_input_joints"], dtype=bool), float(document["fps"]),
                                          np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]),
-                                         e["refinement"], _optional_array(e.get("position_sd_m")))
+                                         e["refinement"], _optional_array(e.get("position_sd_m")), seen_by(e))
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
-                         str(document["units"]), _frame_described(str(document["axes"])), path)
+                         str(document["units"]), _frame_described(str(document["axes"])), path, cameras=cameras)
         return _read_csv(path)
     except InputError:
         raise
