@@ -136,6 +136,10 @@ def test_ray3d_fuse_writes_the_world_and_refuses_bad_input_in_one_line(tmp_path,
     out = capsys.readouterr().out
     assert "person 0: cam0:1, cam1:1" in out and "1 people from 2 cameras" in out
     assert len(read_world(tmp_path / "fused.json").tracks) == 1
+    site = tmp_path / "site.json"  # a site reads the fused world as it reads one camera's
+    site.write_text(json.dumps({"lines": [{"name": "door", "start": [1.0, 0.5], "end": [1.0, 3.0]}]}))
+    assert main(["site", str(tmp_path / "fused.json"), "--site", str(site), "--out", str(tmp_path / "report")]) == 0
+    assert "line door: 0 forward, 1 back" in capsys.readouterr().out
     for arguments, message in ((paths[:1], "fusing needs two or more"),
                                ([*paths, "--offsets", "0,x"], "--offsets: expected seconds"),
                                ([*paths, "--offsets", "0"], "1 given for 2 cameras")):

@@ -30,6 +30,7 @@ POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axi
 GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' places of one person may differ
 GATE_FLOOR_M = 0.25   # plus this: a body is not a point (the pelvis seen from two sides)
 MIN_SHARED_FRAMES = 5
+BOUNCE_SD_M = 0.015   # how well two cameras agree on the pelvis' height about its mean
 
 
 @dataclasses.dataclass
@@ -134,17 +135,18 @@ def associate(tracks: list[_Track], handover_s: float = 2.0, fps: float = 10.0) 
         last = _group_floor(tracks, members(a), end_a)
         before = _group_floor(tracks, members(a), max(start_a, end_a - int(fps)))
         velocity = (last - before) / max((end_a - max(start_a, end_a - int(fps))) / fps, 1e-6)
-        for b, (start_b, _) in spans.items():
+        for b, (start_b, end_b) in spans.items():
             gap_s = (start_b - end_a) / fps
-            if b == a or not 0 < gap_s <= handover_s:
+            # A hand-over: b starts after a and lasts beyond it, both seen together for too few frames to join.
+            if b == a or not (start_b > start_a and end_b > end_a and -MIN_SHARED_FRAMES / fps < gap_s <= handover_s):
                 continue
-            expected = last + velocity * gap_s
+            expected = last + velocity * gap_s if gap_s > 0 else _group_floor(tracks, members(a), start_b)
             miss = float(np.linalg.norm(_group_floor(tracks, members(b), start_b) - expected))
             if miss <= GATE_FLOOR_M + 0.5 * gap_s + 0.3:
                 links.append((miss, a, b))
     used_ends, used_starts = set(), set()
     for _, a, b in sorted(links):
-        if a in used_ends or b in used_starts or root(a) == root(b):
+        if a in used_ends or b in used_starts or root(a) == root(b) or clash(a, b):
             continue
         used_ends.add(a)
         used_starts.add(b)
@@ -221,7 +223,10 @@ def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarr
     _, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
     covariance = _floor_covariance(a, rows_a, centres[0]) + _floor_covariance(b, rows_b, centres[1])
     difference = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
-    return float(np.mean(np.sqrt(np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference))))
+    floor = np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference)
+    # The pelvis' rise and fall with each step, about each track's own mean height: no camera's bias moves it.
+    bounce = a.joints[rows_a, 0, 2] - a.joints[rows_a, 0, 2].mean() - b.joints[rows_b, 0, 2] + b.joints[rows_b, 0, 2].mean()
+    return float(np.mean(np.sqrt(floor + (bounce / BOUNCE_SD_M) ** 2)))
 
 
 def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) -> tuple[float, float]:
