@@ -88,7 +88,8 @@ def plot_occupancy(times, counts: dict, path: str | Path, overwrite: bool = Fals
         axis.step(times, values, where="post", label=name)
     axis.set_xlabel("time (s)")
     axis.set_ylabel("people in the zone")
-    axis.legend(fontsize=8)
+    if counts:  # a site of lines only has no zone to count people in
+        axis.legend(fontsize=8)
     axis.grid(alpha=0.3)
     fig.tight_layout()
     return _save(fig, path, overwrite)
