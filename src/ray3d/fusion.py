@@ -30,7 +30,8 @@ POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axi
 GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' places of one person may differ
 GATE_FLOOR_M = 0.25   # plus this: a body is not a point (the pelvis seen from two sides)
 MIN_SHARED_FRAMES = 5
-BOUNCE_SD_M = 0.015   # how well two cameras agree on the pelvis' height about its mean
+BOUNCE_SD_M = 0.015
+VELOCITY_GATE_M_S = 0.6  # one person's floor velocity as two cameras see it differs by less (median)   # how well two cameras agree on the pelvis' height about its mean
 
 
 @dataclasses.dataclass
@@ -78,13 +79,25 @@ def _floor_sd(track: _Track, rows: np.ndarray, unknown_m: float = 0.3) -> np.nda
     return np.where(np.isfinite(sd), sd, unknown_m)
 
 
-def _pair_distance(a: _Track, b: _Track) -> tuple[float, float, int]:
-    """Median floor distance between two tracks over their shared frames, the gate for it, the frames shared."""
+def _floor_velocity(track: _Track, rows: np.ndarray, fps: float) -> np.ndarray:
+    """(N, 2) the floor velocity at ``rows``, over half a second each side (m/s)."""
+    half = max(1, int(round(fps / 2)))
+    before, after = np.clip(rows - half, 0, len(track.frames) - 1), np.clip(rows + half, 0, len(track.frames) - 1)
+    span = np.maximum(track.frames[after] - track.frames[before], 1) / fps
+    return (track.joints[after, 0, :2] - track.joints[before, 0, :2]) / span[:, None]
+
+
+def _pair_distance(a: _Track, b: _Track, fps: float = 10.0) -> tuple[float, float, int]:
+    """Median floor distance between two tracks over their shared frames, the gate for it (infinitely far where
+    they walk differently: two people passing close by), the frames shared."""
     shared, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
     if len(shared) < MIN_SHARED_FRAMES:
         return np.inf, 0.0, len(shared)
     gap = np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)
     allowed = GATE_SIGMAS * np.hypot(_floor_sd(a, rows_a), _floor_sd(b, rows_b)) + GATE_FLOOR_M
+    pace = np.linalg.norm(_floor_velocity(a, rows_a, fps) - _floor_velocity(b, rows_b, fps), axis=-1)
+    if np.median(pace) > VELOCITY_GATE_M_S:
+        return np.inf, float(np.median(allowed)), len(shared)
     return float(np.median(gap)), float(np.median(allowed)), len(shared)
 
 
@@ -119,7 +132,7 @@ def associate(tracks: list[_Track], handover_s: float = 2.0, fps: float = 10.0) 
         for j in range(i + 1, len(tracks)):
             if tracks[i].view == tracks[j].view:
                 continue
-            distance, allowed, _ = _pair_distance(tracks[i], tracks[j])
+            distance, allowed, _ = _pair_distance(tracks[i], tracks[j], fps)
             if distance <= allowed:
                 candidates.append((distance / allowed, i, j))
     for _, i, j in sorted(candidates):
@@ -244,7 +257,7 @@ def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) 
         distances = []
         for a in first:
             for b in shifted:
-                distance, allowed, _ = _pair_distance(a, b)
+                distance, allowed, _ = _pair_distance(a, b, fps)
                 if distance <= 2 * allowed:
                     distances.append(_floor_mahalanobis(a, b, centres))
         scores.append(np.mean(distances) if distances else np.inf)
