@@ -10,9 +10,9 @@ brought onto one clock, the tracks that are the same person joined into one worl
   walk would have taken them. A camera never sees one person as two tracks at once, so no join puts two tracks of
   one camera in one person at the same moment: two people crossing stay apart.
 - **Fusion** (``fuse``): where several cameras see a person, each joint is the information-weighted mean of the
-  cameras' (their covariance long along the camera's ray, by the root's uncertainty along it, and narrow across
-  it): where the rays meet at an angle this is the rays' triangulation with the lifted bodies as the prior, where
-  they are nearly parallel it is their average weighted by distance.
+  cameras' (each camera's covariance long along that joint's ray, by the root's uncertainty along it, and narrow
+  across it): where the rays meet at an angle this is the joint rays' triangulation with the lifted bodies as the
+  prior, where they are nearly parallel it is their average weighted by distance.
 - **Agreement** (``camera_agreement``): per camera pair, the median distance between one person's floor points as
   each camera places them, against what their uncertainties allow: the first sign of a wrong calibration.
 """
@@ -180,13 +180,13 @@ def _group_floor(tracks: list[_Track], members: list[int], frame: int) -> np.nda
 
 
 def _covariances(track: _Track, rows: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) each frame's joint covariance from this camera: the root's sd along its ray and across it,
-    plus the pose's own error."""
-    ray = track.joints[rows, 0] - camera_center
+    """(N, 17, 3, 3) each joint's covariance from this camera in each frame: long along the joint's own ray (the
+    root's sd along its ray) and narrow across it (the root's sd across), plus the pose's own error."""
+    ray = track.joints[rows] - camera_center
     ray /= np.linalg.norm(ray, axis=-1, keepdims=True)
     sd = np.where(np.isfinite(track.sd[rows]), track.sd[rows], [0.3, 0.05])
-    along = np.einsum("ni,nj->nij", ray, ray)
-    return (sd[:, 0, None, None] ** 2 * along + sd[:, 1, None, None] ** 2 * (np.eye(3) - along)
+    along = np.einsum("nji,njk->njik", ray, ray)
+    return (sd[:, 0, None, None, None] ** 2 * along + sd[:, 1, None, None, None] ** 2 * (np.eye(3) - along)
             + POSE_SD_M ** 2 * np.eye(3))
 
 
@@ -196,7 +196,7 @@ def fuse(tracks: list[_Track], members: list[int], centers: list[np.ndarray], fp
     where several see them (the information-weighted mean), ``seen_by`` (T, cameras) and the root's sd
     (the fused covariance's largest and smallest horizontal spread)."""
     frames = np.unique(np.concatenate([tracks[i].frames for i in members]))
-    information = np.zeros((len(frames), 3, 3))
+    information = np.zeros((len(frames), 17, 3, 3))
     weighted = np.zeros((len(frames), 17, 3))
     seen_by = np.zeros((len(frames), cameras), bool)
     interpolated = np.ones((len(frames), 17), bool)
@@ -206,15 +206,15 @@ def fuse(tracks: list[_Track], members: list[int], centers: list[np.ndarray], fp
         shared, rows, at = np.intersect1d(track.frames, frames, return_indices=True)
         inverse = np.linalg.inv(_covariances(track, rows, centers[track.view]))
         information[at] += inverse
-        weighted[at] += np.einsum("nij,nkj->nki", inverse, track.joints[rows])
+        weighted[at] += np.einsum("nkij,nkj->nki", inverse, track.joints[rows])
         seen_by[at, track.view] = True
         interpolated[at] &= track.interpolated[rows]
         if track.stature_m is not None:
             statures.append(track.stature_m)
             weights.append(len(rows))
     covariance = np.linalg.inv(information)
-    joints = np.einsum("nij,nkj->nki", covariance, weighted)
-    spread = np.sqrt(np.clip(np.linalg.eigvalsh(covariance[:, :2, :2]), 0.0, None))
+    joints = np.einsum("nkij,nkj->nki", covariance, weighted)
+    spread = np.sqrt(np.clip(np.linalg.eigvalsh(covariance[:, 0, :2, :2]), 0.0, None))  # the root's
     refinement = {"stature_m": round(float(np.average(statures, weights=weights)), 4)} if statures else None
     return dataclasses.replace(LiftResult(joints, interpolated, fps, frames, refinement=refinement,
                                           position_sd=spread[:, ::-1].copy()), seen_by=seen_by)
