@@ -146,3 +146,47 @@ def test_ray3d_fuse_writes_the_world_and_refuses_bad_input_in_one_line(tmp_path,
         assert main(["fuse", *arguments, "--out", str(tmp_path / "again.json")]) == 2
         err = capsys.readouterr().err.strip()
         assert message in err and len(err.splitlines()) == 1
+
+
+CHROMIUM = __import__("shutil").which("chromium") or __import__("shutil").which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="needs a headless Chromium")
+def test_the_viewer_of_a_fused_world_draws_every_camera_in_headless_chromium(tmp_path, capsys):
+    import subprocess
+
+    from PIL import Image
+
+    from ray3d.cli import main
+
+    truth = _person()
+    paths = [str(write_world(tmp_path / f"w{k}.json", _world(c, {"1": _seen(c, truth, np.arange(60))})))
+             for k, c in enumerate(CAMERAS)]
+    assert main(["fuse", *paths, "--out", str(tmp_path / "fused.json")]) == 0
+    viewer = tmp_path / "viewer.html"
+    assert main(["viz", str(tmp_path / "fused.json"), "--html", str(viewer)]) == 0
+    capsys.readouterr()
+    page = viewer.read_text()
+    assert '"name": "cam1"' in page and '"name": "cam2"' in page
+    probe = tmp_path / "probe.html"
+    probe.write_text(page.replace("<head>", "<head><script>window.__errors=[];window.onerror=function(m){"
+                                  "window.__errors.push(String(m))};</script>", 1)
+                     .replace("</body>", "<script>setTimeout(function(){var d=document.createElement('pre');"
+                              "d.id='errors';d.textContent=JSON.stringify(window.__errors);"
+                              "document.body.appendChild(d);},300);</script></body>"))
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+             "--disable-component-update", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--dump-dom", probe.as_uri()],
+                         capture_output=True, text=True, timeout=120).stdout
+    assert '<pre id="errors">[]</pre>' in dom, dom[-500:]
+    shots = []
+    for name, source in (("three", viewer), ("one", tmp_path / "one.html")):
+        if name == "one":  # the same person seen by the first camera only
+            assert main(["viz", paths[0], "--html", str(source)]) == 0
+        shot = tmp_path / f"{name}.png"
+        subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--window-size=1000,800",
+                        f"--screenshot={shot}", source.as_uri() + "#view=top"], capture_output=True, timeout=120)
+        shots.append(np.asarray(Image.open(shot).convert("L")).astype(int))
+    # The floor plan (top right) marks every camera: three black squares and their names, against one.
+    dark = [(s[78:300, 765:995] < 60).sum() for s in shots]
+    assert dark[0] > dark[1] + 60

@@ -375,7 +375,8 @@ def viz(args: argparse.Namespace) -> int:
     fps = check_frame_rate(worlds[0].fps if args.fps is None else args.fps, "viz")
     camera = read_camera(args.camera) if args.camera else worlds[0].camera
     if args.html:
-        write_viewer(args.html, sequences, fps, camera, overwrite=args.force)
+        write_viewer(args.html, sequences, fps, camera, overwrite=args.force,
+                     more_cameras=() if args.camera else worlds[0].cameras[1:])
         print(f"wrote {args.html} ({len(sequences)} tracks, {fps:g} frames/s)")
     if args.animation:
         if args.stride < 1:

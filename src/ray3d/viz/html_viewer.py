@@ -125,6 +125,9 @@ function floorPlan(absolute) {
   });
   if (DATA.camera_lines.length) { const q = at(DATA.camera_lines[0][0]); ctx.fillStyle = "#000";
     ctx.fillRect(q[0] - 3, q[1] - 3, 6, 6); ctx.fillText("camera", q[0] + 5, q[1] + 4); }
+  DATA.more_cameras.forEach(c => { const q = at(c.centre), right = q[0] > x0 + size / 2; ctx.fillStyle = "#000";
+    ctx.fillRect(q[0] - 3, q[1] - 3, 6, 6); ctx.textAlign = right ? "right" : "left";
+    ctx.fillText(c.name, q[0] + (right ? -5 : 5), q[1] + 4); ctx.textAlign = "left"; });
 }
 function uncertainty(pelvis, sd, colour) {  // [along the ray from above, across, ray direction x, y] on the floor
   const [a, b, ux, uy] = sd, points = [];
@@ -156,7 +159,7 @@ function draw() {
   ctx.fillStyle = "#555"; ctx.font = "12px sans-serif";
   [["x, 1 m", [c[0] + 1.05, c[1], 0]], ["y", [c[0], c[1] + 1.05, 0]], ["z", [c[0], c[1], 1.05]]].forEach(([t, p]) => {
     const q = project(p); if (q) ctx.fillText(t, q[0], q[1]); });
-  if (!through) DATA.camera_lines.forEach(s => line(s[0], s[1], "#999999", 1));
+  if (!through) DATA.camera_lines.concat(...DATA.more_cameras.map(c => c.lines)).forEach(s => line(s[0], s[1], "#999999", 1));
   names.forEach((name, i) => {
     const seq = DATA.sequences[name], row = pose(seq, absolute);
     if (row < 0) return;
@@ -222,15 +225,19 @@ def floor_ellipses(sequence: np.ndarray | LiftResult, camera) -> np.ndarray | No
 
 
 def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult], fps: float, camera=None,
-                 title: str = "ray3d viewer", overwrite: bool = False) -> Path:
-    """Write the viewer for {name: world joints (T, 17, 3) or a LiftResult} (metres, z up) played at ``fps``."""
+                 title: str = "ray3d viewer", overwrite: bool = False, more_cameras=()) -> Path:
+    """Write the viewer for {name: world joints (T, 17, 3) or a LiftResult} (metres, z up) played at ``fps``;
+    ``more_cameras`` (a fused world's others) are drawn too, each with its field of view and name."""
     tracks = {str(name): as_track(s) for name, s in sequences.items()}
     ellipses = {str(name): floor_ellipses(s, camera) for name, s in sequences.items()}
     stacked = np.concatenate([j.reshape(-1, 3) for _, j, _ in tracks.values()])
     stacked = stacked[np.isfinite(stacked).all(-1)]
     centre = np.median(stacked, axis=0)
     camera_lines = [line.round(4).tolist() for line in frustum_lines(camera)] if camera is not None else []
-    plan = np.concatenate([stacked[:, :2]] + ([np.asarray(camera.center[:2])[None]] if camera is not None else []))
+    others = [{"name": other.name or f"camera {k + 2}", "centre": np.asarray(other.center).round(4).tolist(),
+               "lines": [line.round(4).tolist() for line in frustum_lines(other)]} for k, other in enumerate(more_cameras)]
+    plan = np.concatenate([stacked[:, :2]] + [np.asarray(c.center[:2])[None] for c in
+                                              ([camera] if camera is not None else []) + list(more_cameras)])
     data = {
         "sequences": {name: {"start": start, "joints": np.round(joints, 4).tolist(), "filled": filled.tolist(),
                              "sd": None if ellipses[name] is None else np.round(ellipses[name], 4).tolist()}
@@ -244,6 +251,7 @@ def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult]
         "extent": float(max(1.5, np.percentile(np.abs(stacked[:, :2] - centre[:2]), 98) + 0.5)),
         "bounds": [*plan.min(axis=0).round(3).tolist(), *plan.max(axis=0).round(3).tolist()],
         "camera_lines": camera_lines,
+        "more_cameras": others,
         "camera": None if camera is None else {
             "R": np.asarray(camera.R).round(6).tolist(), "t": np.asarray(camera.t).round(6).tolist(),
             **dict(zip(("fx", "fy", "cx", "cy"), camera.K[[0, 1, 0, 1], [0, 1, 2, 2]].astype(float).tolist())),

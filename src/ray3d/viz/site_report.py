@@ -129,7 +129,7 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     floor_plan = plot_floor_plan(site, frames, heat, corner, CELL_M, out_dir / PLOTS[0], overwrite)
     people = plot_occupancy(times, counts, out_dir / PLOTS[1], overwrite)
     viewer = write_viewer(out_dir / PAGES[1], world.tracks, world.fps, world.camera, title=f"{title}: every track",
-                          overwrite=overwrite)
+                          overwrite=overwrite, more_cameras=world.cameras[1:])
     report = write_site_report(out_dir / PAGES[0], events, places, floor_plan, people, world.fps, title=title,
                                note=PRIVACY, overwrite=overwrite)
     return events, places, [report, viewer, *tables, floor_plan, people]
