@@ -190,3 +190,14 @@ def test_the_viewer_of_a_fused_world_draws_every_camera_in_headless_chromium(tmp
     # The floor plan (top right) marks every camera: three black squares and their names, against one.
     dark = [(s[78:300, 765:995] < 60).sum() for s in shots]
     assert dark[0] > dark[1] + 60
+
+
+def test_several_videos_need_one_camera_each_and_a_json_world(tmp_path, capsys):
+    from ray3d.cli import main
+
+    videos = [str(tmp_path / "a.mp4"), str(tmp_path / "b.mp4")]
+    assert main(["video", *videos, "--camera", "h36m:S9:54138969", "--out", str(tmp_path / "out")]) == 2
+    assert "--camera: 1 given for 2 videos" in capsys.readouterr().err
+    assert main(["video", *videos, "--camera", "h36m:S9:54138969", "--camera", "h36m:S9:55011271", "--format",
+                 ".csv", "--out", str(tmp_path / "out")]) == 2
+    assert "fused into a .json world" in capsys.readouterr().err

@@ -3,7 +3,8 @@ one man balancing, four calibrated views 2.7-4.1 m away, triangulated truth). Ea
 run ``ray3d video`` on it: how well the person finder sees the man (frames detected, tracks he became, joints'
 distance from the projected truth, time per frame), and how well he is lifted (Abs-MPJPE over the joints the
 truth measures, the pelvis's error on the floor plan) beside the no-learning guess from the same detections (the
-mid-ankle pixel's ray meeting the floor ``GUESS_ANKLE_HEIGHT_M`` up).
+mid-ankle pixel's ray meeting the floor ``GUESS_ANKLE_HEIGHT_M`` up); then the views that found him fused into one
+world (``ray3d.fusion``).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.io.camera_files import read_calibration_toml
+from ray3d.io.world import LiftResult, World
 from ray3d.lift import Lifter
 from ray3d.options import LiftOptions, VideoOptions
 from ray3d.skeleton import H36M17, convert_keypoints
@@ -65,8 +67,9 @@ def _on_the_man(frames: np.ndarray, pixels: np.ndarray, truth_pixels: np.ndarray
     return bool(inside.mean() > 0.5)
 
 
-def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str, lifter: Lifter) -> dict:
-    """One view's row (see the module's description)."""
+def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
+                 lifter: Lifter) -> tuple[dict, World | None]:
+    """One view's row (see the module's description), and the man as that view lifts him (None if not found)."""
     from ray3d.video import camera_for_video, make_detector, read_video_info, track_video
 
     info = read_video_info(video)
@@ -77,13 +80,14 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str, 
     try:
         people = track_video(info, camera, make_detector(detector, camera), VideoOptions(), progress=False)
     except InputError as err:
-        return {**row, "refused": err.message, "ms_per_frame": 1e3 * (time.perf_counter() - started) / info.frames}
+        return {**row, "refused": err.message,
+                "ms_per_frame": 1e3 * (time.perf_counter() - started) / info.frames}, None
     row["ms_per_frame"] = 1e3 * (time.perf_counter() - started) / people.frames_read
     converted = {t: (d.frames, _h36m_pixels(d.pixels, d.confidences, people.layout)) for t, d in people.tracks.items()}
     his = {t: c for t, c in converted.items() if _on_the_man(c[0], c[1], truth_pixels)}
     row["tracks"], row["tracks_on_the_man"] = len(people.tracks), len(his)
     if not his:
-        return {**row, "frames_detected": 0}
+        return {**row, "frames_detected": 0}, None
     frames = np.concatenate([f for f, _ in his.values()])
     errors = np.concatenate([np.linalg.norm(p[:, _SCORED] - truth_pixels[f][:, _SCORED], axis=-1).ravel()
                              for f, p in his.values()])
@@ -92,9 +96,7 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str, 
     longest = max(his, key=lambda t: len(his[t][0]))
     lifted = lifter.lift_tracks({longest: people.tracks[longest]}, camera, people.layout, people.fps,
                                 **LiftOptions().lift_arguments())[longest]
-    predicted, true = lifted.joints, truth[lifted.frames]
-    row["abs_mpjpe_mm"] = 1e3 * float(np.nanmean(np.linalg.norm(predicted[:, _SCORED] - true[:, _SCORED], axis=-1)))
-    row["pelvis_floor_error_m"] = float(np.median(np.linalg.norm(predicted[:, 0, :2] - true[:, 0, :2], axis=-1)))
+    row.update(_errors(lifted, truth))
     frames_seen, pixels_seen = his[longest]
     ankles = pixels_seen[:, _ANKLES].mean(axis=1)
     guess = camera.pixels_to_height_plane(ankles[np.isfinite(ankles).all(-1)], GUESS_ANKLE_HEIGHT_M)
@@ -105,17 +107,37 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str, 
     if row["guess_floor_error_m"]:
         row["pelvis_over_guess"] = row["pelvis_floor_error_m"] / row["guess_floor_error_m"]
     row["model"] = lifter.name
-    return row
+    return row, World({video.stem: lifted}, camera, lifter.name)
+
+
+def _errors(lifted: LiftResult, truth: np.ndarray) -> dict:
+    """Abs-MPJPE (mm) over the joints the truth measures and the pelvis's median error on the floor plan (m)."""
+    predicted, true = lifted.joints, truth[lifted.frames]
+    return {"abs_mpjpe_mm": 1e3 * float(np.nanmean(np.linalg.norm(predicted[:, _SCORED] - true[:, _SCORED], axis=-1))),
+            "pelvis_floor_error_m": float(np.median(np.linalg.norm(predicted[:, 0, :2] - true[:, 0, :2], axis=-1)))}
 
 
 def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, ...] = VIEWS) -> list[dict]:
+    """A row per view and, where two or more views found the man, one for the views fused (``ray3d.fusion``,
+    the videos being in step: offsets 0)."""
+    from ray3d.fusion import fuse_worlds
+
     data_dir = Path(data_dir)
     for needed in (CALIBRATION, TRUTH):
         if not (data_dir / needed).is_file():
             raise InputError(f"{data_dir}: no {needed}: not the real-near recording", arguments=("data_dir",))
     truth = read_truth(data_dir / TRUTH)
-    return [measure_view(data_dir / f"{view}.mp4", read_calibration_toml(data_dir / CALIBRATION, view), truth,
-                         detector, lifter) for view in views]
+    measured = [measure_view(data_dir / f"{view}.mp4", read_calibration_toml(data_dir / CALIBRATION, view), truth,
+                             detector, lifter) for view in views]
+    rows, worlds = [row for row, _ in measured], [world for _, world in measured if world is not None]
+    if len(worlds) >= 2:
+        fusion = fuse_worlds(worlds)
+        fused = max(fusion.world.tracks.values(), key=lambda track: len(track.frames))
+        rows.append({"view": f"fused ({len(worlds)} views)", "detector": detector,
+                     "tracks_on_the_man": len(fusion.world.tracks), "frames_detected": int(len(fused.frames)),
+                     **_errors(fused, truth), "model": lifter.name,
+                     "agreement": fusion.agreement})
+    return rows
 
 
 COLUMNS = ("view", "detector", "tracks_on_the_man", "frames_detected", "median_2d_error_px", "ms_per_frame",

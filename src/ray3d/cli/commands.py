@@ -285,52 +285,17 @@ def lift(args: argparse.Namespace) -> int:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
     for track, why in world.unliftable.items():
         print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
-    _print_refinements(world.tracks)
+    print_refinements(world.tracks)
     return 0
 
 
-def _print_refinements(tracks: dict) -> None:
+def print_refinements(tracks: dict) -> None:
     for track, result in tracks.items():
         if result.refinement:
             r = result.refinement
             print(f"  track {track}: stature {r['stature_m']:.2f} m, moved x{r['median_scale']:.2f} along the rays, "
                   f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- "
                   f"{r['position_sd_m']:.2f} m")
-
-
-def video(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from ray3d.cli.site_commands import refuse_site_outputs, report_site
-    from ray3d.io.site_files import read_site
-    from ray3d.lift import Lifter
-    from ray3d.options import VideoOptions
-    from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
-
-    plan = None
-    if args.site is not None:  # refused before any work, not after it
-        refuse_site_outputs(args.out / "site", (args.input, args.site), args.force)
-        plan = read_site(args.site)
-    info = read_video_info(args.input)
-    camera = camera_for_video(_camera(args, info.image_size), info)
-    options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
-    result = lift_video(info, camera, args.out, make_detector(args.detector, camera),
-                        Lifter.load(args.checkpoint) if args.checkpoint else None, _lift_options(args), options,
-                        world_format=args.format, overlay=not (args.no_overlay or args.privacy), overwrite=args.force)
-    tracks = result.world.tracks
-    filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
-    print(f"{args.input}: {result.frames} frames, {len(tracks)} people tracked by the {args.detector} detector and "
-          f"lifted by {result.world.model} ({len(result.dropped)} short or unliftable tracks dropped); "
-          f"{100 * filled:.1f}% of their frames filled in between detections")
-    seconds = result.seconds
-    print(f"  {result.frames / sum(seconds.values()):.1f} frames/s end to end: people {seconds['people']:.1f} s, "
-          f"lifting {seconds['lifting']:.1f} s, writing {seconds['writing']:.1f} s")
-    _print_refinements(tracks)
-    for role, path in result.files.items():
-        print(f"  {role:<10}{path}")
-    if plan is not None:
-        report_site(result.world, plan, args.out / "site", f"{args.input.name} on {args.site.name}", args.force)
-    return 0
 
 
 def batch(args: argparse.Namespace) -> int:

@@ -11,6 +11,7 @@ from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
 from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
+from ray3d.cli import video_commands as video_handlers
 from ray3d.temporal import OUTPUT_SMOOTHING
 
 
@@ -39,8 +40,10 @@ def _add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_n
     parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels{image_size_note}")
 
 
-def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "") -> None:
-    parser.add_argument("--camera", help="camera JSON (ours or OpenCV), OpenCV YAML, or h36m:SUBJECT:CAMERA_ID")
+def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "", several: bool = False) -> None:
+    parser.add_argument("--camera", action="append" if several else "store",
+                        help="camera JSON (ours or OpenCV), OpenCV YAML, FILE.toml:NAME (Pose2Sim, Anipose) or "
+                             "h36m:SUBJECT:CAMERA_ID" + ("; once per video, in order" if several else ""))
     parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
     parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
     parser.add_argument("--roll", type=float, help="with --pitch: camera roll in degrees (default 0)")
@@ -171,9 +174,13 @@ def build_parser() -> argparse.ArgumentParser:
     lift.set_defaults(handler=handlers.lift)
 
     video = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
-                                              "viewer and overlay video (pip install 'ray3d[video]')")
-    video.add_argument("input", type=Path, help="the video file (anything OpenCV reads: .mp4, .avi, ...)")
-    _add_camera_arguments(video, image_size_note=" (default: the video's)")
+                                              "viewer and overlay video (pip install 'ray3d[video]'); several "
+                                              "videos, one per camera: one world, one track per person")
+    video.add_argument("input", type=Path, nargs="+", help="the video file(s) (anything OpenCV reads: .mp4, .avi, "
+                                                           "...); several: one per calibrated camera, in step")
+    _add_camera_arguments(video, image_size_note=" (default: the video's)", several=True)
+    video.add_argument("--find-offsets", action="store_true", help="several videos: find how far apart they "
+                                                                   "started from the people both see")
     video.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
                                                                 "overlay.mp4")
     video.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
@@ -193,7 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
     # Detector keypoints of real footage: the model trained for them.
     _add_lifting_arguments(video)
     _add_force(video, "replace existing outputs in --out")
-    video.set_defaults(handler=handlers.video)
+    video.set_defaults(handler=video_handlers.video)
 
     fuse = commands.add_parser("fuse", help="several cameras' world files (ray3d lift / video, one per camera) -> "
                                             "one world, one track per person, joints fused where cameras overlap")

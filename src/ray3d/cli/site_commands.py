@@ -46,7 +46,6 @@ def site(args: argparse.Namespace) -> int:
 
 def fuse(args: argparse.Namespace) -> int:
     """``ray3d fuse``: several cameras' world files -> one world, one track per person (``ray3d.fusion``)."""
-    import sys
 
     from ray3d.errors import InputError
     from ray3d.fusion import fuse_worlds
@@ -62,8 +61,18 @@ def fuse(args: argparse.Namespace) -> int:
     fusion = fuse_worlds([read_world(path) for path in args.worlds], offsets, args.find_offsets, args.max_offset,
                          args.handover)
     write_world(args.out, fusion.world, overwrite=args.force)
-    for path, offset, sd in zip(args.worlds, fusion.offsets_s, fusion.offset_sd_s):
-        print(f"{path}: offset {offset:+.3f} s" + (f" +- {sd:.3f} s (found)" if sd else ""))
+    print_fusion(fusion, [str(path) for path in args.worlds])
+    print(f"{len(fusion.world.tracks)} people from {len(args.worlds)} cameras -> {args.out}")
+    return 0
+
+
+def print_fusion(fusion, sources: list[str]) -> None:
+    """The offsets, who joined whom, the cameras' agreement, and a warning on stderr naming a camera that
+    disagrees."""
+    import sys
+
+    for source, offset, sd in zip(sources, fusion.offsets_s, fusion.offset_sd_s):
+        print(f"{source}: offset {offset:+.3f} s" + (f" +- {sd:.3f} s (found)" if sd else ""))
     for track, members in fusion.members.items():
         print(f"  person {track}: {', '.join(members)}")
     for entry in fusion.agreement:
@@ -72,5 +81,3 @@ def fuse(args: argparse.Namespace) -> int:
     if fusion.suspects():
         print(f"warning: the cameras disagree on where people are beyond their uncertainties; check the calibration "
               f"of {' and '.join(fusion.suspects())}", file=sys.stderr)
-    print(f"{len(fusion.world.tracks)} people from {len(args.worlds)} cameras -> {args.out}")
-    return 0
