@@ -303,34 +303,50 @@ def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
 
 
 def _read_csv(path: Path) -> World:
+    """Read row by row into compact columns (a live run's file may hold millions of rows)."""
+    from array import array
+
+    frames, tracks, interpolated = array("q"), [], array("b")
+    xyz, sd = array("d"), array("d")
+    names: dict[str, None] = {}
+    refinements: dict = {}
     with path.open(newline="") as handle:
-        text = handle.read()
-    # A file being written (``append_world_csv``) may end in a line cut short: it is left out.
-    lines = text.splitlines() if text.endswith("\n") else text.splitlines()[:-1]
-    header = lines[0].removeprefix("#").strip()
-    # Files from before 2026-12 have no refinement line and no interpolated column.
-    refined = len(lines) > 1 and lines[1].startswith("# refinement:")
-    refinements = json.loads(lines[1].removeprefix("# refinement:")) if refined else {}
-    for line in lines[2:]:
-        if line.startswith("# refinement of track "):
-            track, refinement = line.removeprefix("# refinement of track ").split(": ", 1)
-            refinements[json.loads(track)] = json.loads(refinement)
-    rows = list(csv.DictReader(line for line in lines[2 if refined else 1:] if not line.startswith("#")))
+        header = handle.readline().removeprefix("#").strip()
+        position = handle.tell()
+        second = handle.readline()
+        # Files from before 2026-12 have no refinement line, no interpolated column and no position uncertainty.
+        if second.startswith("# refinement:"):
+            refinements.update(json.loads(second.removeprefix("# refinement:")))
+        else:
+            handle.seek(position)
+        columns = next(csv.reader([handle.readline()]))
+        at = {name: columns.index(name) for name in columns}
+        for line in handle:
+            if not line.endswith("\n"):  # a line cut short by a file still being written: left out
+                break
+            if line.startswith("# refinement of track "):
+                track, refinement = line.removeprefix("# refinement of track ").rstrip("\n").split(": ", 1)
+                refinements[json.loads(track)] = json.loads(refinement)
+                continue
+            row = next(csv.reader([line]))
+            names.setdefault(row[at["joint"]])
+            xyz.extend((float(row[at["x"]]), float(row[at["y"]]), float(row[at["z"]])))
+            interpolated.append(int(row[at["interpolated"]] or 0) if "interpolated" in at else 0)
+            if len(interpolated) % len(names) == 1 or len(names) == 1:  # a frame's first joint
+                frames.append(int(row[at["frame"]]))
+                tracks.append(row[at["track"]])
+                sd.extend(float(row[at[key]] or "nan") if key in at else np.nan for key in CSV_COLUMNS[-2:])
     fields = dict(part.split(": ", 1) for part in header.split("; camera: ", 1)[0].split("; "))
     camera = Camera.from_dict(json.loads(header.split("; camera: ", 1)[1]))
-    names = list(dict.fromkeys(r["joint"] for r in rows))
     if not names:
         raise InputError(f"{path}: no tracks yet")
-    count = len(rows) // len(names)
-    rows = rows[:count * len(names)]  # a frame caught half written is left out
-    joints = np.array([[float(r[a]) for a in "xyz"] for r in rows]).reshape(count, len(names), 3)
-    interpolated = np.array([int(r.get("interpolated") or 0) for r in rows]).reshape(count, len(names))
-    # Files from before 2026-12-04 have no position uncertainty columns; a track without one leaves them empty.
-    position_sd = np.array([[float(r.get(key) or "nan") for key in CSV_COLUMNS[-2:]] for r in rows[::len(names)]])
-    tracks = _from_rows(joints, [int(r["frame"]) for r in rows[::len(names)]],
-                        [r["track"] for r in rows[::len(names)]], interpolated, float(fields["fps"]), names,
-                        refinements, position_sd)
-    return World(tracks, camera, fields["model"], fields["units"], _frame_described(fields["axes"]), path)
+    count = len(interpolated) // len(names)  # a frame caught half written is left out
+    joints = np.frombuffer(xyz, dtype=np.float64)[:count * len(names) * 3].reshape(count, len(names), 3)
+    flags = np.frombuffer(interpolated, dtype=np.int8)[:count * len(names)].reshape(count, len(names))
+    position_sd = np.frombuffer(sd, dtype=np.float64).reshape(-1, 2)[:count]
+    tracks_read = _from_rows(joints, np.frombuffer(frames, dtype=np.int64)[:count], tracks[:count], flags,
+                             float(fields["fps"]), list(names), refinements, position_sd)
+    return World(tracks_read, camera, fields["model"], fields["units"], _frame_described(fields["axes"]), path)
 
 
 def _optional_array(values) -> np.ndarray | None:
