@@ -105,6 +105,24 @@ def test_a_camera_placed_half_a_metre_off_is_named():
     assert agree == {("cam0", "cam1"): False, ("cam0", "cam2"): True, ("cam1", "cam2"): True}
 
 
+def test_a_camera_too_far_off_to_be_joined_is_named_and_two_walking_together_raise_no_alarm():
+    truth = _person()
+    frames = np.arange(60)
+    worlds = []
+    for k, camera in enumerate(CAMERAS):
+        seen = _seen(camera, truth, frames)
+        if k == 1:  # a metre off: beyond the gate, so its track stays a person of its own
+            seen.joints = seen.joints + [0.0, 1.0, 0.0]
+        worlds.append(_world(camera, {"1": seen}))
+    fusion = fuse_worlds(worlds)
+    assert len(fusion.world.tracks) == 2 and fusion.suspects() == ["cam1"]
+    beside = truth + [0.0, 0.0, 0.0] + 0.6 * np.array([np.cos(0.8), np.sin(0.8), 0.0])  # a second person, 0.6 m away
+    together = [_world(c, {"a": _seen(c, truth, frames), "b": _seen(c, beside, frames)}) for c in CAMERAS[:2]]
+    fusion = fuse_worlds(together)
+    assert len(fusion.world.tracks) == 2 and fusion.suspects() == []
+    assert all(not entry["disagree"] for entry in fusion.agreement)
+
+
 def test_the_fused_world_file_says_which_cameras_saw_each_frame(tmp_path):
     import jsonschema
     from importlib import resources

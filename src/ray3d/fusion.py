@@ -31,7 +31,8 @@ GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' pla
 GATE_FLOOR_M = 0.25   # plus this: a body is not a point (the pelvis seen from two sides)
 MIN_SHARED_FRAMES = 5
 BOUNCE_SD_M = 0.015
-VELOCITY_GATE_M_S = 0.6  # one person's floor velocity as two cameras see it differs by less (median)   # how well two cameras agree on the pelvis' height about its mean
+VELOCITY_GATE_M_S = 0.6  # one person's floor velocity as two cameras see it differs by less (median)
+NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person   # how well two cameras agree on the pelvis' height about its mean
 
 
 @dataclasses.dataclass
@@ -281,28 +282,58 @@ def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) 
 AGREEMENT_SIGMAS = 3.0  # two cameras disagree when a person's places differ by more, in combined sds (median)
 
 
+def _near_misses(tracks: list[_Track], groups: list[list[int]], fps: float) -> list[tuple[int, int]]:
+    """Pairs of tracks of different cameras left apart that are likely one person all the same: seen at once,
+    walking alike, within ``NEAR_MISS_M`` of each other, and each the other's nearest such track (a camera whose
+    file puts it half a metre off places everybody beyond the gate)."""
+    person = {i: k for k, members in enumerate(groups) for i in members}
+
+    def seen_by(i: int, view: int) -> bool:
+        """Whether track i's person is seen by camera ``view`` at any of track i's frames."""
+        return any(tracks[k].view == view and len(np.intersect1d(tracks[k].frames, tracks[i].frames))
+                   for k in groups[person[i]])
+
+    best: dict[tuple[int, int], tuple[float, int]] = {}
+    for i, a in enumerate(tracks):
+        for j, b in enumerate(tracks):
+            # Only a person whom the other camera does not see as anybody then (two walking together are not).
+            if a.view == b.view or person[i] == person[j] or seen_by(i, b.view) or seen_by(j, a.view):
+                continue
+            shared, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
+            if len(shared) < MIN_SHARED_FRAMES:
+                continue
+            pace = np.linalg.norm(_floor_velocity(a, rows_a, fps) - _floor_velocity(b, rows_b, fps), axis=-1)
+            distance = float(np.median(np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)))
+            if np.median(pace) <= VELOCITY_GATE_M_S and distance <= NEAR_MISS_M and \
+                    distance < best.get((i, b.view), (np.inf,))[0]:
+                best[i, b.view] = (distance, j)
+    # Mutual nearest, camera pair by camera pair.
+    return [(i, j) for (i, _), (_, j) in best.items() if i < j and best.get((j, tracks[i].view), (0, -1))[1] == i]
+
+
 def camera_agreement(tracks: list[_Track], groups: list[list[int]], names: list[str],
-                     centres: list[np.ndarray]) -> list[dict]:
+                     centres: list[np.ndarray], fps: float = 10.0) -> list[dict]:
     """Per pair of cameras that saw someone at once: the median distance between a person's floor points as each
     places them (metres, over every shared frame), the same in combined standard deviations (each camera's
-    uncertainty long along its ray, narrow across it), the frames, and whether it exceeds ``AGREEMENT_SIGMAS``."""
+    uncertainty long along its ray, narrow across it), the frames, and whether it exceeds ``AGREEMENT_SIGMAS``.
+    A person counts whether joined or a near miss (``_near_misses``): a camera too far off to be joined is the one
+    most to be named."""
+    pairs = [(i, j) for members in groups for x, i in enumerate(members) for j in members[x + 1:]]
     gaps: dict[tuple[int, int], list] = {}
-    for members in groups:
-        for x, i in enumerate(members):
-            for j in members[x + 1:]:
-                a, b = sorted((tracks[i], tracks[j]), key=lambda t: t.view)
-                if a.view == b.view:
-                    continue
-                _, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
-                if not len(rows_a):  # one person, seen by the two cameras one after the other
-                    continue
-                difference = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
-                covariance = (_floor_covariance(a, rows_a, centres[a.view][:2])
-                              + _floor_covariance(b, rows_b, centres[b.view][:2]))
-                sigmas = np.sqrt(np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference))
-                entry = gaps.setdefault((a.view, b.view), [[], []])
-                entry[0] += np.linalg.norm(difference, axis=-1).tolist()
-                entry[1] += sigmas.tolist()
+    for i, j in pairs + _near_misses(tracks, groups, fps):
+        a, b = sorted((tracks[i], tracks[j]), key=lambda t: t.view)
+        if a.view == b.view:
+            continue
+        _, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
+        if not len(rows_a):  # one person, seen by the two cameras one after the other
+            continue
+        difference = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
+        covariance = (_floor_covariance(a, rows_a, centres[a.view][:2])
+                      + _floor_covariance(b, rows_b, centres[b.view][:2]))
+        sigmas = np.sqrt(np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference))
+        entry = gaps.setdefault((a.view, b.view), [[], []])
+        entry[0] += np.linalg.norm(difference, axis=-1).tolist()
+        entry[1] += sigmas.tolist()
     report = []
     for (a, b), (gap, sigmas) in sorted(gaps.items()):
         median = float(np.median(sigmas))
@@ -358,4 +389,4 @@ def fuse_worlds(worlds: list[World], offsets_s: list[float] | None = None, find_
     fused = {str(n): fuse(tracks, g, centers, fps, len(worlds)) for n, g in enumerate(groups)}
     members = {str(n): [f"{names[tracks[i].view]}:{tracks[i].name}" for i in g] for n, g in enumerate(groups)}
     world = World(fused, worlds[0].camera, worlds[0].model, cameras=tuple(w.camera for w in worlds))
-    return Fusion(world, list(offsets_s), sds, members, camera_agreement(tracks, groups, names, centers))
+    return Fusion(world, list(offsets_s), sds, members, camera_agreement(tracks, groups, names, centers, fps))
