@@ -246,8 +246,8 @@ def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarr
 def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) -> tuple[float, float]:
     """The offset (seconds; ``other``'s frame f happens at f / fps - offset on the reference's clock) that best
     aligns the floor tracks both cameras see at once, searched in steps of a frame of the reference within
-    +-``max_offset_s``, refined to a fraction of a frame by a parabola through the best three; and its standard
-    uncertainty (from the score's curvature). Refused when no shift lets the cameras share a person."""
+    +-``max_offset_s``, refined to a fraction of a frame by a parabola through the best three; and how sure it is
+    (half the spread of the shifts scoring within 10 % of the best). Refused when no shift lets the cameras share a person."""
     fps = reference.fps
     steps = np.arange(-int(round(max_offset_s * fps)), int(round(max_offset_s * fps)) + 1)
     first = _on_clock(reference, 0, 0.0, fps)
@@ -274,8 +274,10 @@ def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) 
         curvature = left - 2 * middle + right
         if curvature > 0:
             shift += 0.5 * (left - right) / curvature
-    sd_frames = 0.5 if not np.isfinite(curvature) or curvature <= 0 else min(0.5, float(np.sqrt(
-        max(scores[best], 1e-6) * 0.05 / curvature)))
+    # How sure: half the spread of the shifts that score within 10 % of the best (a flat score, as for people
+    # standing still, is a wide spread), and no less than the half frame the search resolves.
+    near = steps[scores <= 1.1 * scores[best]]
+    sd_frames = max(0.5, (near.max() - near.min()) / 2)
     return shift / fps, sd_frames / fps
 
 
