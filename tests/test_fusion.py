@@ -219,3 +219,28 @@ def test_several_videos_need_one_camera_each_and_a_json_world(tmp_path, capsys):
     assert main(["video", *videos, "--camera", "h36m:S9:54138969", "--camera", "h36m:S9:55011271", "--format",
                  ".csv", "--out", str(tmp_path / "out")]) == 2
     assert "fused into a .json world" in capsys.readouterr().err
+
+
+def test_ray3d_lift_with_a_keypoint_file_per_camera_writes_one_fused_world(tmp_path, capsys):
+    from ray3d.cli import main
+    from ray3d.io.keypoints import Keypoints, write_keypoints_json
+
+    truth = _person(40)
+    arguments = []
+    for k, camera in enumerate(CAMERAS[:2]):
+        pixels = camera.project(truth)
+        keypoints = Keypoints(pixels, np.ones(pixels.shape[:2]), np.arange(40), np.zeros(40, int), "h36m17", FPS,
+                              "test")
+        write_keypoints_json(tmp_path / f"k{k}.json", keypoints)
+        (tmp_path / f"c{k}.json").write_text(json.dumps(camera.to_dict()))
+        arguments += ["--keypoints", str(tmp_path / f"k{k}.json"), "--camera", str(tmp_path / f"c{k}.json")]
+    assert main(["lift", *arguments, "--out", str(tmp_path / "fused.json")]) == 0
+    assert "1 people from 2 cameras" in capsys.readouterr().out
+    fused = read_world(tmp_path / "fused.json")
+    assert len(fused.tracks) == 1 and fused.tracks["0"].seen_by.all() and len(fused.cameras) == 2
+    assert np.median(np.linalg.norm(fused.tracks["0"].root[:, :2] - truth[:, 0, :2], axis=-1)) < 0.15
+    assert main(["lift", *arguments[:4], "--keypoints", str(tmp_path / "k0.json"),
+                 "--out", str(tmp_path / "again.json")]) == 2
+    assert "--camera: 1 given for 2 keypoint files" in capsys.readouterr().err
+    assert main(["lift", *arguments, "--out", str(tmp_path / "fused.csv")]) == 2
+    assert "fused into a .json world" in capsys.readouterr().err

@@ -259,8 +259,10 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 
 
 def lift(args: argparse.Namespace) -> int:
+    """One keypoint file and its camera (``ray3d.cli.fusion_commands.lift`` hands several on to ``lift_several``)."""
     from ray3d.io.world import export_paths
     from ray3d.lift import Lifter, lift_file
+
 
     check_output(args.out, (args.camera,))
     camera = _camera(args)

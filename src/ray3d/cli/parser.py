@@ -9,6 +9,7 @@ import ray3d
 from ray3d.body import ADULT_STATURE_M
 from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
+from ray3d.cli import fusion_commands as fusion_handlers
 from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
 from ray3d.cli import video_commands as video_handlers
@@ -43,7 +44,7 @@ def _add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_n
 def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "", several: bool = False) -> None:
     parser.add_argument("--camera", action="append" if several else "store",
                         help="camera JSON (ours or OpenCV), OpenCV YAML, FILE.toml:NAME (Pose2Sim, Anipose) or "
-                             "h36m:SUBJECT:CAMERA_ID" + ("; once per video, in order" if several else ""))
+                             "h36m:SUBJECT:CAMERA_ID" + ("; once per input, in order" if several else ""))
     parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
     parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
     parser.add_argument("--roll", type=float, help="with --pitch: camera roll in degrees (default 0)")
@@ -158,9 +159,12 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.set_defaults(handler=handlers.evaluate)
 
     lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
-    lift.add_argument("--keypoints", required=True, type=Path,
-                      help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d npz")
-    _add_camera_arguments(lift)
+    lift.add_argument("--keypoints", required=True, type=Path, action="append",
+                      help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d "
+                           "npz; several, one per camera (each with its --camera): one fused world")
+    _add_camera_arguments(lift, several=True)
+    lift.add_argument("--find-offsets", action="store_true", help="several keypoint files: find how far apart their "
+                                                                  "clocks are from the people both cameras see")
     lift.add_argument("--out", required=True, type=Path,
                       help="output .json, .csv or .npz (read back by ray3d viz), .trc (OpenSim / Pose2Sim markers) or "
                            ".bvh (a skeleton with joint rotations: Blender, Maya; one file per track)")
@@ -171,7 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
     lift.add_argument("--action", help="VideoPose3D npz: the action")
     lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
     _add_force(lift, "replace --out if it exists")
-    lift.set_defaults(handler=handlers.lift)
+    lift.set_defaults(handler=fusion_handlers.lift)
 
     video = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
                                               "viewer and overlay video (pip install 'ray3d[video]'); several "
@@ -216,7 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="a person leaving one view and entering another within this many seconds keeps their "
                            "track (default 2)")
     _add_force(fuse, "replace --out if it exists")
-    fuse.set_defaults(handler=site_handlers.fuse)
+    fuse.set_defaults(handler=fusion_handlers.fuse)
 
     live = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
                                             "a growing world file, a page on localhost (pip install 'ray3d[video,live]')")

@@ -1,6 +1,5 @@
 """``ray3d site`` (and ``ray3d video --site``): a world's tracks on a site's zones and lines, as a report, tables
-and plots (``ray3d.viz.site_report.analyse_site``); ``ray3d fuse``: several cameras' worlds as one, the world a
-site is read on (``ray3d.fusion``)."""
+and plots (``ray3d.viz.site_report.analyse_site``)."""
 
 from __future__ import annotations
 
@@ -42,42 +41,3 @@ def site(args: argparse.Namespace) -> int:
     plan = read_site(args.site)  # a bad site file is refused before the world file is read
     report_site(read_world(args.world), plan, args.out, f"{args.world.name} on {args.site.name}", args.force)
     return 0
-
-
-def fuse(args: argparse.Namespace) -> int:
-    """``ray3d fuse``: several cameras' world files -> one world, one track per person (``ray3d.fusion``)."""
-
-    from ray3d.errors import InputError
-    from ray3d.fusion import fuse_worlds
-    from ray3d.io.world import read_world, write_world
-
-    refuse_existing(check_output(args.out, tuple(args.worlds)), args.force)
-    offsets = None
-    if args.offsets:
-        try:
-            offsets = [float(v) for v in args.offsets.split(",")]
-        except ValueError:
-            raise InputError(f"--offsets: expected seconds separated by commas, got {args.offsets!r}") from None
-    fusion = fuse_worlds([read_world(path) for path in args.worlds], offsets, args.find_offsets, args.max_offset,
-                         args.handover)
-    write_world(args.out, fusion.world, overwrite=args.force)
-    print_fusion(fusion, [str(path) for path in args.worlds])
-    print(f"{len(fusion.world.tracks)} people from {len(args.worlds)} cameras -> {args.out}")
-    return 0
-
-
-def print_fusion(fusion, sources: list[str]) -> None:
-    """The offsets, who joined whom, the cameras' agreement, and a warning on stderr naming a camera that
-    disagrees."""
-    import sys
-
-    for source, offset, sd in zip(sources, fusion.offsets_s, fusion.offset_sd_s):
-        print(f"{source}: offset {offset:+.3f} s" + (f" +- {sd:.3f} s (found)" if sd else ""))
-    for track, members in fusion.members.items():
-        print(f"  person {track}: {', '.join(members)}")
-    for entry in fusion.agreement:
-        print(f"  {entry['cameras'][0]} and {entry['cameras'][1]}: the same person {entry['median_distance_m']:.2f} m "
-              f"apart, {entry['median_sigmas']:.1f} sd of their uncertainties (median of {entry['frames']} frames)")
-    if fusion.suspects():
-        print(f"warning: the cameras disagree on where people are beyond their uncertainties; check the calibration "
-              f"of {' and '.join(fusion.suspects())}", file=sys.stderr)

@@ -63,7 +63,7 @@ def _one_video(args: argparse.Namespace, video: Path, camera_file: str | None, o
 def _several_videos(args: argparse.Namespace, cameras: list[str]):
     """Each video into OUT/camera<k>_<name>/ as one camera's, then the people fused into OUT/world.json and its
     viewer (``ray3d.fusion``; the videos taken to start together unless --find-offsets)."""
-    from ray3d.cli.site_commands import print_fusion
+    from ray3d.cli.fusion_commands import print_fusion
     from ray3d.fusion import fuse_worlds
     from ray3d.io.atomic import refuse_existing
     from ray3d.io.world import write_world
