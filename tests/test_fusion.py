@@ -15,6 +15,8 @@ from ray3d.demo import demo_clip
 from ray3d.fusion import find_time_offset, fuse_worlds
 from ray3d.io.world import LiftResult, World, read_world, write_world
 
+from browser import console_errors, needs_chromium, screenshot
+
 FPS = 10.0
 CAMERAS = [mounted_camera(yaw, height, distance, None, f"cam{k}")
            for k, (yaw, height, distance) in enumerate([(0.0, 3.0, 6.0), (90.0, 2.5, 5.0), (200.0, 3.5, 7.0)])]
@@ -166,15 +168,8 @@ def test_ray3d_fuse_writes_the_world_and_refuses_bad_input_in_one_line(tmp_path,
         assert message in err and len(err.splitlines()) == 1
 
 
-CHROMIUM = __import__("shutil").which("chromium") or __import__("shutil").which("chromium-browser")
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="needs a headless Chromium")
+@needs_chromium
 def test_the_viewer_of_a_fused_world_draws_every_camera_in_headless_chromium(tmp_path, capsys):
-    import subprocess
-
-    from PIL import Image
-
     from ray3d.cli import main
 
     truth = _person()
@@ -186,25 +181,10 @@ def test_the_viewer_of_a_fused_world_draws_every_camera_in_headless_chromium(tmp
     capsys.readouterr()
     page = viewer.read_text()
     assert '"name": "cam1"' in page and '"name": "cam2"' in page
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.replace("<head>", "<head><script>window.__errors=[];window.onerror=function(m){"
-                                  "window.__errors.push(String(m))};</script>", 1)
-                     .replace("</body>", "<script>setTimeout(function(){var d=document.createElement('pre');"
-                              "d.id='errors';d.textContent=JSON.stringify(window.__errors);"
-                              "document.body.appendChild(d);},300);</script></body>"))
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-             "--disable-component-update", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
-    dom = subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--dump-dom", probe.as_uri()],
-                         capture_output=True, text=True, timeout=120).stdout
-    assert '<pre id="errors">[]</pre>' in dom, dom[-500:]
-    shots = []
-    for name, source in (("three", viewer), ("one", tmp_path / "one.html")):
-        if name == "one":  # the same person seen by the first camera only
-            assert main(["viz", paths[0], "--html", str(source)]) == 0
-        shot = tmp_path / f"{name}.png"
-        subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--window-size=1000,800",
-                        f"--screenshot={shot}", source.as_uri() + "#view=top"], capture_output=True, timeout=120)
-        shots.append(np.asarray(Image.open(shot).convert("L")).astype(int))
+    assert console_errors(viewer) == "[]"
+    assert main(["viz", paths[0], "--html", str(tmp_path / "one.html")]) == 0  # the same person, one camera
+    shots = [screenshot(shown.as_uri() + "#view=top", tmp_path / f"{shown.stem}.png")[..., 0]
+             for shown in (viewer, tmp_path / "one.html")]
     # The floor plan (top right) marks every camera: three black squares and their names, against one.
     dark = [(s[78:300, 765:995] < 60).sum() for s in shots]
     assert dark[0] > dark[1] + 60

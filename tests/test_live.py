@@ -17,6 +17,8 @@ from ray3d.io.world import LiftResult, World, append_world_csv, read_world
 from ray3d.live.source import FrameSource, StreamStalled
 from ray3d.site import CountingLine, Site, Zone, site_events
 
+from browser import needs_chromium, screenshot
+
 CAMERA = cameras.h36m("S9", "54138969")
 FPS = 10.0
 
@@ -355,15 +357,9 @@ def test_a_signal_ends_the_stream_with_every_output_complete(tmp_path, number):
     assert len(world.tracks) == 2 and all(len(r.frames) > 10 for r in world.tracks.values())
 
 
-CHROMIUM = __import__("shutil").which("chromium") or __import__("shutil").which("chromium-browser")
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="needs a headless Chromium")
+@needs_chromium
 def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_headless_chromium(tmp_path):
-    import subprocess
     import urllib.request
-
-    from PIL import Image
 
     from ray3d.live.runner import LiveOptions, run_live
 
@@ -381,15 +377,10 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
                                       "options": LiveOptions(port=0, min_track_s=0.5)})
     runner.start()
     assert listening.wait(30)
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-             "--disable-component-update", "--no-first-run", "--window-size=1100,800"]
     shots = []
     for k in range(2):
         time.sleep(1.5 if k == 0 else 1.0)
-        shot = tmp_path / f"page{k}.png"
-        subprocess.run([CHROMIUM, *flags, f"--user-data-dir={tmp_path / f'profile{k}'}", "--timeout=1500",
-                        f"--screenshot={shot}", urls[0]], capture_output=True, timeout=120)
-        shots.append(np.asarray(Image.open(shot).convert("RGB")).astype(int))
+        shots.append(screenshot(urls[0], tmp_path / f"page{k}.png", size="1100,800", live=True))
     state = json.loads(urllib.request.urlopen(urls[0] + "state", timeout=5).read())
     runner.join(timeout=60)
     plan = [shot[60:540, 8:630] for shot in shots]  # the floor plan's canvas

@@ -16,6 +16,8 @@ from ray3d.io.world import LiftResult, World
 from ray3d.io.site_files import read_site
 from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
 
+from browser import console_errors, needs_chromium, screenshot
+
 DOOR = CountingLine("door", np.array([0.0, -1.0]), np.array([0.0, 1.0]))  # along +y: its left is -x
 ROOM = Zone("room", np.array([[1.0, -2.0], [4.0, -2.0], [4.0, 2.0], [1.0, 2.0]]))
 
@@ -325,15 +327,8 @@ def test_the_window_minimum_ahead_is_the_brute_force_one(values, horizon):
     np.testing.assert_array_equal(_window_minimum(values, horizon), brute)
 
 
-CHROMIUM = __import__("shutil").which("chromium") or __import__("shutil").which("chromium-browser")
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="Chromium not installed (`make browser` installs it)")
+@needs_chromium
 def test_the_site_report_renders_its_plan_timeline_and_events_in_headless_chromium(tmp_path, capsys):
-    import subprocess
-
-    from PIL import Image
-
     from ray3d.cli import main
     from ray3d.io.world import write_world
 
@@ -349,23 +344,9 @@ def test_the_site_report_renders_its_plan_timeline_and_events_in_headless_chromi
     report = tmp_path / "report" / "report.html"
     page = report.read_text()
     assert "http://" not in page and "https://" not in page and "viewer.html#frame=" in page
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-             "--disable-component-update", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
-    for target in (report, tmp_path / "report" / "viewer.html"):
-        probe = target.with_name("probe-" + target.name)
-        probe.write_text(target.read_text().replace("<head>", "<head><script>window.__errors=[];window.onerror="
-                                                    "function(m){window.__errors.push(String(m))};</script>", 1)
-                         .replace("</body>", "<script>setTimeout(function(){var d=document.createElement('pre');"
-                                  "d.id='errors';d.textContent=JSON.stringify(window.__errors);"
-                                  "document.body.appendChild(d);},300);</script></body>"))
-        hash_ = "#frame=40&follow=3" if "viewer" in target.name else ""
-        dom = subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--dump-dom", probe.as_uri() + hash_],
-                             capture_output=True, text=True, timeout=120).stdout
-        assert '<pre id="errors">[]</pre>' in dom, dom[-500:]
-    shot = tmp_path / "report.png"
-    subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--window-size=1300,1400",
-                    f"--screenshot={shot}", report.as_uri()], capture_output=True, timeout=120)
-    pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+    for target, fragment in ((report, ""), (tmp_path / "report" / "viewer.html", "#frame=40&follow=3")):
+        assert console_errors(target, fragment) == "[]", target
+    pixels = screenshot(report.as_uri(), tmp_path / "report.png", size="1300,1400")
     red = (pixels[..., 0] > 180) & (pixels[..., 1] < 80) & (pixels[..., 2] < 80)  # the line, crossings on the timeline
     blue = (pixels[..., 2] > 150) & (pixels[..., 0] < 60) & (pixels[..., 1] < 140)  # the zone, entries
     green = (pixels[..., 1] > 120) & (pixels[..., 0] < 80) & (pixels[..., 2] < 80)  # track started

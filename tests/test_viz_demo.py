@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -20,7 +18,8 @@ from ray3d.viz.html_viewer import write_viewer
 from ray3d.video.frames import read_video_info
 from ray3d.viz.plots import plot_sweep
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+from browser import console_errors, needs_chromium, screenshot
+
 
 
 def test_gif_has_one_frame_per_stride(tmp_path):
@@ -61,8 +60,7 @@ def test_sweep_plot_is_a_png(tmp_path):
         assert image.format == "PNG" and image.size[0] > 300
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="Chromium not installed (Debian packages chromium, chromium-driver: "
-                                              "`make browser` installs them)")
+@needs_chromium
 def test_html_viewer_renders_in_headless_chromium(tmp_path):
     truth = demo_clip()[:30]
     shifted = LiftResult(truth + 0.3, np.zeros((30, 17), bool), 30.0, np.arange(30),
@@ -71,26 +69,9 @@ def test_html_viewer_renders_in_headless_chromium(tmp_path):
                           camera=cameras.h36m("S9", "54138969"))
     html = viewer.read_text()
     assert "http://" not in html and "https://" not in html  # self-contained: nothing to fetch
-    # Wrap the viewer so the page reports its own console errors into the DOM, then dump the DOM.
-    probe = tmp_path / "probe.html"
-    probe.write_text(html.replace("<head>", "<head><script>window.__errors=[];window.onerror=function(m){"
-                                  "window.__errors.push(String(m))};</script>", 1).replace(
-        "</body>", "<script>setTimeout(function(){var d=document.createElement('pre');d.id='errors';"
-        "d.textContent=JSON.stringify(window.__errors);document.body.appendChild(d);},300);</script></body>"))
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-             "--disable-component-update", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}"]
-    dom = subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--dump-dom", probe.as_uri()],
-                         capture_output=True, text=True, timeout=120).stdout
-    assert '<pre id="errors">[]</pre>' in dom, dom[-500:]
     for view in ("", "#view=top", "#view=side", "#view=camera"):
-        if view:
-            dom = subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--dump-dom", probe.as_uri() + view],
-                                 capture_output=True, text=True, timeout=120).stdout
-            assert '<pre id="errors">[]</pre>' in dom, (view, dom[-500:])
-        shot = tmp_path / f"shot{view[6:]}.png"
-        subprocess.run([CHROMIUM, *flags, "--virtual-time-budget=2000", "--window-size=1000,700",
-                        f"--screenshot={shot}", viewer.as_uri() + view], capture_output=True, timeout=120)
-        pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+        assert console_errors(viewer, view) == "[]", view
+        pixels = screenshot(viewer.as_uri() + view, tmp_path / f"shot{view[6:]}.png", size="1000,700")
         canvas = pixels[80:640, 20:760]  # below the bar, left of the floor plan
         assert canvas.std() > 5, view  # not blank
         red = (canvas[..., 0] > 180) & (canvas[..., 1] < 90) & (canvas[..., 2] < 90)
