@@ -92,16 +92,20 @@ def test_a_clock_offset_is_found_within_a_frame():
         assert len(fusion.world.tracks) == 1 and fusion.offsets_s[1] == pytest.approx(offset)
 
 
-def test_a_camera_placed_half_a_metre_off_is_named():
-    truth = _person()
-    frames = np.arange(60)
+def _rig_with_one_camera_off(truth: np.ndarray, off: int, by_m: list[float]) -> list[World]:
+    """Every camera seeing the person, camera ``off``'s file putting it ``by_m`` from where it hangs: everybody it
+    sees lands that far off."""
     worlds = []
     for k, camera in enumerate(CAMERAS):
-        seen = _seen(camera, truth, frames)
-        if k == 2:  # its file puts it 0.5 m from where it hangs: everybody it sees lands 0.5 m off
-            seen.joints = seen.joints + [0.5, 0.0, 0.0]
+        seen = _seen(camera, truth, np.arange(len(truth)))
+        if k == off:
+            seen.joints = seen.joints + by_m
         worlds.append(_world(camera, {"1": seen}))
-    fusion = fuse_worlds(worlds)
+    return worlds
+
+
+def test_a_camera_placed_half_a_metre_off_is_named():
+    fusion = fuse_worlds(_rig_with_one_camera_off(_person(), 2, [0.5, 0.0, 0.0]))
     assert fusion.suspects() == ["cam2"]
     agree = {tuple(e["cameras"]): e["disagree"] for e in fusion.agreement}
     assert agree == {("cam0", "cam1"): False, ("cam0", "cam2"): True, ("cam1", "cam2"): True}
@@ -110,13 +114,7 @@ def test_a_camera_placed_half_a_metre_off_is_named():
 def test_a_camera_too_far_off_to_be_joined_is_named_and_two_walking_together_raise_no_alarm():
     truth = _person()
     frames = np.arange(60)
-    worlds = []
-    for k, camera in enumerate(CAMERAS):
-        seen = _seen(camera, truth, frames)
-        if k == 1:  # a metre off: beyond the gate, so its track stays a person of its own
-            seen.joints = seen.joints + [0.0, 1.0, 0.0]
-        worlds.append(_world(camera, {"1": seen}))
-    fusion = fuse_worlds(worlds)
+    fusion = fuse_worlds(_rig_with_one_camera_off(truth, 1, [0.0, 1.0, 0.0]))  # beyond the gate: not joined
     assert len(fusion.world.tracks) == 2 and fusion.suspects() == ["cam1"]
     beside = truth + [0.0, 0.0, 0.0] + 0.6 * np.array([np.cos(0.8), np.sin(0.8), 0.0])  # a second person, 0.6 m away
     together = [_world(c, {"a": _seen(c, truth, frames), "b": _seen(c, beside, frames)}) for c in CAMERAS[:2]]
