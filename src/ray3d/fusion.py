@@ -230,9 +230,9 @@ def _floor_covariance(track: _Track, rows: np.ndarray, centre: np.ndarray) -> np
     return sd[:, 0, None, None] ** 2 * along + sd[:, 1, None, None] ** 2 * (np.eye(2) - along)
 
 
-def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarray]) -> float:
-    """The mean Mahalanobis distance between two tracks' floor points over their shared frames: a camera's error
-    along its ray (its depth bias, which would pass for a time shift of a person walking along it) counts
+def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """(N,) the Mahalanobis distance between two tracks' floor points in each of their shared frames: a camera's
+    error along its ray (its depth bias, which would pass for a time shift of a person walking along it) counts
     little, its precise place across the ray much."""
     _, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
     covariance = _floor_covariance(a, rows_a, centres[0]) + _floor_covariance(b, rows_b, centres[1])
@@ -240,7 +240,7 @@ def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarr
     floor = np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference)
     # The pelvis' rise and fall with each step, about each track's own mean height: no camera's bias moves it.
     bounce = a.joints[rows_a, 0, 2] - a.joints[rows_a, 0, 2].mean() - b.joints[rows_b, 0, 2] + b.joints[rows_b, 0, 2].mean()
-    return float(np.mean(np.sqrt(floor + (bounce / BOUNCE_SD_M) ** 2)))
+    return np.sqrt(floor + (bounce / BOUNCE_SD_M) ** 2)
 
 
 def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) -> tuple[float, float]:
@@ -261,7 +261,8 @@ def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) 
                 distance, allowed, _ = _pair_distance(a, b, fps)
                 if distance <= 2 * allowed:
                     distances.append(_floor_mahalanobis(a, b, centres))
-        scores.append(np.mean(distances) if distances else np.inf)
+        # Every shared frame weighs alike: a short overlap at the end of a broken track counts for few frames.
+        scores.append(np.mean(np.concatenate(distances)) if distances else np.inf)
     scores = np.array(scores)
     if not np.isfinite(scores).any():
         raise InputError("cameras: no person is seen by both at once at any offset within "
