@@ -109,6 +109,9 @@ class _Finisher:
         except InputError as err:
             self.left_out[str(track.id)] = err.message
             return
+        except Exception as err:  # one person's failure must not stop the others being written
+            self.left_out[str(track.id)] = f"could not be lifted ({type(err).__name__}: {err})"
+            return
         append_world_csv(self.path, World(lifted, self.camera, self.lifter.name).in_frame("world"))
         self.written += 1
 
