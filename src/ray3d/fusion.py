@@ -30,9 +30,10 @@ POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axi
 GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' places of one person may differ
 GATE_FLOOR_M = 0.25   # plus this: a body is not a point (the pelvis seen from two sides)
 MIN_SHARED_FRAMES = 5
-BOUNCE_SD_M = 0.015
+BOUNCE_SD_M = 0.015  # how well two cameras agree on the pelvis' height about its mean
 VELOCITY_GATE_M_S = 0.6  # one person's floor velocity as two cameras see it differs by less (median)
-NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person   # how well two cameras agree on the pelvis' height about its mean
+NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person
+UNKNOWN_SD_M = (0.3, 0.05)  # the root's sd along and across its ray taken for a track that states none
 
 
 @dataclasses.dataclass
@@ -74,10 +75,19 @@ def _on_clock(world: World, view: int, offset_s: float, fps: float) -> list[_Tra
     return tracks
 
 
-def _floor_sd(track: _Track, rows: np.ndarray, unknown_m: float = 0.3) -> np.ndarray:
-    """(N,) one number for how far the track's floor point may be off (its larger sd; ``unknown_m`` without)."""
-    sd = np.nanmax(track.sd[rows], axis=-1)
-    return np.where(np.isfinite(sd), sd, unknown_m)
+def _root_sd(track: _Track, rows: np.ndarray) -> np.ndarray:
+    """(N, 2) the root's sd along and across its ray (``UNKNOWN_SD_M`` where the track states none)."""
+    return np.where(np.isfinite(track.sd[rows]), track.sd[rows], UNKNOWN_SD_M)
+
+
+def _along_ray(points: np.ndarray, centre: np.ndarray, sd: np.ndarray) -> np.ndarray:
+    """(..., D, D) covariances of (..., D) points seen from ``centre``: ``sd[..., 0]`` along the ray to each point,
+    ``sd[..., 1]`` across it."""
+    ray = points - centre
+    ray /= np.maximum(np.linalg.norm(ray, axis=-1, keepdims=True), 1e-9)
+    along = ray[..., :, None] * ray[..., None, :]
+    return (sd[..., 0, None, None] ** 2 * along
+            + sd[..., 1, None, None] ** 2 * (np.eye(points.shape[-1]) - along))
 
 
 def _floor_velocity(track: _Track, rows: np.ndarray, fps: float) -> np.ndarray:
@@ -95,7 +105,8 @@ def _pair_distance(a: _Track, b: _Track, fps: float = 10.0) -> tuple[float, floa
     if len(shared) < MIN_SHARED_FRAMES:
         return np.inf, 0.0, len(shared)
     gap = np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)
-    allowed = GATE_SIGMAS * np.hypot(_floor_sd(a, rows_a), _floor_sd(b, rows_b)) + GATE_FLOOR_M
+    larger_a, larger_b = _root_sd(a, rows_a).max(axis=-1), _root_sd(b, rows_b).max(axis=-1)
+    allowed = GATE_SIGMAS * np.hypot(larger_a, larger_b) + GATE_FLOOR_M
     pace = np.linalg.norm(_floor_velocity(a, rows_a, fps) - _floor_velocity(b, rows_b, fps), axis=-1)
     if np.median(pace) > VELOCITY_GATE_M_S:
         return np.inf, float(np.median(allowed)), len(shared)
@@ -183,12 +194,8 @@ def _group_floor(tracks: list[_Track], members: list[int], frame: int) -> np.nda
 def _covariances(track: _Track, rows: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
     """(N, 17, 3, 3) each joint's covariance from this camera in each frame: long along the joint's own ray (the
     root's sd along its ray) and narrow across it (the root's sd across), plus the pose's own error."""
-    ray = track.joints[rows] - camera_center
-    ray /= np.linalg.norm(ray, axis=-1, keepdims=True)
-    sd = np.where(np.isfinite(track.sd[rows]), track.sd[rows], [0.3, 0.05])
-    along = np.einsum("nji,njk->njik", ray, ray)
-    return (sd[:, 0, None, None, None] ** 2 * along + sd[:, 1, None, None, None] ** 2 * (np.eye(3) - along)
-            + POSE_SD_M ** 2 * np.eye(3))
+    sd = np.repeat(_root_sd(track, rows)[:, None], track.joints.shape[1], axis=1)
+    return _along_ray(track.joints[rows], camera_center, sd) + POSE_SD_M ** 2 * np.eye(3)
 
 
 def fuse(tracks: list[_Track], members: list[int], centers: list[np.ndarray], fps: float,
@@ -223,11 +230,7 @@ def fuse(tracks: list[_Track], members: list[int], centers: list[np.ndarray], fp
 
 def _floor_covariance(track: _Track, rows: np.ndarray, centre: np.ndarray) -> np.ndarray:
     """(N, 2, 2) the floor point's covariance from one camera: long along its ray, narrow across it."""
-    ray = track.joints[rows, 0, :2] - centre
-    ray /= np.maximum(np.linalg.norm(ray, axis=-1, keepdims=True), 1e-9)
-    sd = np.where(np.isfinite(track.sd[rows]), track.sd[rows], [0.3, 0.05])
-    along = np.einsum("ni,nj->nij", ray, ray)
-    return sd[:, 0, None, None] ** 2 * along + sd[:, 1, None, None] ** 2 * (np.eye(2) - along)
+    return _along_ray(track.joints[rows, 0, :2], centre, _root_sd(track, rows))
 
 
 def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarray]) -> np.ndarray:

@@ -5,6 +5,7 @@ only when asked); ``read_world`` gives the same ``World`` back."""
 from __future__ import annotations
 
 import csv
+import io
 import dataclasses
 import json
 import re
@@ -235,8 +236,6 @@ def append_world_csv(path: str | Path, world: World) -> Path:
     exist): each track's refinement on a comment line before its rows, then the rows, in one write. A reader
     meanwhile sees whole tracks (``read_world`` leaves out a track it catches half written): what ``ray3d live``
     writes as people leave."""
-    import io
-
     path = Path(path)
     text = io.StringIO()
     if not path.exists():
