@@ -2,7 +2,9 @@
 
 Plays the video in real time through ``run_live`` (the page served, a client reading its feed as a browser
 would), then reports: frames dropped, latency from a frame's arrival to its people published (the runner's own
-clock) and to their arrival at the page's feed (the client's), the people found, feet on the floor and statures
+clock) and to their arrival at the page's feed (the client's), the people the detector left for the next frame
+to keep up, the people found, feet on the floor (in all of each track's frames, and in the frames its feet were
+seen) and statures
 in both world files, and for each live track the offline track it is (most shared frames, pelvis within 1 m) with
 the median distance between their pelvis floor points.
 
@@ -43,9 +45,12 @@ def _feed_latencies(url: str, arrivals: dict, out: list, stop: threading.Event) 
 
 
 def _summary(world) -> dict:
-    contact = [r.refinement["contact_fraction"] for r in world.tracks.values() if r.refinement]
-    statures = [r.refinement["stature_m"] for r in world.tracks.values() if r.refinement]
+    refined = [r.refinement for r in world.tracks.values() if r.refinement]
+    contact = [r["contact_fraction"] for r in refined]
+    statures = [r["stature_m"] for r in refined]
+    seen = [r["contact_fraction"] / r["floor_cue_fraction"] for r in refined if r["floor_cue_fraction"] > 0]
     return {"tracks": len(world.tracks), "feet_on_floor": float(np.mean(contact)),
+            "feet_on_floor_where_seen": float(np.mean(seen)),
             "stature_median": float(np.median(statures)), "stature_range": [float(min(statures)), float(max(statures))]}
 
 
@@ -109,6 +114,8 @@ def main() -> None:
                                  "p99": float(np.percentile(summary.latency_ms, 99))},
         "latency_page_feed_ms": {"median": float(np.median(page_latency)), "p99": float(np.percentile(page_latency, 99)),
                                  "snapshots": len(page_latency)} if page_latency else None,
+        "people_postponed": summary.postponed,
+        "person_frames_written": int(sum(len(r.frames) for r in live.tracks.values())),
         "events": summary.events, "live": _summary(live), "offline": _summary(offline),
         "matched_tracks": matched, "pelvis_floor_distance_m": {"median": float(np.median(distances)),
                                                                "p90": float(np.percentile(distances, 90)),

@@ -58,16 +58,20 @@ class _ScriptedDetector:
     def __init__(self, people: np.ndarray):
         self.pixels = CAMERA.project(people)  # (T, P, 17, 2)
         self.calls: list[int] = []  # the frames it looked at
+        self.time_left: list[float | None] = []  # the time it was given for each
+        self.unseen: set[tuple[int, int]] = set()  # (frame, person) it does not find
 
     def prepare(self, frames) -> None:
         pass
 
-    def __call__(self, frame):
+    def __call__(self, frame, time_left_s=None):
         from ray3d.video.detectors import Detection
 
         index = int(frame[0, 0, 0]) + 256 * int(frame[0, 0, 1])  # the frame carries its own number
         self.calls.append(index)
-        return [Detection(p, np.ones(17), 0.9) for p in self.pixels[index]]
+        self.time_left.append(time_left_s)
+        return [Detection(p, np.ones(17), 0.9) for k, p in enumerate(self.pixels[index])
+                if (index, k) not in self.unseen]
 
 
 CLOTHES = ((200, 40, 40), (40, 60, 200))
@@ -182,10 +186,37 @@ def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_i
     from ray3d.refine import refine_track
 
     following = live._following[tracks[0].id]
-    live._refine(following)
     raw = np.stack([j for _, j in following.history])
+    live._refine(following, raw)
+    live.close()
     _, offline_refinement = refine_track(raw, CAMERA, FPS, config=live.config)
     assert following.scale == pytest.approx(offline_refinement.scale[-1], abs=1e-12)
+
+
+def test_the_detector_is_given_the_time_until_the_frame_is_due_and_a_person_unseen_once_is_held(tmp_path):
+    from ray3d.lift import Lifter
+    from ray3d.live.people import RUNNER_SHARE, LivePeople
+    from ray3d.live.source import LiveFrame
+
+    people = _scene(12)
+    detector = _ScriptedDetector(people)
+    detector.unseen = {(8, 0)}  # the first person is not found in frame 8 (left for the next frame, say)
+    live = LivePeople(CAMERA, detector, Lifter.load(), FPS, deadline_frames=2)
+    images = list(_frames(len(people), people=people))
+    answers = []
+    for index, image in enumerate(images):
+        late = 0.15 if index == 5 else 0.0  # frame 5 waited 0.15 s before it was taken
+        answers.append(live.update(LiveFrame(index, image, time.monotonic() - late))[0])
+    live.close()
+    on_time, waited = detector.time_left[4], detector.time_left[5]
+    assert 2 / FPS - RUNNER_SHARE / FPS - 0.05 < on_time <= 2 / FPS - RUNNER_SHARE / FPS
+    assert waited == pytest.approx(on_time - 0.15, abs=0.03)
+    held = {p.track: p for p in answers[7]}
+    assert len(answers[8]) == 2  # both still there: one seen, one at their place of frame 7
+    unseen = [p for p in answers[8] if p.track in held and np.array_equal(p.joints, held[p.track].joints)]
+    assert len(unseen) == 1
+    track = next(t for t in live.in_view() if t.id == unseen[0].track)
+    assert 8 not in track.frames and {7, 9} <= set(track.frames)  # the world track has only what was seen
 
 
 def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answer(tmp_path):

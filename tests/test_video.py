@@ -185,6 +185,54 @@ def test_tracker_needs_several_hits_before_a_track_exists():
     assert [t.frames for t in tracker.tracks()] == [[2, 3, 4]]
 
 
+def test_tracker_counts_dropped_frames_as_time_passing():
+    """Live use drops frames: the filter moves people on for every frame since the last update, and a person
+    unseen for longer than the gap in time (not in updates) has left."""
+    walker = CAMERA.project(_walker((6.0, -2.0), (0.0, 2.0), 40))
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.25)  # 5 frames at 20 frames/s
+    seen = list(range(10)) + list(range(14, 40, 4))  # every frame, then three in four dropped
+    for t in seen:
+        tracker.update(t, [Detection(walker[t], np.ones(17), 0.9)], frame)
+    assert [t.frames for t in tracker.tracks()] == [seen]  # one person, followed across the drops
+    tracker.update(46, [], frame)  # the next frame taken is 8 frames (0.4 s) later, with nobody
+    assert [t.frames for t in tracker.finished()] == [seen]
+
+
+def test_the_detector_leaves_people_for_the_next_frame_only_when_time_is_short(monkeypatch):
+    """Live use gives the detector the time it may take: the crops that do not fit are the last frame's people,
+    smallest first, looked at first in the next frame (nobody is left out twice running); without a time
+    every person is looked at in every frame."""
+    import ray3d.video.detectors as detectors
+
+    monkeypatch.setattr(detectors, "BlazePoseLandmarks", lambda threads: None)  # the network is not needed
+    detector = detectors.PeopleDetector(CAMERA)
+    looked_at: list[list[float]] = []
+
+    def look(frame, regions, vouched=None):  # everybody is where they were; a crop finds who it frames
+        looked_at[-1] += [float(r[0]) for r in regions]
+        corners = np.array([[-0.2, -0.4], [0.2, 0.4]])
+        return [Detection(np.repeat(r[:2] + corners * r[2], [17, 16], axis=0), np.ones(33), 0.9, r.copy())
+                for r in regions]
+
+    detector._look = look
+    people = np.array([[80.0 + 120 * k, 240.0, 60.0 + 10 * k, 0.0] for k in range(5)])  # larger to the right
+    looked_at.append([])
+    detector._previous = look(None, people)
+    detector._crop_s = 0.1  # as measured (the time before the crops, a few ms, leaves room for three)
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    for _ in range(6):
+        looked_at.append([])
+        assert len(detector(frame, time_left_s=0.35)) == 3  # room for three crops
+    rounds = [set(looked) for looked in looked_at[1:]]
+    assert rounds[0] == {440.0, 560.0, 320.0}  # the largest three
+    for before, after in zip(rounds, rounds[1:]):
+        assert set(people[:, 0]) - before <= after  # left out once, looked at next
+    assert detector.postponed == 12
+    looked_at.append([])
+    assert len(detector(frame)) == 5 and sorted(looked_at[-1]) == sorted(people[:, 0])  # no time given: all
+
+
 def test_person_height_follows_the_camera_geometry():
     near, far = person_height_px(CAMERA, [[320.0, 400.0], [320.0, 260.0]])
     assert near > far > 0

@@ -40,7 +40,8 @@ def live(args: argparse.Namespace) -> int:
                        started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True))
     latency = summary.latency_ms
     print(f"{summary.why}: {summary.processed} of {summary.read} frames processed ({summary.dropped} dropped, "
-          f"{100 * summary.dropped / max(summary.read, 1):.1f} %); latency median "
+          f"{100 * summary.dropped / max(summary.read, 1):.1f} %; {summary.postponed} people left for the next "
+          f"frame to keep up); latency median "
           f"{np.median(latency) if len(latency) else float('nan'):.0f} ms, 99th percentile "
           f"{np.percentile(latency, 99) if len(latency) else float('nan'):.0f} ms; {summary.events} events; "
           f"{summary.tracks} people in {summary.files['world']} ({len(summary.left_out)} short tracks left out)",

@@ -1,8 +1,9 @@
 """Who is where, frame by frame, causally: the detector and the floor tracker of ``ray3d video``, each person
 lifted as their frame arrives (``LiftStream`` without waiting for the future, everybody in one network call), and
-a causal form of the track-level refinement: every ``refine_every_s`` (at most one person a frame) the
-refinement runs on the person's last ``refine_window_s`` and its factor along the rays for the latest frame
-carries the frames until the next run.
+a causal form of the track-level refinement: every ``refine_every_s`` the refinement runs on the person's last
+``refine_window_s`` and its factor along the rays for the latest frame carries the frames until the next run.
+The refinements run one at a time on a thread of their own below the stream's priority, in the time the
+detector's network leaves: one inline cost a frame 50 ms.
 
 A person who has left (unseen for longer than the tracker's gap) is handed over as a finished track; its final
 answer is the offline one (``Lifter.lift_tracks`` on the whole track, as ``ray3d video`` lifts it)."""
@@ -10,7 +11,11 @@ answer is the offline one (``Lifter.lift_tracks`` on the whole track, as ``ray3d
 from __future__ import annotations
 
 import dataclasses
+import os
+import threading
+import time
 from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
@@ -24,6 +29,9 @@ from ray3d.refine import RefineConfig, network_position_sd, refine_track, scale_
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.pipeline import CONFIRM_FRAMES
 from ray3d.video.tracking import FloorTracker, Track
+
+
+RUNNER_SHARE = 0.1  # of a frame's period, kept for the events, the outputs and the page after the people
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,26 +54,42 @@ class _Following:
     position_sd: np.ndarray | None = None
     stature_m: float | None = None
     next_refinement: int = 0          # the frame from which the refinement runs again
+    latest: PersonNow | None = None   # the answer for the track's latest detection
 
 
 class LivePeople:
-    """``update(frame)`` -> the people in it, and the tracks finished since the last call."""
+    """``update(frame)`` -> the people in it, and the tracks finished since the last call.
+
+    The detector is given the time left until ``deadline_frames`` frame periods after the frame's arrival (the
+    source's buffer: finished by then, the frame pushes none out), less what the rest of a frame takes (as
+    measured): a detector that can leaves some people for the next frame rather than fall behind. A person the
+    detector did not see in this frame but did in the one processed before is given at their place of the frame before
+    (the page and the zones' counts do not flicker); their world track has only the frames they were seen in."""
 
     def __init__(self, camera: Camera, detector: PoseDetector, lifter: Lifter, fps: float,
                  floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 3.0,
-                 refine_window_s: float = 20.0):
+                 refine_window_s: float = 20.0, deadline_frames: float = 2.0):
+        self.deadline_s = deadline_frames / fps
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
         self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES)
         self.config = RefineConfig.for_model(lifter.document)
         self.refine_every = max(1, int(round(refine_every_s * fps)))
         self.window = max(2, int(round(refine_window_s * fps)))
         self._following: dict[int, _Following] = {}
+        self._refiner = ThreadPoolExecutor(1, "refine", initializer=below_the_stream)
+        self._refining: Future | None = None
+        self._after_detection_s = 0.0  # the time a frame takes after its detection, as measured
+        self._last_frame = -1          # the frame processed before this one (frames may have been dropped)
 
     def update(self, frame: LiveFrame, detections: list | None = None) -> tuple[list[PersonNow], list[Track]]:
         """The people in ``frame`` (its ``detections`` when the detector already ran on it) and the tracks
         finished since the last call."""
-        self.tracker.update(frame.index, self.detector(frame.image) if detections is None else detections,
-                            frame.image)
+        if detections is None:
+            reserve = self._after_detection_s + RUNNER_SHARE / self.fps
+            detections = self.detector(frame.image,
+                                       time_left_s=frame.arrived + self.deadline_s - reserve - time.monotonic())
+        detected = time.monotonic()
+        self.tracker.update(frame.index, detections, frame.image)
         waiting: list[tuple[int, _Following]] = []
         for track in self.tracker.tracks():
             following = self._following.get(track.id) or self._start(track)
@@ -86,21 +110,29 @@ class LivePeople:
         answers = lift_streams([f.stream for _, f in waiting])
         for (_, following), raw in zip(waiting, answers):
             following.history.append((frame.index, raw))
-        # At most one refinement a frame, the most overdue: several at once would hold up that frame.
+        # One refinement at a time, the most overdue, once the last has finished.
+        if self._refining is not None and self._refining.done():
+            self._refining.result()  # its failure is this stream's
+            self._refining = None
         due = [f for _, f in waiting if frame.index >= f.next_refinement and len(f.history) >= 2]
-        if due:
+        if due and self._refining is None:
             overdue = min(due, key=lambda f: f.next_refinement)
-            self._refine(overdue)
+            self._refining = self._refiner.submit(self._refine, overdue, np.stack([raw for _, raw in overdue.history]))
             overdue.next_refinement = frame.index + self.refine_every
         people = []
         for (track_id, following), raw in zip(waiting, answers):
             joints = scale_about(raw[None], self.camera.center, np.array([following.scale]))[0]
             sd = following.position_sd if following.position_sd is not None else \
                 network_position_sd(raw[None], self.camera, self.config)[0]
-            people.append(PersonNow(track_id, joints, sd, following.stature_m))
+            following.latest = PersonNow(track_id, joints, sd, following.stature_m)
+            people.append(following.latest)
+        people += [self._following[t.id].latest for t in self.tracker.tracks()
+                   if t.frames[-1] == self._last_frame and self._following[t.id].latest is not None]
+        self._last_frame = frame.index
         finished = self.tracker.finished()
         for track in finished:
             self._following.pop(track.id, None)
+        self._after_detection_s += 0.1 * (time.monotonic() - detected - self._after_detection_s)
         return people, finished
 
     def _start(self, track: Track) -> _Following:
@@ -108,9 +140,9 @@ class LivePeople:
         self._following[track.id] = following = _Following(stream, history=deque(maxlen=self.window))
         return following
 
-    def _refine(self, following: _Following) -> None:
-        """The refinement on the person's recent frames; its answer for the latest frame carries on."""
-        joints = np.stack([raw for _, raw in following.history])
+    def _refine(self, following: _Following, joints: np.ndarray) -> None:
+        """The refinement on the person's recent frames' raw joints (T, 17, 3); its answer for the latest frame
+        carries on."""
         _, refined = refine_track(joints, self.camera, self.fps, config=self.config, floor=self.floor)
         following.scale = float(refined.scale[-1])
         following.position_sd = refined.position_sd_m[-1]
@@ -119,3 +151,16 @@ class LivePeople:
     def in_view(self) -> list[Track]:
         """The tracks still followed (at the stream's end, to be finished too)."""
         return self.tracker.tracks()
+
+    def close(self) -> None:
+        """Waits for the refinement under way."""
+        self._refiner.shutdown(wait=True)
+
+
+def below_the_stream() -> None:
+    """The calling thread below the stream's priority: it takes the time the stream leaves (Linux: threads
+    have their own; elsewhere nothing changes)."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
+    except (AttributeError, OSError):
+        pass

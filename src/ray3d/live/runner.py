@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import os
 import queue
 import threading
 import time
@@ -27,7 +26,7 @@ from ray3d.io.world import World, append_world_csv, read_world
 from ray3d.lift import Lifter
 from ray3d.live.events import LiveSite
 from ray3d.live.outputs import EventLog, Webhook
-from ray3d.live.people import LivePeople, PersonNow
+from ray3d.live.people import LivePeople, PersonNow, below_the_stream
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.live.source import FrameSource, StreamStalled
 from ray3d.options import LiftOptions
@@ -58,14 +57,16 @@ class LiveOptions:
 @dataclasses.dataclass
 class LiveSummary:
     """How it went: why it ended (one of ``ENDINGS``, with the line saying so), the frames read, processed and
-    dropped, each processed frame's latency (arrival to its people published, milliseconds), the events, the
-    tracks written and those left out (with why), the webhook's counts and the files written."""
+    dropped, the people the detector left for the next frame to keep up, each processed frame's latency
+    (arrival to its people published, milliseconds), the events, the tracks written and those left out (with
+    why), the webhook's counts and the files written."""
 
     ending: str
     why: str
     read: int
     processed: int
     dropped: int
+    postponed: int
     latency_ms: np.ndarray
     events: int
     tracks: int
@@ -91,10 +92,7 @@ class _Finisher:
         self._queue.put(track)
 
     def _run(self) -> None:
-        try:  # below the stream's priority: it takes the time the stream leaves (Linux: threads have their own)
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
-        except (AttributeError, OSError):
-            pass
+        below_the_stream()
         while (track := self._queue.get()) is not None:
             self._finish(track)
 
@@ -184,7 +182,8 @@ def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector,
     stop = stop or threading.Event()
     lifter = lifter or Lifter.load(layout=detector.layout)
     site = site or Site()
-    people = LivePeople(camera, detector, lifter, source.fps, lift_options.floor, options.max_gap_s)
+    people = LivePeople(camera, detector, lifter, source.fps, lift_options.floor, options.max_gap_s,
+                        deadline_frames=source.keep)
     monitor = LiveSite(site, source.fps)
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
@@ -248,6 +247,7 @@ def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector,
                     "read": source.read}))
     finally:
         source.close()
+        people.close()
         for track in people.in_view():
             emit(monitor.ended(track.id, track.frames[-1]))
             finisher.put(track)
@@ -263,7 +263,8 @@ def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector,
 
             analyse_site(read_world(files["world"]), site, out_dir / "site", title=f"ray3d live: {source.name}")
             files["site"] = out_dir / "site"
-    return LiveSummary(ending, why, source.read, processed, source.dropped, np.array(latencies), events_count,
+    return LiveSummary(ending, why, source.read, processed, source.dropped, getattr(detector, "postponed", 0),
+                       np.array(latencies), events_count,
                        finisher.written, finisher.left_out,
                        {} if not webhook else {"delivered": webhook.delivered, "failed": webhook.failed,
                                                "dropped": webhook.dropped}, files)

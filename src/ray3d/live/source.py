@@ -69,16 +69,18 @@ class FrameSource:
     """``next()`` gives the oldest of the (at most ``keep``) newest frames not taken yet (waiting for one), None
     once the stream has ended, and raises ``StreamStalled`` when none has come for ``stall_s`` seconds. ``paced``
     plays the frames at ``fps`` (a file at its own rate); a camera or a stream paces itself. ``read`` counts the
-    frames read, ``dropped`` those pushed out by newer ones before they were taken."""
+    frames read, ``dropped`` those pushed out by newer ones before they were taken; a frame taken within
+    ``keep`` frame periods of its arrival pushes none out."""
 
     def __init__(self, frames: Iterator[np.ndarray], fps: float, name: str, paced: bool = False,
                  stall_s: float = 5.0, image_size: tuple[int, int] | None = None, keep: int = 2):
         if not fps > 0:
             raise InputError(f"{name}: the stream reports no frame rate; give it", ("fps",))
         self.fps, self.name, self.stall_s, self.image_size = float(fps), name, float(stall_s), image_size
+        self.keep = max(1, int(keep))
         self.read = self.dropped = 0
         self._frames, self._paced = frames, paced
-        self._waiting: collections.deque = collections.deque(maxlen=max(1, int(keep)))
+        self._waiting: collections.deque = collections.deque(maxlen=self.keep)
         self._ended = self._closed = False
         self._failure: BaseException | None = None
         self._changed = threading.Condition()

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import time
+from collections import deque
 from typing import Protocol
 
 import numpy as np
@@ -28,6 +30,9 @@ from ray3d.video.boxes import box_overlap
 from ray3d.video.full_frame import FullFramePeople
 from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
+
+
+EMPTY_MEMORY = 10  # looks (about five frames) over which a region that held nobody is remembered
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,16 +55,17 @@ class Detection:
 
 
 class PoseDetector(Protocol):
-    """``detector(frame)`` with an (H, W, 3) uint8 RGB frame returns the people in it; ``prepare(frames)`` is
-    given frames spread over the whole video before the first call (a fixed camera's empty scene); ``name``
-    says which detector it is."""
+    """``detector(frame)`` with an (H, W, 3) uint8 RGB frame returns the people in it; ``time_left_s``, where
+    given, is the time the call may take (live use: a detector that can may leave some people for the next
+    frame); ``prepare(frames)`` is given frames spread over the whole video before the first call (a fixed
+    camera's empty scene); ``name`` says which detector it is."""
 
     layout: str
     name: str
 
     def prepare(self, frames: list[np.ndarray]) -> None: ...
 
-    def __call__(self, frame: np.ndarray) -> list[Detection]: ...
+    def __call__(self, frame: np.ndarray, time_left_s: float | None = None) -> list[Detection]: ...
 
 
 class PeopleDetector:
@@ -73,6 +79,11 @@ class PeopleDetector:
         full_frame_every: run the full-frame detector on every n-th frame only (live use: the people it found
             are followed from frame to frame anyway; somebody new who stands still is found up to n - 1 frames
             later).
+
+    Called with ``time_left_s`` (live use), the crops that would not fit in that time are left out: first
+    motion's proposals where crops lately found nobody, then people followed from the last frame, who are
+    looked at first in the next (everybody at least every other frame; the nearest, the largest, who move
+    most in the picture, kept first); new people always. Without it every crop is looked at in every frame.
     """
 
     layout = BLAZEPOSE33.name
@@ -86,39 +97,75 @@ class PeopleDetector:
         self._full_frame = FullFramePeople(threads) if full_frame else None
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
+        self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
+        self._crop_s = 0.015                    # the landmark network's time per crop, as measured
+        self._empty: deque = deque(maxlen=EMPTY_MEMORY)  # regions where crops found nobody, by look
+        self.postponed = 0                      # people left for the next frame so far (with ``time_left_s``)
 
     def prepare(self, frames: list[np.ndarray]) -> None:
         self._proposals = ForegroundProposals(self.camera, median_background(frames) if frames else None)
-        self._previous = []
+        self._previous, self._left_out = [], []
+        self._empty.clear()
 
-    def __call__(self, frame: np.ndarray) -> list[Detection]:
+    def __call__(self, frame: np.ndarray, time_left_s: float | None = None) -> list[Detection]:
         # The people of the last frame are looked for where they were (also when they stopped, or merged with
         # others into one blob), and the people the full-frame detector finds where they are not among them; a
         # moving blob is looked at only where it is none of these; then, once more, where part of a blob is left
         # that nobody found explains (the second of two walking together).
-        known = as_regions([self._region_around(d) for d in self._previous])
+        started = time.perf_counter()
+        followed = self._previous + self._left_out
+        known = as_regions([self._region_around(d) for d in followed])
         looks_whole = self._full_frame is not None and self._frames_seen % self.full_frame_every == 0
         self._frames_seen += 1
         whole = self._full_frame(frame)[0] if looks_whole else as_regions([])
         new = whole[~_near(whole, known)]
         blobs = self._proposals.blobs(frame)
         proposed = as_regions(self._proposals.split_blobs(blobs))
-        boxes = np.array([d.box for d in self._previous]).reshape(-1, 4)
+        boxes = np.array([d.box for d in followed]).reshape(-1, 4)
         fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes) & ~_near(proposed, new)
                          & ~_inside_regions(proposed, new)]
         # A region the full-frame detector found one person in may hold a person wider than motion's
         # proposals allow (arms and legs spread).
         vouched = np.concatenate([_near(known, whole), np.ones(len(new), bool), np.zeros(len(fresh), bool)])
-        found = self._look(frame, np.concatenate([known, new, fresh]), vouched)
+        regions = np.concatenate([known, new, fresh])
+        looked = np.ones(len(regions), bool)
+        if time_left_s is not None:
+            looked[self._left_for_later(regions, len(known), len(new), fresh,
+                                        time_left_s - (time.perf_counter() - started))] = False
+        found = self._look(frame, regions[looked], vouched[looked])
+        left_out = [d for d, look in zip(followed, looked) if not look]
+        self.postponed += len(left_out)
         if found:
-            found += self._look(frame, self._proposals.unexplained(blobs, np.stack([d.box for d in found])))
+            explained = np.stack([d.box for d in found + left_out])
+            found += self._look(frame, self._proposals.unexplained(blobs, explained))
         self._previous = _without_duplicates(found)
+        self._left_out = [d for d in left_out if not len(self._previous) or
+                          box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
         return self._previous
+
+    def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
+                        seconds: float) -> np.ndarray:
+        """The indices of ``regions`` (N, 4: the ``known`` people's, the ``new`` ones', then the ``fresh``
+        proposals) not to look at, for the crops to fit in ``seconds`` at their measured time. Looked at always:
+        the people left out last time, the new ones, and proposals away from where crops lately found nobody;
+        the others as time allows: the last frame's people, largest first, then the proposals where crops
+        lately found nobody."""
+        previous = np.arange(len(self._previous))
+        recently_empty = np.concatenate(list(self._empty)) if self._empty else np.zeros((0, 4))
+        doubtful = known + new + np.flatnonzero(_near(fresh, recently_empty))
+        optional = np.concatenate([previous[np.argsort(-regions[previous, 2], kind="stable")], doubtful])
+        room = max(0, int(seconds / self._crop_s) - (len(regions) - len(optional)))
+        return optional[room:]
 
     def _look(self, frame: np.ndarray, regions: np.ndarray, vouched: np.ndarray | None = None) -> list[Detection]:
         """The people the landmark network finds in ``regions`` (N, 4) of the frame; ``vouched`` (N,): the
         regions the full-frame detector found one person in."""
+        started = time.perf_counter()
         pixels, confidences, scores, following = self._landmarks(frame, regions)
+        if len(regions):  # the time per crop, followed slowly: one busy moment (a new batch size) does not decide it
+            per_crop = min((time.perf_counter() - started) / len(regions), 2 * self._crop_s)
+            self._crop_s += 0.1 * (per_crop - self._crop_s)
+        self._empty.append(as_regions(regions)[scores < self.min_score])
         vouched = np.zeros(len(regions), bool) if vouched is None else vouched
         found = [(Detection(p, c, float(s), f if self._full_frame is not None else None), v)
                  for p, c, s, f, v in zip(pixels, confidences, scores, following, vouched) if s >= self.min_score]
@@ -208,7 +255,8 @@ class MediaPipeDetector:
     def prepare(self, frames: list[np.ndarray]) -> None:
         """Nothing to learn from the scene."""
 
-    def __call__(self, frame: np.ndarray) -> list[Detection]:
+    def __call__(self, frame: np.ndarray, time_left_s: float | None = None) -> list[Detection]:
+        """One person: the time allowed does not change what is done."""
         height, width = frame.shape[:2]
         result = self._pose.process(np.ascontiguousarray(frame))
         if result.pose_landmarks is None:

@@ -70,8 +70,13 @@ class _Person:
         self.track: Track | None = None
         self.waiting: list[tuple[int, Detection]] = []  # detections before the track is confirmed
 
-    def predict(self) -> None:
+    def predict(self, frames: int = 1) -> None:
+        """The state ``frames`` frames on from the last (more than one where frames were skipped or dropped)."""
         self.filter.predict()
+        for _ in range(frames - 1):
+            self.filter.statePost = self.filter.statePre.copy()
+            self.filter.errorCovPost = self.filter.errorCovPre.copy()
+            self.filter.predict()
 
     def distance(self, floor: np.ndarray, noise: np.ndarray) -> float:
         """Squared Mahalanobis distance of a measured floor point from the prediction."""
@@ -87,11 +92,11 @@ class _Person:
             self.colour = 0.8 * self.colour + 0.2 * colour
         self.hits, self.missed = self.hits + 1, 0
 
-    def coast(self) -> None:
-        """No detection this frame: the prediction stands."""
+    def coast(self, frames: int = 1) -> None:
+        """No detection for ``frames`` frames: the prediction stands."""
         self.filter.statePost = self.filter.statePre.copy()
         self.filter.errorCovPost = self.filter.errorCovPre.copy()
-        self.missed += 1
+        self.missed += frames
 
 
 class FloorTracker:
@@ -114,15 +119,19 @@ class FloorTracker:
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
         self._confirmed = 0  # tracks confirmed so far (their ids), including those handed over by ``finished``
+        self._last_frame: int | None = None
         self.frames_with_people = 0  # frames in which the detector found anybody
 
     def update(self, frame_index: int, detections: list[Detection], frame: np.ndarray) -> None:
-        """Assign this frame's detections to people (``tracks()`` holds the result)."""
+        """Assign this frame's detections to people (``tracks()`` holds the result). Frames may be skipped
+        (live use drops some): people move, and go unseen, for the frames since the last update."""
+        elapsed = 1 if self._last_frame is None else max(1, frame_index - self._last_frame)
+        self._last_frame = frame_index
         self.frames_with_people += bool(detections)
         measured = self._measure(detections, frame)
         usable = [i for i, m in enumerate(measured) if m is not None]
         for person in self._active:
-            person.predict()
+            person.predict(elapsed)
         matched_people, matched_detections = set(), set()
         # A matching cascade: people seen in the last frame choose first, then those missed for one frame, and
         # so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
@@ -159,7 +168,7 @@ class FloorTracker:
                     self._record(self._active[r], frame_index, detections[i])
         for r, person in enumerate(self._active):
             if r not in matched_people:
-                person.coast()
+                person.coast(elapsed)
         survivors = []
         for person in self._active:
             confirmed = person.track is not None
