@@ -1,11 +1,11 @@
 """Several calibrated cameras, one world: each camera's people (its ``World``, lifted as one camera lifts them)
 brought onto one clock, the tracks that are the same person joined into one world track, and their joints fused.
 
-- **Clock**: camera c's frame f happens at ``f / fps_c - offset_c`` seconds of the first camera's clock. The
+- **Clock** (``ray3d.fusion.clock``): camera c's frame f happens at ``f / fps_c - offset_c`` seconds of the first camera's clock. The
   offsets are given, or found from the people themselves (``find_time_offset``: the shift that best aligns the
-  floor tracks two cameras see at once, with its uncertainty). Every track is read on the first camera's frames.
+  bodies of the people two cameras see at once, with its uncertainty). Every track is read on the first camera's frames.
 - **Who is who** (``associate``): two tracks of different cameras are one person when, over the frames both see,
-  their floor points lie within what their position uncertainties allow (``gate``); a person walking out of one
+  their floor points lie within what their position uncertainties allow (``pair_distance``); a person walking out of one
   camera's view and into another's within ``handover_s`` is kept when the new track starts where the old one's
   walk would have taken them. A camera never sees one person as two tracks at once, so no join puts two tracks of
   one camera in one person at the same moment: two people crossing stay apart.
@@ -24,101 +24,15 @@ import dataclasses
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.fusion.clock import find_time_offset
+from ray3d.fusion.tracks import (GATE_FLOOR_M, MIN_SHARED_FRAMES, POSE_SD_M, VELOCITY_GATE_M_S, CameraTrack,
+                                 along_ray, floor_covariance, floor_velocity, on_clock, pair_distance, root_sd)
 from ray3d.io.world import LiftResult, World
 
-POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axis
-GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' places of one person may differ
-GATE_FLOOR_M = 0.25   # plus this: a body is not a point (the pelvis seen from two sides)
-MIN_SHARED_FRAMES = 5
-BOUNCE_SD_M = 0.015  # how well two cameras agree on the pelvis' height about its mean
-VELOCITY_GATE_M_S = 0.6  # one person's floor velocity as two cameras see it differs by less (median)
 NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person
-UNKNOWN_SD_M = (0.3, 0.05)  # the root's sd along and across its ray taken for a track that states none
 
 
-@dataclasses.dataclass
-class _Track:
-    view: int
-    name: str
-    frames: np.ndarray      # (N,) the first camera's frames it covers
-    joints: np.ndarray      # (N, 17, 3)
-    sd: np.ndarray          # (N, 2) root sd along and across the ray
-    interpolated: np.ndarray  # (N, 17)
-    stature_m: float | None
-
-    def at(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The rows of ``frames`` this track has, and those frames' positions in it."""
-        shared, rows, _ = np.intersect1d(self.frames, frames, return_indices=True)
-        return shared, rows
-
-
-def _on_clock(world: World, view: int, offset_s: float, fps: float) -> list[_Track]:
-    """A camera's tracks read on the first camera's frames (linear in time; within each track's span)."""
-    tracks = []
-    for name, result in world.in_frame("world").tracks.items():
-        times = result.frames / result.fps - offset_s
-        frames = np.arange(np.ceil(times[0] * fps - 1e-6), np.floor(times[-1] * fps + 1e-6) + 1).astype(int)
-        frames = frames[frames >= 0]  # before the first camera's clock starts: not on it
-        if not len(frames):
-            continue
-        at = frames / fps
-
-        def read(values: np.ndarray) -> np.ndarray:
-            flat = values.reshape(len(values), -1).astype(np.float64)
-            return np.stack([np.interp(at, times, column) for column in flat.T], axis=-1).reshape(
-                (len(at),) + values.shape[1:])
-
-        sd = result.position_sd if result.position_sd is not None else np.full((len(times), 2), np.nan)
-        stature = (result.refinement or {}).get("stature_m")
-        tracks.append(_Track(view, name, frames, read(result.joints), read(sd), read(result.interpolated) > 0.5,
-                             None if stature is None else float(stature)))
-    return tracks
-
-
-def _root_sd(track: _Track, rows: np.ndarray) -> np.ndarray:
-    """(N, 2) the root's sd along and across its ray (``UNKNOWN_SD_M`` where the track states none)."""
-    return np.where(np.isfinite(track.sd[rows]), track.sd[rows], UNKNOWN_SD_M)
-
-
-def _along_ray(points: np.ndarray, centre: np.ndarray, sd: np.ndarray) -> np.ndarray:
-    """(..., D, D) covariances of (..., D) points seen from ``centre``: ``sd[..., 0]`` along the ray to each point,
-    ``sd[..., 1]`` across it."""
-    ray = points - centre
-    ray /= np.maximum(np.linalg.norm(ray, axis=-1, keepdims=True), 1e-9)
-    along = ray[..., :, None] * ray[..., None, :]
-    return (sd[..., 0, None, None] ** 2 * along
-            + sd[..., 1, None, None] ** 2 * (np.eye(points.shape[-1]) - along))
-
-
-def _floor_velocity(track: _Track, rows: np.ndarray, fps: float) -> np.ndarray:
-    """(N, 2) the floor velocity at ``rows``, over half a second each side (m/s)."""
-    half = max(1, int(round(fps / 2)))
-    before, after = np.clip(rows - half, 0, len(track.frames) - 1), np.clip(rows + half, 0, len(track.frames) - 1)
-    span = np.maximum(track.frames[after] - track.frames[before], 1) / fps
-    return (track.joints[after, 0, :2] - track.joints[before, 0, :2]) / span[:, None]
-
-
-def _pair_distance(a: _Track, b: _Track, fps: float = 10.0) -> tuple[float, float, int]:
-    """Median floor distance between two tracks over their shared frames, the gate for it (infinitely far where
-    they walk differently: two people passing close by), the frames shared."""
-    shared, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
-    if len(shared) < MIN_SHARED_FRAMES:
-        return np.inf, 0.0, len(shared)
-    gap = np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)
-    larger_a, larger_b = _root_sd(a, rows_a).max(axis=-1), _root_sd(b, rows_b).max(axis=-1)
-    allowed = GATE_SIGMAS * np.hypot(larger_a, larger_b) + GATE_FLOOR_M
-    pace = np.linalg.norm(_floor_velocity(a, rows_a, fps) - _floor_velocity(b, rows_b, fps), axis=-1)
-    if np.median(pace) > VELOCITY_GATE_M_S:
-        return np.inf, float(np.median(allowed)), len(shared)
-    return float(np.median(gap)), float(np.median(allowed)), len(shared)
-
-
-def gate_m(a_sd: float, b_sd: float) -> float:
-    """The largest floor distance at which two cameras' places of one person still agree."""
-    return GATE_SIGMAS * float(np.hypot(a_sd, b_sd)) + GATE_FLOOR_M
-
-
-def associate(tracks: list[_Track], handover_s: float = 2.0, fps: float = 10.0) -> list[list[int]]:
+def associate(tracks: list[CameraTrack], handover_s: float = 2.0, fps: float = 10.0) -> list[list[int]]:
     """Groups of indices into ``tracks`` that are one person each (see the module's note)."""
     group = list(range(len(tracks)))
 
@@ -144,7 +58,7 @@ def associate(tracks: list[_Track], handover_s: float = 2.0, fps: float = 10.0) 
         for j in range(i + 1, len(tracks)):
             if tracks[i].view == tracks[j].view:
                 continue
-            distance, allowed, _ = _pair_distance(tracks[i], tracks[j], fps)
+            distance, allowed, _ = pair_distance(tracks[i], tracks[j], fps)
             if distance <= allowed:
                 candidates.append((distance / allowed, i, j))
     for _, i, j in sorted(candidates):
@@ -182,7 +96,7 @@ def associate(tracks: list[_Track], handover_s: float = 2.0, fps: float = 10.0) 
     return sorted(found.values(), key=lambda g: min(tracks[i].frames[0] for i in g))
 
 
-def _group_floor(tracks: list[_Track], members: list[int], frame: int) -> np.ndarray:
+def _group_floor(tracks: list[CameraTrack], members: list[int], frame: int) -> np.ndarray:
     """A group's floor point at the frame of its members nearest ``frame`` (the mean where several have it)."""
     nearest = min((abs(f - frame), f) for i in members for f in (tracks[i].frames[0], tracks[i].frames[-1],
                                                                   *tracks[i].frames[tracks[i].frames <= frame][-1:]))[1]
@@ -191,14 +105,14 @@ def _group_floor(tracks: list[_Track], members: list[int], frame: int) -> np.nda
     return np.mean(np.concatenate(points), axis=0)
 
 
-def _covariances(track: _Track, rows: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
+def _covariances(track: CameraTrack, rows: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
     """(N, 17, 3, 3) each joint's covariance from this camera in each frame: long along the joint's own ray (the
     root's sd along its ray) and narrow across it (the root's sd across), plus the pose's own error."""
-    sd = np.repeat(_root_sd(track, rows)[:, None], track.joints.shape[1], axis=1)
-    return _along_ray(track.joints[rows], camera_center, sd) + POSE_SD_M ** 2 * np.eye(3)
+    sd = np.repeat(root_sd(track, rows)[:, None], track.joints.shape[1], axis=1)
+    return along_ray(track.joints[rows], camera_center, sd) + POSE_SD_M ** 2 * np.eye(3)
 
 
-def fuse(tracks: list[_Track], members: list[int], centers: list[np.ndarray], fps: float,
+def fuse(tracks: list[CameraTrack], members: list[int], centers: list[np.ndarray], fps: float,
          cameras: int) -> LiftResult:
     """One person's tracks from several cameras -> one ``LiftResult`` on the first camera's frames: joints fused
     where several see them (the information-weighted mean), ``seen_by`` (T, cameras) and the root's sd
@@ -228,67 +142,10 @@ def fuse(tracks: list[_Track], members: list[int], centers: list[np.ndarray], fp
                                           position_sd=spread[:, ::-1].copy()), seen_by=seen_by)
 
 
-def _floor_covariance(track: _Track, rows: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """(N, 2, 2) the floor point's covariance from one camera: long along its ray, narrow across it."""
-    return _along_ray(track.joints[rows, 0, :2], centre, _root_sd(track, rows))
-
-
-def _floor_mahalanobis(a: _Track, b: _Track, centres: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """(N,) the Mahalanobis distance between two tracks' floor points in each of their shared frames: a camera's
-    error along its ray (its depth bias, which would pass for a time shift of a person walking along it) counts
-    little, its precise place across the ray much."""
-    _, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
-    covariance = _floor_covariance(a, rows_a, centres[0]) + _floor_covariance(b, rows_b, centres[1])
-    difference = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
-    floor = np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference)
-    # The pelvis' rise and fall with each step, about each track's own mean height: no camera's bias moves it.
-    bounce = a.joints[rows_a, 0, 2] - a.joints[rows_a, 0, 2].mean() - b.joints[rows_b, 0, 2] + b.joints[rows_b, 0, 2].mean()
-    return np.sqrt(floor + (bounce / BOUNCE_SD_M) ** 2)
-
-
-def find_time_offset(reference: World, other: World, max_offset_s: float = 2.0) -> tuple[float, float]:
-    """The offset (seconds; ``other``'s frame f happens at f / fps - offset on the reference's clock) that best
-    aligns the floor tracks both cameras see at once, searched in steps of a frame of the reference within
-    +-``max_offset_s``, refined to a fraction of a frame by a parabola through the best three; and how sure it is
-    (half the spread of the shifts scoring within 10 % of the best). Refused when no shift lets the cameras share a person."""
-    fps = reference.fps
-    steps = np.arange(-int(round(max_offset_s * fps)), int(round(max_offset_s * fps)) + 1)
-    first = _on_clock(reference, 0, 0.0, fps)
-    centres = (reference.camera.center[:2], other.camera.center[:2])
-    scores = []
-    for step in steps:
-        shifted = _on_clock(other, 1, step / fps, fps)
-        distances = []
-        for a in first:
-            for b in shifted:
-                distance, allowed, _ = _pair_distance(a, b, fps)
-                if distance <= 2 * allowed:
-                    distances.append(_floor_mahalanobis(a, b, centres))
-        # Every shared frame weighs alike: a short overlap at the end of a broken track counts for few frames.
-        scores.append(np.mean(np.concatenate(distances)) if distances else np.inf)
-    scores = np.array(scores)
-    if not np.isfinite(scores).any():
-        raise InputError("cameras: no person is seen by both at once at any offset within "
-                         f"{max_offset_s:g} s; give the offset", ("offsets",))
-    best = int(np.argmin(scores))
-    shift = float(steps[best])
-    curvature = np.inf
-    if 0 < best < len(steps) - 1 and np.isfinite(scores[best - 1:best + 2]).all():
-        left, middle, right = scores[best - 1:best + 2]
-        curvature = left - 2 * middle + right
-        if curvature > 0:
-            shift += 0.5 * (left - right) / curvature
-    # How sure: half the spread of the shifts that score within 10 % of the best (a flat score, as for people
-    # standing still, is a wide spread), and no less than the half frame the search resolves.
-    near = steps[scores <= 1.1 * scores[best]]
-    sd_frames = max(0.5, (near.max() - near.min()) / 2)
-    return shift / fps, sd_frames / fps
-
-
 AGREEMENT_SIGMAS = 3.0  # two cameras disagree when a person's places differ by more, in combined sds (median)
 
 
-def _near_misses(tracks: list[_Track], groups: list[list[int]], fps: float) -> list[tuple[int, int]]:
+def _near_misses(tracks: list[CameraTrack], groups: list[list[int]], fps: float) -> list[tuple[int, int]]:
     """Pairs of tracks of different cameras left apart that are likely one person all the same: seen at once,
     walking alike, within ``NEAR_MISS_M`` of each other, and each the other's nearest such track (a camera whose
     file puts it half a metre off places everybody beyond the gate)."""
@@ -308,7 +165,7 @@ def _near_misses(tracks: list[_Track], groups: list[list[int]], fps: float) -> l
             shared, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
             if len(shared) < MIN_SHARED_FRAMES:
                 continue
-            pace = np.linalg.norm(_floor_velocity(a, rows_a, fps) - _floor_velocity(b, rows_b, fps), axis=-1)
+            pace = np.linalg.norm(floor_velocity(a, rows_a, fps) - floor_velocity(b, rows_b, fps), axis=-1)
             distance = float(np.median(np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)))
             if np.median(pace) <= VELOCITY_GATE_M_S and distance <= NEAR_MISS_M and \
                     distance < best.get((i, b.view), (np.inf,))[0]:
@@ -317,7 +174,7 @@ def _near_misses(tracks: list[_Track], groups: list[list[int]], fps: float) -> l
     return [(i, j) for (i, _), (_, j) in best.items() if i < j and best.get((j, tracks[i].view), (0, -1))[1] == i]
 
 
-def camera_agreement(tracks: list[_Track], groups: list[list[int]], names: list[str],
+def camera_agreement(tracks: list[CameraTrack], groups: list[list[int]], names: list[str],
                      centres: list[np.ndarray], fps: float = 10.0) -> list[dict]:
     """Per pair of cameras that saw someone at once: the median distance between a person's floor points as each
     places them (metres, over every shared frame), the same in combined standard deviations (each camera's
@@ -334,8 +191,8 @@ def camera_agreement(tracks: list[_Track], groups: list[list[int]], names: list[
         if not len(rows_a):  # one person, seen by the two cameras one after the other
             continue
         difference = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
-        covariance = (_floor_covariance(a, rows_a, centres[a.view][:2])
-                      + _floor_covariance(b, rows_b, centres[b.view][:2]))
+        covariance = (floor_covariance(a, rows_a, centres[a.view][:2])
+                      + floor_covariance(b, rows_b, centres[b.view][:2]))
         sigmas = np.sqrt(np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference))
         entry = gaps.setdefault((a.view, b.view), [[], []])
         entry[0] += np.linalg.norm(difference, axis=-1).tolist()
@@ -389,7 +246,7 @@ def fuse_worlds(worlds: list[World], offsets_s: list[float] | None = None, find_
     elif len(offsets_s) != len(worlds):
         raise InputError(f"offsets: {len(offsets_s)} given for {len(worlds)} cameras", ("offsets",))
     fps = worlds[0].fps
-    tracks = [t for k, world in enumerate(worlds) for t in _on_clock(world, k, offsets_s[k], fps)]
+    tracks = [t for k, world in enumerate(worlds) for t in on_clock(world, k, offsets_s[k], fps)]
     groups = associate(tracks, handover_s, fps)
     centers = [world.camera.center for world in worlds]
     fused = {str(n): fuse(tracks, g, centers, fps, len(worlds)) for n, g in enumerate(groups)}
