@@ -55,8 +55,8 @@ class _ScriptedDetector:
     layout = "h36m17"
     name = "scripted"
 
-    def __init__(self, people: np.ndarray):
-        self.pixels = CAMERA.project(people)  # (T, P, 17, 2)
+    def __init__(self, people: np.ndarray, camera=CAMERA):
+        self.pixels = camera.project(people)  # (T, P, 17, 2)
         self.calls: list[int] = []  # the frames it looked at
         self.time_left: list[float | None] = []  # the time it was given for each
         self.unseen: set[tuple[int, int]] = set()  # (frame, person) it does not find
@@ -78,19 +78,19 @@ CLOTHES = ((200, 40, 40), (40, 60, 200))
 
 
 def _frames(count: int, sleep_s: float = 0.0, stall_after: int | None = None, stall_s: float = 0.0,
-            people: np.ndarray | None = None):
+            people: np.ndarray | None = None, camera=CAMERA):
     """Frames carrying their number in the first pixel; with ``people``, the camera's full picture with each
     person's torso painted in their own colour (what the tracker tells clothes by)."""
     import cv2
 
-    pixels = None if people is None else CAMERA.project(people)
+    pixels = None if people is None else camera.project(people)
     for index in range(count):
         if stall_after is not None and index == stall_after:
             time.sleep(stall_s)
         if pixels is None:
             image = np.zeros((8, 8, 3), np.uint8)
         else:
-            image = np.full((CAMERA.image_size[1], CAMERA.image_size[0], 3), 128, np.uint8)
+            image = np.full((camera.image_size[1], camera.image_size[0], 3), 128, np.uint8)
             for person, colour in zip(pixels[index], CLOTHES):
                 torso = person[[1, 4, 11, 14]]
                 cv2.rectangle(image, tuple(int(v) for v in torso.min(0) - 8), tuple(int(v) for v in torso.max(0) + 8),
@@ -139,6 +139,9 @@ def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
         FrameSource.open(text)
     assert main(["live", str(text), "--camera", "h36m:S9:54138969", "--out", str(tmp_path / "out")]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert main(["live", str(text), str(text), "--camera", "h36m:S9:54138969", "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "ray3d live: error: --camera: 1 given for 2 sources; give one per source, in order"]
 
 
 def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, **options):
@@ -187,8 +190,8 @@ def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_i
 
     following = live._following[tracks[0].id]
     raw = np.stack([j for _, j in following.history])
+    live.close()  # the refinement under way (on its own thread) done
     live._refine(following, raw)
-    live.close()
     _, offline_refinement = refine_track(raw, CAMERA, FPS, config=live.config)
     assert following.scale == pytest.approx(offline_refinement.scale[-1], abs=1e-12)
 
@@ -243,6 +246,71 @@ def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answ
         np.testing.assert_allclose(result.joints, expected.joints, atol=2e-5)  # CSV keeps 5 decimals
         assert result.refinement["stature_m"] == pytest.approx(expected.refinement["stature_m"])
     assert (tmp_path / "live" / "site" / "report.html").exists()
+
+
+def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_path):
+    """Two cameras facing each other see the same two people: the events and the page are of two people (each
+    crossing counted once), each camera writes its own world file, and the fused world has two tracks, each
+    seen by both cameras, near the truth."""
+    from ray3d.lift import Lifter
+    from ray3d.live.runner import LiveOptions, run_live
+
+    people = _scene()
+    facing = cameras.h36m("S9", "55011271")
+    lifter = Lifter.load()
+    sources = [FrameSource(_frames(len(people), people=people, camera=c), 20.0, f"scene from {c.name}", paced=True)
+               for c in (CAMERA, facing)]
+    summary = run_live(sources, [CAMERA, facing], tmp_path / "live",
+                       [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter,
+                       site=Site((ROOM,), (DOOR,)), options=LiveOptions(page=False, min_track_s=0.5))
+    assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == 2 * len(people)
+    events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
+    started = {e["track"] for e in events if e["event"] == "track started"}
+    assert len(started) == 2
+    crossings = [e for e in events if e["event"] == "line crossed"]
+    assert sorted(e["direction"] for e in crossings) == ["back", "forward"]
+    per_camera = sorted((tmp_path / "live").glob("camera*/world.csv"))
+    assert len(per_camera) == 2 and all(len(read_world(path).tracks) == 2 for path in per_camera)
+    fused = read_world(summary.files["world"])
+    assert summary.files["world"].name == "world.json" and len(fused.cameras) == 2 and len(fused.tracks) == 2
+    for track in fused.tracks.values():
+        assert track.seen_by.all(axis=1).mean() > 0.8
+        truth = people[track.frames, int(np.argmin([np.linalg.norm(people[track.frames[0], p, 0] - track.root[0])
+                                                    for p in range(2)]))]
+        assert np.median(np.linalg.norm(track.root[:, :2] - truth[:, 0, :2], axis=-1)) < 0.15
+
+
+def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camera_sees_at_once():
+    from ray3d.live.fused import LiveFusion
+    from ray3d.live.people import PersonNow
+
+    facing = cameras.h36m("S9", "55011271")
+    fusion = LiveFusion([CAMERA, facing], frame_period_s=0.1)
+    pose = demo_clip()[0] - demo_clip()[0, :1] * [1, 1, 0]
+
+    def at(track: int, x: float, y: float) -> PersonNow:
+        return PersonNow(track, pose + [x, y, 0.0], np.array([0.1, 0.03]), 1.7)
+
+    seen = {}
+    for k in range(30):  # 3 s: two people 0.6 m apart walking side by side, both cameras see both
+        t, x = k / 10, -1.5 + 0.1 * k
+        for view in (0, 1):
+            for now in fusion.update(view, t, [at(1, x, 0.0), at(2, x, 0.6)]):
+                seen.setdefault(now.track, []).append(now.joints[0, 1])
+    assert len(seen) == 2 and all(np.ptp(ys) < 0.1 for ys in seen.values())  # never merged, never swapped
+    walker = next(n for n, ys in seen.items() if np.median(ys) > 0.3)
+    for k in range(30, 40):  # camera 0 keeps the first; the second leaves its view
+        fusion.update(0, k / 10, [at(1, -1.5 + 0.1 * k, 0.0)])
+    fusion.finished(0, 2)
+    fusion.finished(1, 1)
+    fusion.finished(1, 2)
+    after = []
+    for k in range(45, 55):  # 1.1 s after it was last seen, camera 1 sees somebody where the walk led
+        after += [now.track for now in fusion.update(1, k / 10, [at(7, -1.5 + 0.1 * k, 0.6)])]
+    assert set(after) == {walker}
+    fusion.finished(1, 7)
+    fusion.finished(0, 1)
+    assert sorted(fusion.ended(100.0)) == sorted(seen)
 
 
 def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions():

@@ -11,23 +11,28 @@ from ray3d.io.atomic import check_output, refuse_existing
 def fuse(args: argparse.Namespace) -> int:
     """``ray3d fuse``: several cameras' world files -> one world, one track per person (``ray3d.fusion``)."""
 
-    from ray3d.errors import InputError
     from ray3d.fusion import fuse_worlds
     from ray3d.io.world import read_world, write_world
 
     refuse_existing(check_output(args.out, tuple(args.worlds)), args.force)
-    offsets = None
-    if args.offsets:
-        try:
-            offsets = [float(v) for v in args.offsets.split(",")]
-        except ValueError:
-            raise InputError(f"--offsets: expected seconds separated by commas, got {args.offsets!r}") from None
-    fusion = fuse_worlds([read_world(path) for path in args.worlds], offsets, args.find_offsets, args.max_offset,
-                         args.handover)
+    fusion = fuse_worlds([read_world(path) for path in args.worlds], parse_offsets(args.offsets), args.find_offsets,
+                         args.max_offset, args.handover)
     write_world(args.out, fusion.world, overwrite=args.force)
     print_fusion(fusion, [str(path) for path in args.worlds])
     print(f"{len(fusion.world.tracks)} people from {len(args.worlds)} cameras -> {args.out}")
     return 0
+
+
+def parse_offsets(text: str | None) -> list[float] | None:
+    """``--offsets``: seconds separated by commas (None where not given)."""
+    from ray3d.errors import InputError
+
+    if not text:
+        return None
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"--offsets: expected seconds separated by commas, got {text!r}") from None
 
 
 def print_fusion(fusion, sources: list[str]) -> None:

@@ -1,5 +1,7 @@
 """``ray3d live``: a camera stream followed as it arrives (``ray3d.live.run_live``): events as JSON lines on
 stdout and in OUT/events.jsonl, the world file OUT/world.csv growing as people leave, a page on localhost.
+Several streams, one per calibrated camera: one world (``ray3d.live.fused``), each camera's world file in
+OUT/camera<k>_<name>/, fused into OUT/world.json at the end.
 
 Exit codes: 0 the stream ended; 3 it stalled (no frame for --stall-timeout seconds); 4 it broke off; 130 / 143
 stopped by SIGINT (Ctrl-C) / SIGTERM; 2 bad input (not a video, a bad camera or site file). Every output is
@@ -18,26 +20,37 @@ def live(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ray3d.cli.commands import _camera, _lift_options
+    from ray3d.cli.fusion_commands import parse_offsets
+    from ray3d.errors import InputError
     from ray3d.io.site_files import read_site
     from ray3d.lift import Lifter
     from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
-    from ray3d.live.source import FrameSource
+    from ray3d.live.source import FrameSource, SourceGroup
     from ray3d.video import VideoInfo, camera_for_video, make_detector
 
     plan = read_site(args.site) if args.site else None
     lift_options = _lift_options(args)
-    source = FrameSource.open(args.source, args.fps, False if args.unpaced else None, args.stall_timeout)
-    camera = camera_for_video(_camera(args, source.image_size),
-                              VideoInfo(args.source, 0, source.fps, source.image_size))
+    camera_files = args.camera or [None]
+    if len(camera_files) != len(args.source) and (len(args.source) > 1 or len(camera_files) > 1):
+        raise InputError(f"--camera: {len(camera_files)} given for {len(args.source)} sources; give one per source, "
+                         "in order")
+    offsets = parse_offsets(args.offsets)
+    sources = [FrameSource.open(s, args.fps, False if args.unpaced else None, args.stall_timeout) for s in args.source]
+    cameras = [camera_for_video(_camera(argparse.Namespace(**{**vars(args), "camera": camera_file}), s.image_size),
+                                VideoInfo(s.name, 0, s.fps, s.image_size))
+               for s, camera_file in zip(sources, camera_files)]
+    group = SourceGroup(sources)
     stop = threading.Event()
-    caught = stop_on_signals(stop, source)
-    detector = make_detector(args.detector, camera, live=True)
-    detector.prepare([])
+    caught = stop_on_signals(stop, group)
+    detectors = [make_detector(args.detector, camera, live=True) for camera in cameras]
+    for detector in detectors:
+        detector.prepare([])
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
                           None if args.quiet else sys.stdout, args.min_track, args.max_gap)
-    summary = run_live(source, camera, args.out, detector, Lifter.load(args.checkpoint) if args.checkpoint else None,
-                       plan, options, lift_options, stop,
-                       started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True))
+    several = len(sources) > 1
+    summary = run_live(group, cameras if several else cameras[0], args.out, detectors if several else detectors[0],
+                       Lifter.load(args.checkpoint) if args.checkpoint else None, plan, options, lift_options, stop,
+                       started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True), offsets_s=offsets)
     latency = summary.latency_ms
     print(f"{summary.why}: {summary.processed} of {summary.read} frames processed ({summary.dropped} dropped, "
           f"{100 * summary.dropped / max(summary.read, 1):.1f} %; {summary.postponed} people left for the next "

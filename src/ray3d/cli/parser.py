@@ -224,10 +224,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     live = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
                                             "a growing world file, a page on localhost (pip install 'ray3d[video,live]')")
-    live.add_argument("source", help="a video file (played at its own rate), a camera device number, or a stream "
-                                     "URL OpenCV opens (rtsp://, http://)")
-    _add_camera_arguments(live, image_size_note=" (default: the stream's)")
-    live.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, world.csv and site/")
+    live.add_argument("source", nargs="+", help="a video file (played at its own rate), a camera device number, or a "
+                                                "stream URL OpenCV opens (rtsp://, http://); several: one per "
+                                                "calibrated camera, their people followed as one world")
+    _add_camera_arguments(live, image_size_note=" (default: the stream's)", several=True)
+    live.add_argument("--offsets", help="several sources: seconds each one's clock is ahead of the first's, comma "
+                                        "separated (the first 0; default all 0: sources in step)")
+    live.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, world.csv (several "
+                                                              "sources: camera<k>_<name>/world.csv, then world.json) "
+                                                              "and site/")
     live.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
     live.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     live.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")

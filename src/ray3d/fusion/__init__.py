@@ -25,8 +25,9 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.fusion.clock import find_time_offset
-from ray3d.fusion.tracks import (GATE_FLOOR_M, MIN_SHARED_FRAMES, POSE_SD_M, VELOCITY_GATE_M_S, CameraTrack,
-                                 along_ray, floor_covariance, floor_velocity, on_clock, pair_distance, root_sd)
+from ray3d.fusion.tracks import (MIN_SHARED_FRAMES, VELOCITY_GATE_M_S, CameraTrack, floor_covariance, floor_velocity,
+                                 handover_reach_m, joint_covariances, on_clock, pair_distance, root_sd,
+                                 root_spread)
 from ray3d.io.world import LiftResult, World
 
 NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person
@@ -81,7 +82,7 @@ def associate(tracks: list[CameraTrack], handover_s: float = 2.0, fps: float = 1
                 continue
             expected = last + velocity * gap_s if gap_s > 0 else _group_floor(tracks, members(a), start_b)
             miss = float(np.linalg.norm(_group_floor(tracks, members(b), start_b) - expected))
-            if miss <= GATE_FLOOR_M + 0.5 * gap_s + 0.3:
+            if miss <= handover_reach_m(gap_s):
                 links.append((miss, a, b))
     used_ends, used_starts = set(), set()
     for _, a, b in sorted(links):
@@ -108,8 +109,7 @@ def _group_floor(tracks: list[CameraTrack], members: list[int], frame: int) -> n
 def _covariances(track: CameraTrack, rows: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
     """(N, 17, 3, 3) each joint's covariance from this camera in each frame: long along the joint's own ray (the
     root's sd along its ray) and narrow across it (the root's sd across), plus the pose's own error."""
-    sd = np.repeat(root_sd(track, rows)[:, None], track.joints.shape[1], axis=1)
-    return along_ray(track.joints[rows], camera_center, sd) + POSE_SD_M ** 2 * np.eye(3)
+    return joint_covariances(track.joints[rows], root_sd(track, rows), camera_center)
 
 
 def fuse(tracks: list[CameraTrack], members: list[int], centers: list[np.ndarray], fps: float,
@@ -136,10 +136,9 @@ def fuse(tracks: list[CameraTrack], members: list[int], centers: list[np.ndarray
             weights.append(len(rows))
     covariance = np.linalg.inv(information)
     joints = np.einsum("nkij,nkj->nki", covariance, weighted)
-    spread = np.sqrt(np.clip(np.linalg.eigvalsh(covariance[:, 0, :2, :2]), 0.0, None))  # the root's
     refinement = {"stature_m": round(float(np.average(statures, weights=weights)), 4)} if statures else None
     return dataclasses.replace(LiftResult(joints, interpolated, fps, frames, refinement=refinement,
-                                          position_sd=spread[:, ::-1].copy()), seen_by=seen_by)
+                                          position_sd=root_spread(covariance)), seen_by=seen_by)
 
 
 AGREEMENT_SIGMAS = 3.0  # two cameras disagree when a person's places differ by more, in combined sds (median)

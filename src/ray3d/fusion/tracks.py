@@ -91,11 +91,36 @@ def pair_distance(a: CameraTrack, b: CameraTrack, fps: float = 10.0) -> tuple[fl
         return np.inf, 0.0, len(shared)
     gap = np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)
     larger_a, larger_b = root_sd(a, rows_a).max(axis=-1), root_sd(b, rows_b).max(axis=-1)
-    allowed = GATE_SIGMAS * np.hypot(larger_a, larger_b) + GATE_FLOOR_M
+    allowed = gate_m(larger_a, larger_b)
     pace = np.linalg.norm(floor_velocity(a, rows_a, fps) - floor_velocity(b, rows_b, fps), axis=-1)
     if np.median(pace) > VELOCITY_GATE_M_S:
         return np.inf, float(np.median(allowed)), len(shared)
     return float(np.median(gap)), float(np.median(allowed)), len(shared)
+
+
+def joint_covariances(joints: np.ndarray, sd: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """(..., J, 3, 3) each of the (..., J, 3) joints' covariance from a camera at ``centre``: long along the
+    joint's own ray (by the root's sd along its ray, ``sd`` (..., 2)) and narrow across it (the root's sd
+    across), plus the pose's own error."""
+    along_and_across = np.repeat(np.asarray(sd)[..., None, :], joints.shape[-2], axis=-2)
+    return along_ray(joints, centre, along_and_across) + POSE_SD_M ** 2 * np.eye(3)
+
+
+def root_spread(covariance: np.ndarray) -> np.ndarray:
+    """(..., 2) the largest and the smallest sd of the root's floor point under (..., J, 3, 3) joint covariances
+    (as a camera's track states its root's sd along and across its ray)."""
+    return np.sqrt(np.clip(np.linalg.eigvalsh(covariance[..., 0, :2, :2]), 0.0, None))[..., ::-1].copy()
+
+
+def handover_reach_m(gap_s: float) -> float:
+    """How far from where a person's walk would have taken them a track starting ``gap_s`` after theirs ended
+    may start and still be them (a hand-over between views, or a track broken where a camera lost them)."""
+    return GATE_FLOOR_M + 0.5 * gap_s + 0.3
+
+
+def gate_m(sd_a, sd_b):
+    """How far apart two cameras' places of one person may be, given each place's largest sd (arrays alike)."""
+    return GATE_SIGMAS * np.hypot(sd_a, sd_b) + GATE_FLOOR_M
 
 
 def floor_covariance(track: CameraTrack, rows: np.ndarray, centre: np.ndarray) -> np.ndarray:

@@ -28,7 +28,8 @@ from ray3d.live.events import LiveSite
 from ray3d.live.outputs import EventLog, Webhook
 from ray3d.live.people import LivePeople, PersonNow, below_the_stream
 from ray3d.live.server import LiveBoard, LiveServer
-from ray3d.live.source import FrameSource, StreamStalled
+from ray3d.live.fused import LiveFusion
+from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.options import LiftOptions
 from ray3d.site import Site
 from ray3d.video.tracking import Track
@@ -150,7 +151,7 @@ def _one_thread_for_numerics():
         torch.set_num_threads(threads)
 
 
-def stop_on_signals(stop: threading.Event, source: FrameSource) -> list[int]:
+def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) -> list[int]:
     """SIGINT (Ctrl-C) and SIGTERM end the stream cleanly: ``stop`` is set and ``source`` closed, the outputs
     are then completed by ``run_live``. Returns the list the signals caught are added to (for the exit code)."""
     import signal
@@ -167,37 +168,144 @@ def stop_on_signals(stop: threading.Event, source: FrameSource) -> list[int]:
     return caught
 
 
-def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector, lifter: Lifter | None = None,
+class _Views:
+    """The cameras followed: per camera its people (``LivePeople``) and its finisher writing its world file;
+    with several, their people joined into world people (``LiveFusion``) on the first camera's clock, and at the
+    end their world files fused (``ray3d.fusion``) into one."""
+
+    def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter, out_dir: Path,
+                 options: LiveOptions, lift_options: LiftOptions, offsets_s: list[float] | None):
+        self.group, self.cameras, self.several = group, cameras, len(cameras) > 1
+        self.fps = group.sources[0].fps
+        self.offsets_s = list(offsets_s) if offsets_s is not None else [0.0] * len(cameras)
+        if len(self.offsets_s) != len(cameras):
+            raise InputError(f"offsets: {len(self.offsets_s)} given for {len(cameras)} cameras", ("offsets",))
+        self.world_paths = [out_dir / "world.csv"] if not self.several else \
+            [out_dir / f"camera{k + 1}_{_file_name(c.name or source.name)}" / "world.csv"
+             for k, (c, source) in enumerate(zip(cameras, group.sources))]
+        self.fused_path = out_dir / "world.json" if self.several else None
+        for path in self.world_paths + ([self.fused_path] if self.several else []):
+            if path.exists():
+                raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
+            path.parent.mkdir(parents=True, exist_ok=True)
+        self.people = [LivePeople(c, d, lifter, source.fps, lift_options.floor, options.max_gap_s,
+                                  deadline_frames=source.keep) for c, d, source in zip(cameras, detectors, group.sources)]
+        self.finishers = [_Finisher(lifter, c, d.layout, source.fps, path, lift_options, options.min_track_s)
+                          for c, d, source, path in zip(cameras, detectors, group.sources, self.world_paths)]
+        self.fusion = LiveFusion(cameras, 1.0 / min(s.fps for s in group.sources)) if self.several else None
+        self._pending: tuple | None = None  # several cameras: the frame whose views are still coming in
+
+    def update(self, view: int, frame) -> tuple[tuple | None, list[PersonNow], list[int]]:
+        """This camera's frame -> a frame settled for the site's events (its number on the first camera's clock
+        and its people; None while it is not), the people now and those who left. With several cameras a frame
+        is settled when the next begins: by then every camera's view of it is in."""
+        persons, finished = self.people[view].update(frame)
+        for track in finished:
+            self.finishers[view].put(track)
+        if not self.several:
+            return (frame.index, persons), persons, [track.id for track in finished]
+        time_s = frame.index / self.group.sources[view].fps - self.offsets_s[view]
+        for track in finished:
+            self.fusion.finished(view, track.id)
+        persons = self.fusion.update(view, time_s, persons)
+        index, settled = int(round(time_s * self.fps)), None
+        if self._pending is None or index > self._pending[0]:
+            settled, self._pending = self._pending, (index, persons)
+        else:
+            self._pending = (self._pending[0], persons)
+        return settled, persons, self.fusion.ended(time_s)
+
+    def finish(self) -> tuple[tuple | None, list[tuple[int, int]]]:
+        """Everybody still in view handed over: the last frame not settled yet (None if none) and who leaves
+        (person, the first camera's frame they were last seen in)."""
+        leaving = []
+        for view, people in enumerate(self.people):
+            people.close()
+            for track in people.in_view():
+                self.finishers[view].put(track)
+                if self.several:
+                    self.fusion.finished(view, track.id)
+                else:
+                    leaving.append((track.id, track.frames[-1]))
+        for finisher in self.finishers:
+            finisher.close()
+        if self.several:
+            leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self.fusion.ended(np.inf, seen=True)]
+        return self._pending, leaving
+
+    def world_file(self) -> Path | None:
+        """The world file of everybody (with several cameras, their world files fused into one)."""
+        if not self.several:
+            return self.world_paths[0] if self.world_paths[0].exists() else None
+        from ray3d.fusion import fuse_worlds
+        from ray3d.io.world import write_world
+
+        worlds = [(read_world(path), k) for k, path in enumerate(self.world_paths) if path.exists()]
+        if not worlds:
+            return None
+        world = worlds[0][0] if len(worlds) == 1 else \
+            fuse_worlds([w for w, _ in worlds], [self.offsets_s[k] - self.offsets_s[worlds[0][1]] for _, k in worlds]).world
+        write_world(self.fused_path, world)
+        return self.fused_path
+
+    @property
+    def written(self) -> int:
+        return sum(finisher.written for finisher in self.finishers)
+
+    @property
+    def left_out(self) -> dict:
+        return {(f"{k + 1}:{track}" if self.several else track): why
+                for k, finisher in enumerate(self.finishers) for track, why in finisher.left_out.items()}
+
+
+def _file_name(name: str) -> str:
+    """A camera's or a stream's name as a folder name."""
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(str(name)).stem) or "camera"
+
+
+def _several(value) -> list:
+    return list(value) if isinstance(value, (list, tuple)) else [value]
+
+
+def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | None = None,
              site: Site | None = None, options: LiveOptions = LiveOptions(),
              lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
-             started=lambda url: None) -> LiveSummary:
+             started=lambda url: None, offsets_s: list[float] | None = None) -> LiveSummary:
     """Follow ``source`` until it ends, stalls, breaks off or ``stop`` is set; write ``out_dir``/events.jsonl
-    and world.csv (and site/ with a site). ``started(url)`` is called once the page listens."""
+    and world.csv (and site/ with a site). ``started(url)`` is called once the page listens.
+
+    Several cameras: ``source``, ``camera`` and ``detector`` are lists, one each per camera (``offsets_s``: how
+    far each camera's clock is ahead of the first's, 0 by default); each camera's people are written to
+    ``out_dir``/camera<k>_<name>/world.csv, the events and the page are of the world's people (``LiveFusion``),
+    and at the end the cameras' world files are fused into ``out_dir``/world.json (``ray3d.fusion``)."""
+    sources = source.sources if isinstance(source, SourceGroup) else _several(source)
+    cameras, detectors = _several(camera), _several(detector)
+    if not len(sources) == len(cameras) == len(detectors):
+        raise InputError(f"cameras: {len(cameras)} cameras and {len(detectors)} detectors for {len(sources)} "
+                         "streams; give one each per stream", ("camera",))
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    files = {"events": out_dir / "events.jsonl", "world": out_dir / "world.csv"}
-    for path in files.values():
-        if path.exists():
-            raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
+    events_path = out_dir / "events.jsonl"
+    if events_path.exists():
+        raise InputError(f"{events_path}: exists; ray3d live never writes over an output", ("out",))
     stop = stop or threading.Event()
-    lifter = lifter or Lifter.load(layout=detector.layout)
+    lifter = lifter or Lifter.load(layout=detectors[0].layout)
     site = site or Site()
-    people = LivePeople(camera, detector, lifter, source.fps, lift_options.floor, options.max_gap_s,
-                        deadline_frames=source.keep)
-    monitor = LiveSite(site, source.fps)
+    group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
+    views = _Views(group, cameras, detectors, lifter, out_dir, options, lift_options, offsets_s)
+    monitor = LiveSite(site, views.fps)
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
                                  for l in site.lines]})
     server = LiveServer(board, options.host, options.port, options.token) if options.page else None
-    log = EventLog(files["events"], options.echo)
+    log = EventLog(events_path, options.echo)
     webhook = Webhook(options.webhook, token=options.token) if options.webhook else None
-    finisher = _Finisher(lifter, camera, detector.layout, source.fps, files["world"], lift_options,
-                         options.min_track_s)
     trails: dict[int, deque] = {}
     latest: deque = deque(maxlen=LATEST_EVENTS)
     latencies, recent_latency, recent_times = [], deque(maxlen=100), deque(maxlen=30)
     processed = events_count = 0
-    ending, why = "stopped", f"{source.name}: stopped"
+    last_index = -1
+    ending, why = "stopped", f"{group.name}: stopped"
 
     def emit(events: list[dict]) -> None:
         nonlocal events_count
@@ -213,26 +321,27 @@ def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector,
         with _one_thread_for_numerics():
             while not stop.is_set():
                 try:
-                    frame = source.next()
+                    taken = group.next()
                 except StreamStalled as err:
                     ending, why = "stalled", err.message
                     break
                 except InputError as err:
                     ending, why = "broke off", err.message
                     break
-                if frame is None:
+                if taken is None:
                     if not stop.is_set():
-                        ending, why = "ended", f"{source.name}: the stream ended"
+                        ending, why = "ended", f"{group.name}: the stream ended"
                     break
-                persons, finished = people.update(frame)
-                events = monitor.update(frame.index, persons)
-                for track in finished:
-                    events += monitor.ended(track.id, frame.index)
-                    trails.pop(track.id, None)
-                    finisher.put(track)
+                view, frame = taken
+                settled, persons, leaving = views.update(view, frame)
+                events = monitor.update(*settled) if settled is not None and settled[0] > last_index else []
+                last_index = max(last_index, settled[0] if settled is not None else last_index)
+                for person in leaving:
+                    events += monitor.ended(person, last_index)
+                    trails.pop(person, None)
                 emit(events)
                 for person in persons:
-                    trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * source.fps))))
+                    trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * views.fps))))
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
                 processed += 1
                 now = time.monotonic()
@@ -241,30 +350,30 @@ def run_live(source: FrameSource, camera: Camera, out_dir: str | Path, detector,
                 latencies.append(latency)
                 recent_latency.append(latency)
                 rate = (len(recent_times) - 1) / (recent_times[-1] - recent_times[0]) if len(recent_times) > 1 else 0.0
-                board.publish(_snapshot(frame.index, source.fps, persons, trails, monitor, latest, {
+                board.publish(_snapshot(last_index, views.fps, persons, trails, monitor, latest, {
                     "fps": rate, "latency_median_ms": float(np.median(recent_latency)),
-                    "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": source.dropped,
-                    "read": source.read}))
+                    "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": group.dropped,
+                    "read": group.read}))
     finally:
-        source.close()
-        people.close()
-        for track in people.in_view():
-            emit(monitor.ended(track.id, track.frames[-1]))
-            finisher.put(track)
-        finisher.close()
+        group.close()
+        settled, leaving = views.finish()
+        if settled is not None and settled[0] > last_index:
+            emit(monitor.update(*settled))
+        for person, index in leaving:
+            emit(monitor.ended(person, index))
         log.close()
         if webhook:
             webhook.close()
         if server:
             server.stop()
-    if site.zones or site.lines:
-        if files["world"].exists():
-            from ray3d.viz.site_report import analyse_site
+    files = {"events": events_path, "world": views.world_file() or views.world_paths[0]}
+    if (site.zones or site.lines) and files["world"].exists():
+        from ray3d.viz.site_report import analyse_site
 
-            analyse_site(read_world(files["world"]), site, out_dir / "site", title=f"ray3d live: {source.name}")
-            files["site"] = out_dir / "site"
-    return LiveSummary(ending, why, source.read, processed, source.dropped, getattr(detector, "postponed", 0),
-                       np.array(latencies), events_count,
-                       finisher.written, finisher.left_out,
+        analyse_site(read_world(files["world"]), site, out_dir / "site", title=f"ray3d live: {group.name}")
+        files["site"] = out_dir / "site"
+    return LiveSummary(ending, why, group.read, processed, group.dropped,
+                       sum(getattr(d, "postponed", 0) for d in detectors), np.array(latencies), events_count,
+                       views.written, views.left_out,
                        {} if not webhook else {"delivered": webhook.delivered, "failed": webhook.failed,
                                                "dropped": webhook.dropped}, files)

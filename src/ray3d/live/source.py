@@ -10,7 +10,7 @@ import collections
 import dataclasses
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import cv2
@@ -84,6 +84,7 @@ class FrameSource:
         self._ended = self._closed = False
         self._failure: BaseException | None = None
         self._changed = threading.Condition()
+        self.on_change: Callable[[], None] | None = None  # told of each frame and of the end (``SourceGroup``)
         self._reader = threading.Thread(target=self._read, name="frames", daemon=True)
         self._reader.start()
 
@@ -110,12 +111,27 @@ class FrameSource:
                     self._waiting.append(LiveFrame(index, image, time.monotonic()))
                     self.read += 1
                     self._changed.notify_all()
+                self._tell()
         except Exception as err:  # a broken stream ends it; next() reports why
             self._failure = err
         finally:
             with self._changed:
                 self._ended = True
                 self._changed.notify_all()
+            self._tell()
+
+    def _tell(self) -> None:
+        if (on_change := self.on_change) is not None:
+            on_change()
+
+    def ready(self) -> bool:
+        """Whether ``next()`` would answer at once."""
+        return bool(self._waiting) or self._ended or self._closed
+
+    def oldest_arrival(self) -> float:
+        """When the oldest frame waiting arrived (infinity when none waits)."""
+        waiting = list(self._waiting)
+        return waiting[0].arrived if waiting else np.inf
 
     def next(self) -> LiveFrame | None:
         """The newest frame not taken yet; None once the stream has ended or ``close`` was called."""
@@ -135,3 +151,57 @@ class FrameSource:
         with self._changed:
             self._closed = True
             self._changed.notify_all()
+        self._tell()
+
+
+class SourceGroup:
+    """Several sources (one per camera) taken as one: ``next()`` gives ``(view, frame)``, the frame that arrived
+    first of those waiting in any source, waiting for one; None once every source has ended or the group was
+    closed. ``StreamStalled`` when no source has given a frame for the longest of their stall timeouts. One
+    source is a group of one."""
+
+    def __init__(self, sources: list[FrameSource]):
+        self.sources = list(sources)
+        self.name = " + ".join(source.name for source in self.sources)
+        self.stall_s = max(source.stall_s for source in self.sources)
+        self._changed = threading.Condition()
+        self._open = set(range(len(self.sources)))
+        self._closed = False
+        for source in self.sources:
+            source.on_change = self._notify
+
+    def _notify(self) -> None:
+        with self._changed:
+            self._changed.notify_all()
+
+    def next(self) -> tuple[int, LiveFrame] | None:
+        while True:
+            with self._changed:
+                if not self._changed.wait_for(lambda: self._closed or any(self.sources[v].ready() for v in self._open),
+                                              timeout=self.stall_s):
+                    raise StreamStalled(self.name, self.stall_s)
+                if self._closed:
+                    return None
+                view = min((v for v in self._open if self.sources[v].ready()),
+                           key=lambda v: self.sources[v].oldest_arrival())
+            frame = self.sources[view].next()
+            if frame is not None:
+                return view, frame
+            self._open.discard(view)  # this one has ended (``next`` raised where it broke off)
+            if not self._open:
+                return None
+
+    @property
+    def read(self) -> int:
+        return sum(source.read for source in self.sources)
+
+    @property
+    def dropped(self) -> int:
+        return sum(source.dropped for source in self.sources)
+
+    def close(self) -> None:
+        with self._changed:
+            self._closed = True
+            self._changed.notify_all()
+        for source in self.sources:
+            source.close()

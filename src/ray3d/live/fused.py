@@ -1,0 +1,150 @@
+"""Several cameras' people as one, as they arrive: each camera's tracks (``LivePeople``) joined into world
+people by the rules of ``ray3d.fusion``, causally.
+
+A camera's new track is held back for its first ``decide_updates`` updates while it is compared: it joins the
+world person whose fused floor point it stayed within the gate of in every one of them (``pair_distance``'s
+gate: 3 combined sds of the two places plus 0.25 m), never one that camera sees as another track now, or a
+person all of whose tracks ended within ``handover_s`` where their walk would have taken them
+(``handover_reach_m``); otherwise it is a new person. A join is never undone. Each world person's joints are
+the information-weighted mean of their tracks' latest answers (``joint_covariances``: long along each joint's
+ray, narrow across it), from the tracks seen within one and a half frame periods (the slowest camera's)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ray3d.fusion.tracks import gate_m, handover_reach_m, joint_covariances, root_spread
+from ray3d.geometry import Camera
+from ray3d.live.people import PersonNow
+
+
+@dataclasses.dataclass
+class _CameraTrack:
+    now: PersonNow
+    seen_s: float
+    updates: int = 0
+    agreeing: tuple[int | None, int] = (None, 0)  # (world person, updates in a row it stayed within the gate)
+    person: int | None = None
+    finished: bool = False
+
+
+@dataclasses.dataclass
+class _WorldPerson:
+    members: set = dataclasses.field(default_factory=set)  # (view, track)
+    place: np.ndarray | None = None      # (2,) the fused floor point of every camera seeing them at once
+    placed_s: float = -np.inf            # when
+    velocity: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    seen_s: float = -np.inf
+    ended: bool = False
+
+
+class LiveFusion:
+    """``update(view, time_s, people)`` -> the world's people now (their ``track`` the world person's id);
+    ``finished(view, track)`` when a camera's tracker lets a track go; ``ended(time_s)`` -> the world people
+    gone for good (every track finished, and ``handover_s`` passed)."""
+
+    def __init__(self, cameras: list[Camera], frame_period_s: float, handover_s: float = 2.0,
+                 decide_updates: int = 3):
+        self.centres = [camera.center for camera in cameras]
+        self.handover_s, self.decide_updates = handover_s, decide_updates
+        self.recent_s = 1.5 * frame_period_s  # seen now: every camera's latest frame, whatever their phases
+        self._tracks: dict[tuple[int, int], _CameraTrack] = {}
+        self._people: dict[int, _WorldPerson] = {}
+
+    def update(self, view: int, time_s: float, people: list[PersonNow]) -> list[PersonNow]:
+        for now in people:
+            key = (view, now.track)
+            track = self._tracks.setdefault(key, _CameraTrack(now, time_s))
+            track.now, track.seen_s = now, time_s
+            track.updates += 1
+            if track.person is None:
+                self._decide(key, track, time_s)
+        return [p for n, person in self._people.items() if not person.ended
+                if (p := self._fused(n, person, time_s)) is not None]
+
+    def finished(self, view: int, track: int) -> None:
+        if (view, track) in self._tracks:
+            self._tracks[view, track].finished = True
+            if self._tracks[view, track].person is None:  # never long enough to be anybody
+                del self._tracks[view, track]
+
+    def ended(self, time_s: float, seen: bool = False) -> list:
+        """The world people gone for good at ``time_s`` (with ``seen``: with when they were last seen)."""
+        gone = [n for n, person in self._people.items() if not person.ended and
+                all(self._tracks[k].finished for k in person.members) and time_s - person.seen_s > self.handover_s]
+        for n in gone:
+            self._people[n].ended = True
+            for key in self._people[n].members:
+                self._tracks.pop(key, None)
+        return [(n, self._people[n].seen_s) for n in gone] if seen else gone
+
+    def _decide(self, key: tuple[int, int], track: _CameraTrack, time_s: float) -> None:
+        """Join the track to the world person (or the other camera's undecided track, making one new person
+        of both) it has agreed with for ``decide_updates`` updates running; a new person when it agrees with
+        nobody then (or has not settled on anybody in three times as many)."""
+        candidate = self._nearest(key, track, time_s)
+        held, count = track.agreeing
+        track.agreeing = (candidate, count + 1 if candidate is not None and candidate == held else 1)
+        if candidate is not None and track.agreeing[1] >= self.decide_updates:
+            other = self._tracks[candidate] if isinstance(candidate, tuple) else None
+            track.person = candidate if other is None else other.person
+            if track.person is None:  # the other camera's track is undecided too
+                track.person = other.person = self._new_person()
+                self._people[track.person].members.add(candidate)
+        elif track.updates >= self.decide_updates and (candidate is None or track.updates >= 3 * self.decide_updates):
+            track.person = self._new_person()
+        if track.person is not None:
+            self._people[track.person].members.add(key)
+
+    def _new_person(self) -> int:
+        number = max(self._people, default=-1) + 1
+        self._people[number] = _WorldPerson()
+        return number
+
+    def _nearest(self, key: tuple[int, int], track: _CameraTrack, time_s: float):
+        """The world person (their id), or another camera's undecided track (its key), that this track's
+        latest place agrees with best, if any may be them."""
+        place, sd = track.now.joints[0, :2], float(np.max(track.now.position_sd))
+        options = []  # (how far off, what)
+        for n, person in self._people.items():
+            if person.ended or person.place is None or any(
+                    k[0] == key[0] and time_s - self._tracks[k].seen_s <= self.recent_s for k in person.members):
+                continue  # this camera sees them as another track now
+            gap_s = time_s - person.seen_s
+            if gap_s <= self.recent_s:  # seen now by another camera: within the gate
+                spread = max(float(np.max(self._tracks[k].now.position_sd)) for k in person.members
+                             if time_s - self._tracks[k].seen_s <= self.recent_s)
+                options.append((float(np.linalg.norm(place - person.place)), gate_m(sd, spread), n))
+            elif gap_s <= self.handover_s:  # gone from every camera lately: where their walk leads
+                walked = person.place + person.velocity * (time_s - person.placed_s)
+                options.append((float(np.linalg.norm(place - walked)), handover_reach_m(gap_s), n))
+        for other_key, other in self._tracks.items():
+            if other_key[0] != key[0] and other.person is None and time_s - other.seen_s <= self.recent_s:
+                options.append((float(np.linalg.norm(place - other.now.joints[0, :2])),
+                                gate_m(sd, float(np.max(other.now.position_sd))), other_key))
+        within = [(miss, what) for miss, allowed, what in options if miss <= allowed]
+        return min(within, key=lambda o: o[0])[1] if within else None
+
+    def _fused(self, n: int, person: _WorldPerson, time_s: float) -> PersonNow | None:
+        """The person's joints from their tracks seen now (None when none was)."""
+        current = [(view, self._tracks[view, track]) for view, track in sorted(person.members)
+                   if time_s - self._tracks[view, track].seen_s <= self.recent_s]
+        if not current:
+            return None
+        information = np.linalg.inv(np.stack([joint_covariances(t.now.joints, t.now.position_sd, self.centres[view])
+                                              for view, t in current]))
+        covariance = np.linalg.inv(information.sum(axis=0))
+        joints = np.einsum("kij,kj->ki", covariance,
+                           np.einsum("nkij,nkj->ki", information, np.stack([t.now.joints for _, t in current])))
+        # Where they are and how they walk, from the answers of this moment only: one camera's new answer with
+        # another's of a frame before is a mix neither saw.
+        if all(t.seen_s == time_s for _, t in current):
+            if person.place is not None and time_s > person.placed_s:
+                step = (joints[0, :2] - person.place) / (time_s - person.placed_s)
+                person.velocity = 0.8 * person.velocity + 0.2 * step  # smoothed: a hand-over's walk, not a frame's
+            person.place, person.placed_s = joints[0, :2].copy(), time_s
+        person.seen_s = time_s
+        statures = [t.now.stature_m for _, t in current if t.now.stature_m is not None]
+        return PersonNow(n, joints, root_spread(covariance[None])[0], float(np.mean(statures)) if statures else None)
