@@ -58,6 +58,20 @@ def seen(camera, people: np.ndarray, rng: np.random.Generator, gap_s: float = 0.
     return tracks
 
 
+def test_walks(count: int) -> list[np.ndarray]:
+    """The first ``count`` test clips at ``FPS`` of 2.5 s or more that travel 2 m or more, centred on the room."""
+    motion, _ = evaluation_motion(split="test")
+    walks = []
+    for i in range(motion.num_clips):
+        step = int(round(float(motion.clips["fps"][i]) / FPS))
+        clip = centre_clip(motion.clip(i).astype(np.float64))[::step]
+        if len(clip) >= 2.5 * FPS and np.linalg.norm(clip[-1, 0, :2] - clip[0, 0, :2]) >= 2.0:
+            walks.append(clip)
+        if len(walks) >= count:
+            break
+    return walks
+
+
 def lifted(lifter: Lifter, camera, tracks: dict, offset_frames: int = 0) -> World | None:
     if not tracks:
         return None
@@ -77,16 +91,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
-    motion, _ = evaluation_motion(split="test")
     lifter = Lifter.load()
-    walks = []
-    for i in range(motion.num_clips):
-        step = int(round(float(motion.clips["fps"][i]) / FPS))
-        clip = centre_clip(motion.clip(i).astype(np.float64))[::step]
-        if len(clip) >= 2.5 * FPS and np.linalg.norm(clip[-1, 0, :2] - clip[0, 0, :2]) >= 2.0:
-            walks.append(clip)
-        if len(walks) >= args.clips:
-            break
+    walks = test_walks(args.clips)
     per_person, fused_error, best_error, offsets_found = [], [], [], []
     seconds = {"lifting": 0.0, "fusing": 0.0}
     for count in (2, 3, 4):

@@ -1,9 +1,10 @@
 """Several cameras' people as one, as they arrive: each camera's tracks (``LivePeople``) joined into world
 people by the rules of ``ray3d.fusion``, causally.
 
-A camera's new track is held back for its first ``decide_updates`` updates while it is compared: it joins the
-world person whose fused floor point it stayed within the gate of in every one of them (``pair_distance``'s
-gate: 3 combined sds of the two places plus 0.25 m), never one that camera sees as another track now, or a
+A camera's new track is held back for its first ``decide_s`` (three updates at least) while it is compared: it
+joins the world person whose fused floor point it stayed within the gate of in every update (``pair_distance``'s
+gate: 3 combined sds of the two places plus 0.25 m) and who walks alike (their velocities within
+``LIVE_VELOCITY_GATE_M_S``), never one that camera sees as another track now, or a
 person all of whose tracks ended within ``handover_s`` where their walk would have taken them
 (``handover_reach_m``); otherwise it is a new person. A join is never undone. Each world person's joints are
 the information-weighted mean of their tracks' latest answers (``joint_covariances``: long along each joint's
@@ -12,18 +13,52 @@ ray, narrow across it), from the tracks seen within one and a half frame periods
 from __future__ import annotations
 
 import dataclasses
+from collections import deque
 
 import numpy as np
 
-from ray3d.fusion.tracks import gate_m, handover_reach_m, joint_covariances, root_spread
+from ray3d.fusion.tracks import GATE_FLOOR_M, VELOCITY_GATE_M_S, gate_m, handover_reach_m, joint_covariances, root_spread
 from ray3d.geometry import Camera
 from ray3d.live.people import PersonNow
+
+
+WALK_S = 0.5  # a velocity is taken over the last half second of places, once they span half of it
+# Two tracks walk alike when their velocities differ by less: twice the fusion's gate, as a new track's causal
+# answers settle over its first second (the network's window filling) and its first velocity is rough.
+LIVE_VELOCITY_GATE_M_S = 2 * VELOCITY_GATE_M_S
+AMBIGUOUS = "ambiguous"  # two people as near as each other: wait
+WAIT_S = 1.0  # the longest a new track waits for who it is to become clear
+
+
+class _Path:
+    """Recent floor points and their times: where somebody is and how they walk."""
+
+    def __init__(self):
+        self.places: deque = deque()
+
+    def add(self, time_s: float, place: np.ndarray) -> None:
+        self.places.append((time_s, place.copy()))
+        while self.places[-1][0] - self.places[0][0] > WALK_S:
+            self.places.popleft()
+
+    def velocity(self) -> np.ndarray | None:
+        """(2,) m/s, or None while the places span too little time to tell."""
+        (start, first), (end, last) = self.places[0], self.places[-1]
+        return (last - first) / (end - start) if end - start >= WALK_S / 2 else None
+
+    def walks_alike(self, other: _Path) -> bool:
+        """Whether the two walk alike (their velocities within ``LIVE_VELOCITY_GATE_M_S``), or either cannot tell
+        yet."""
+        mine, theirs = self.velocity(), other.velocity()
+        return mine is None or theirs is None or float(np.linalg.norm(mine - theirs)) <= LIVE_VELOCITY_GATE_M_S
 
 
 @dataclasses.dataclass
 class _CameraTrack:
     now: PersonNow
     seen_s: float
+    first_s: float
+    path: _Path = dataclasses.field(default_factory=_Path)
     updates: int = 0
     agreeing: tuple[int | None, int] = (None, 0)  # (world person, updates in a row it stayed within the gate)
     person: int | None = None
@@ -33,9 +68,7 @@ class _CameraTrack:
 @dataclasses.dataclass
 class _WorldPerson:
     members: set = dataclasses.field(default_factory=set)  # (view, track)
-    place: np.ndarray | None = None      # (2,) the fused floor point of every camera seeing them at once
-    placed_s: float = -np.inf            # when
-    velocity: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    path: _Path = dataclasses.field(default_factory=_Path)  # fused floor points of every camera seeing them at once
     seen_s: float = -np.inf
     ended: bool = False
 
@@ -45,10 +78,9 @@ class LiveFusion:
     ``finished(view, track)`` when a camera's tracker lets a track go; ``ended(time_s)`` -> the world people
     gone for good (every track finished, and ``handover_s`` passed)."""
 
-    def __init__(self, cameras: list[Camera], frame_period_s: float, handover_s: float = 2.0,
-                 decide_updates: int = 3):
+    def __init__(self, cameras: list[Camera], frame_period_s: float, handover_s: float = 2.0, decide_s: float = 0.1):
         self.centres = [camera.center for camera in cameras]
-        self.handover_s, self.decide_updates = handover_s, decide_updates
+        self.handover_s, self.decide_updates = handover_s, max(3, int(round(decide_s / frame_period_s)))
         self.recent_s = 1.5 * frame_period_s  # seen now: every camera's latest frame, whatever their phases
         self._tracks: dict[tuple[int, int], _CameraTrack] = {}
         self._people: dict[int, _WorldPerson] = {}
@@ -56,8 +88,9 @@ class LiveFusion:
     def update(self, view: int, time_s: float, people: list[PersonNow]) -> list[PersonNow]:
         for now in people:
             key = (view, now.track)
-            track = self._tracks.setdefault(key, _CameraTrack(now, time_s))
+            track = self._tracks.setdefault(key, _CameraTrack(now, time_s, time_s))
             track.now, track.seen_s = now, time_s
+            track.path.add(time_s, now.joints[0, :2])
             track.updates += 1
             if track.person is None:
                 self._decide(key, track, time_s)
@@ -83,17 +116,17 @@ class LiveFusion:
     def _decide(self, key: tuple[int, int], track: _CameraTrack, time_s: float) -> None:
         """Join the track to the world person (or the other camera's undecided track, making one new person
         of both) it has agreed with for ``decide_updates`` updates running; a new person when it agrees with
-        nobody then (or has not settled on anybody in three times as many)."""
+        nobody then. While two are as near (people crossing) it waits, ``WAIT_S`` at most."""
         candidate = self._nearest(key, track, time_s)
         held, count = track.agreeing
-        track.agreeing = (candidate, count + 1 if candidate is not None and candidate == held else 1)
-        if candidate is not None and track.agreeing[1] >= self.decide_updates:
+        track.agreeing = (candidate, count + 1 if candidate not in (None, AMBIGUOUS) and candidate == held else 0)
+        if candidate not in (None, AMBIGUOUS) and track.agreeing[1] >= self.decide_updates:
             other = self._tracks[candidate] if isinstance(candidate, tuple) else None
             track.person = candidate if other is None else other.person
             if track.person is None:  # the other camera's track is undecided too
                 track.person = other.person = self._new_person()
                 self._people[track.person].members.add(candidate)
-        elif track.updates >= self.decide_updates and (candidate is None or track.updates >= 3 * self.decide_updates):
+        elif (candidate is None and track.updates >= self.decide_updates) or time_s - track.first_s >= WAIT_S:
             track.person = self._new_person()
         if track.person is not None:
             self._people[track.person].members.add(key)
@@ -109,23 +142,32 @@ class LiveFusion:
         place, sd = track.now.joints[0, :2], float(np.max(track.now.position_sd))
         options = []  # (how far off, what)
         for n, person in self._people.items():
-            if person.ended or person.place is None or any(
+            if person.ended or not person.path.places or any(
                     k[0] == key[0] and time_s - self._tracks[k].seen_s <= self.recent_s for k in person.members):
                 continue  # this camera sees them as another track now
             gap_s = time_s - person.seen_s
+            if not track.path.walks_alike(person.path):
+                continue  # two people passing close by
+            last_s, last_place = person.path.places[-1]
             if gap_s <= self.recent_s:  # seen now by another camera: within the gate
                 spread = max(float(np.max(self._tracks[k].now.position_sd)) for k in person.members
                              if time_s - self._tracks[k].seen_s <= self.recent_s)
-                options.append((float(np.linalg.norm(place - person.place)), gate_m(sd, spread), n))
+                options.append((float(np.linalg.norm(place - last_place)), gate_m(sd, spread), n))
             elif gap_s <= self.handover_s:  # gone from every camera lately: where their walk leads
-                walked = person.place + person.velocity * (time_s - person.placed_s)
+                walked = last_place + (person.path.velocity() if person.path.velocity() is not None else 0.0) * (
+                    time_s - last_s)
                 options.append((float(np.linalg.norm(place - walked)), handover_reach_m(gap_s), n))
         for other_key, other in self._tracks.items():
-            if other_key[0] != key[0] and other.person is None and time_s - other.seen_s <= self.recent_s:
+            if other_key[0] != key[0] and other.person is None and time_s - other.seen_s <= self.recent_s and \
+                    track.path.walks_alike(other.path):
                 options.append((float(np.linalg.norm(place - other.now.joints[0, :2])),
                                 gate_m(sd, float(np.max(other.now.position_sd))), other_key))
-        within = [(miss, what) for miss, allowed, what in options if miss <= allowed]
-        return min(within, key=lambda o: o[0])[1] if within else None
+        # World people first; another camera's undecided track only where no world person may be them.
+        people = sorted((miss, what) for miss, allowed, what in options if miss <= allowed and isinstance(what, int))
+        if len(people) > 1 and people[1][0] - people[0][0] < GATE_FLOOR_M:
+            return AMBIGUOUS
+        tracks = sorted((miss, what) for miss, allowed, what in options if miss <= allowed and isinstance(what, tuple))
+        return people[0][1] if people else tracks[0][1] if tracks else None
 
     def _fused(self, n: int, person: _WorldPerson, time_s: float) -> PersonNow | None:
         """The person's joints from their tracks seen now (None when none was)."""
@@ -141,10 +183,7 @@ class LiveFusion:
         # Where they are and how they walk, from the answers of this moment only: one camera's new answer with
         # another's of a frame before is a mix neither saw.
         if all(t.seen_s == time_s for _, t in current):
-            if person.place is not None and time_s > person.placed_s:
-                step = (joints[0, :2] - person.place) / (time_s - person.placed_s)
-                person.velocity = 0.8 * person.velocity + 0.2 * step  # smoothed: a hand-over's walk, not a frame's
-            person.place, person.placed_s = joints[0, :2].copy(), time_s
-        person.seen_s = time_s
+            person.path.add(time_s, joints[0, :2])
+        person.seen_s = max(t.seen_s for _, t in current)
         statures = [t.now.stature_m for _, t in current if t.now.stature_m is not None]
         return PersonNow(n, joints, root_spread(covariance[None])[0], float(np.mean(statures)) if statures else None)
