@@ -72,6 +72,33 @@ def test_walks(count: int) -> list[np.ndarray]:
     return walks
 
 
+def scene_arguments(description: str) -> argparse.Namespace:
+    """The scenes' command line: how many test walks, and the seed of the noise and gaps."""
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--clips", type=int, default=6)
+    parser.add_argument("--seed", type=int, default=0)
+    return parser.parse_args()
+
+
+def crossing_people(walks: list[np.ndarray]):
+    """Scenes of two people, (2, T, 17, 3) each: a walk, and the next walk turned a quarter to cross it."""
+    for a, b in zip(walks[:3], walks[1:4]):
+        turned = b.copy()
+        turned[..., :2] = turned[..., :2] @ np.array([[0.0, -1.0], [1.0, 0.0]])
+        n = min(len(a), len(turned))
+        yield np.stack([a[:n], turned[:n]])
+
+
+def identity_switches(people: np.ndarray, frames, roots: np.ndarray) -> int:
+    """How often a track (its roots (N, 3) at ``frames``) goes from following one of the ``people`` to the other
+    for half a second or more (a frame or two where their paths cross, nearest either way, is none)."""
+    nearest = np.array([np.argmin(np.linalg.norm(people[:, f, 0, :2] - root[:2], axis=-1))
+                        for f, root in zip(frames, roots) if f < people.shape[1]])
+    runs = np.split(nearest, np.flatnonzero(np.diff(nearest)) + 1)
+    held = [run[0] for run in runs if len(run) >= FPS / 2]
+    return int(np.sum(np.diff(held) != 0))
+
+
 def lifted(lifter: Lifter, camera, tracks: dict, offset_frames: int = 0) -> World | None:
     if not tracks:
         return None
@@ -86,10 +113,7 @@ def errors(world_track, truth: np.ndarray, frames: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--clips", type=int, default=6)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
+    args = scene_arguments(__doc__)
     rng = np.random.default_rng(args.seed)
     lifter = Lifter.load()
     walks = test_walks(args.clips)
@@ -129,24 +153,12 @@ def main() -> None:
         found, sd = find_time_offset(first, second)
         offsets_found.append((shift, found * FPS, sd * FPS))
     rng = np.random.default_rng(args.seed + 2)
-    crossing = []  # two people: the first walk and a second walk turned to cross it
-    for a, b in zip(walks[:3], walks[1:4]):
-        turned = b.copy()
-        turned[..., :2] = turned[..., :2] @ np.array([[0.0, -1.0], [1.0, 0.0]])
-        n = min(len(a), len(turned))
-        people = np.stack([a[:n], turned[:n]])
+    crossing = []
+    for people in crossing_people(walks):
         views, _ = cameras(3)
         worlds = [w for w in (lifted(lifter, c, seen(c, people, rng)) for c in views) if w is not None]
         fusion = fuse_worlds(worlds)
-        switches = 0
-        for track in fusion.world.tracks.values():
-            nearest = np.array([np.argmin(np.linalg.norm(people[:, f, 0, :2] - track.joints[k, 0, :2], axis=-1))
-                                for k, f in enumerate(track.frames) if f < n])
-            # A switch: the track follows the other person for half a second or more (a frame or two where
-            # their paths cross, nearest either way, is none).
-            runs = np.split(nearest, np.flatnonzero(np.diff(nearest)) + 1)
-            held = [run[0] for run in runs if len(run) >= FPS / 2]
-            switches += int(np.sum(np.diff(held) != 0))
+        switches = sum(identity_switches(people, track.frames, track.joints[:, 0]) for track in fusion.world.tracks.values())
         crossing.append((len(fusion.world.tracks), switches))
     rng = np.random.default_rng(args.seed + 3)
     named = []

@@ -13,14 +13,14 @@ see, and the crossing scenes' people and identity switches.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fusion_mocap import FPS, cameras, seen, test_walks  # noqa: E402
+from fusion_mocap import (FPS, cameras, crossing_people, identity_switches, scene_arguments,  # noqa: E402
+                          seen, test_walks)
 
 from ray3d import Lifter  # noqa: E402
 from ray3d.live.fused import LiveFusion  # noqa: E402
@@ -55,10 +55,7 @@ def live(lifter: Lifter, views: list, tracks: list[dict], frames: int) -> tuple[
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--clips", type=int, default=6)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
+    args = scene_arguments(__doc__)
     rng = np.random.default_rng(args.seed)
     lifter = Lifter.load()
     walks = test_walks(args.clips)
@@ -80,20 +77,11 @@ def main() -> None:
             pelvis.append((fused_error[:, 0].mean(), best[:, 0].mean()))
             mpjpe.append((fused_error.mean(), best.mean()))
     crossing = []
-    for a, b in zip(walks[:3], walks[1:4]):
-        turned = b.copy()
-        turned[..., :2] = turned[..., :2] @ np.array([[0.0, -1.0], [1.0, 0.0]])
-        n = min(len(a), len(turned))
-        people = np.stack([a[:n], turned[:n]])
+    for people in crossing_people(walks):
         views, _ = cameras(3)
-        fused, _ = live(lifter, views, [seen(c, people, rng) for c in views], n)
-        switches = 0
-        for track in fused.values():
-            nearest = np.array([np.argmin(np.linalg.norm(people[:, f, 0, :2] - joints[0, :2], axis=-1))
-                                for f, joints in sorted(track.items())])
-            runs = np.split(nearest, np.flatnonzero(np.diff(nearest)) + 1)
-            held = [run[0] for run in runs if len(run) >= FPS / 2]
-            switches += int(np.sum(np.diff(held) != 0))
+        fused, _ = live(lifter, views, [seen(c, people, rng) for c in views], people.shape[1])
+        switches = sum(identity_switches(people, sorted(track), np.stack([track[f][0] for f in sorted(track)]))
+                       for track in fused.values())
         crossing.append((len(fused), switches))
     pelvis, mpjpe = np.array(pelvis), np.array(mpjpe)
     print(f"{len(walks)} test walks x 2, 3, 4 cameras, live: world people per person "
