@@ -3,10 +3,11 @@ people by the rules of ``ray3d.fusion``, causally.
 
 A camera's new track is held back for its first ``decide_s`` (three updates at least) while it is compared: it
 joins the world person whose fused floor point it stayed within the gate of in every update (``pair_distance``'s
-gate: 3 combined sds of the two places plus 0.25 m) and who walks alike (their velocities within
-``LIVE_VELOCITY_GATE_M_S``), never one that camera sees as another track now, or a
+gate: 3 combined sds of the two places plus 0.25 m), never one that camera sees as another track now, or a
 person all of whose tracks ended within ``handover_s`` where their walk would have taken them
-(``handover_reach_m``); otherwise it is a new person. A join is never undone. Each world person's joints are
+(``handover_reach_m``); otherwise it is a new person. While two world people are about as near (within
+0.25 m of each other's distance: people crossing), it waits, ``WAIT_S`` at most; another camera's track not yet
+decided is a candidate only where no world person is. A join is never undone. Each world person's joints are
 the information-weighted mean of their tracks' latest answers (``joint_covariances``: long along each joint's
 ray, narrow across it), from the tracks seen within one and a half frame periods (the slowest camera's)."""
 
@@ -17,15 +18,12 @@ from collections import deque
 
 import numpy as np
 
-from ray3d.fusion.tracks import GATE_FLOOR_M, VELOCITY_GATE_M_S, gate_m, handover_reach_m, joint_covariances, root_spread
+from ray3d.fusion.tracks import GATE_FLOOR_M, gate_m, handover_reach_m, joint_covariances, root_spread
 from ray3d.geometry import Camera
 from ray3d.live.people import PersonNow
 
 
 WALK_S = 0.5  # a velocity is taken over the last half second of places, once they span half of it
-# Two tracks walk alike when their velocities differ by less: twice the fusion's gate, as a new track's causal
-# answers settle over its first second (the network's window filling) and its first velocity is rough.
-LIVE_VELOCITY_GATE_M_S = 2 * VELOCITY_GATE_M_S
 AMBIGUOUS = "ambiguous"  # two people as near as each other: wait
 WAIT_S = 1.0  # the longest a new track waits for who it is to become clear
 
@@ -45,12 +43,6 @@ class _Path:
         """(2,) m/s, or None while the places span too little time to tell."""
         (start, first), (end, last) = self.places[0], self.places[-1]
         return (last - first) / (end - start) if end - start >= WALK_S / 2 else None
-
-    def walks_alike(self, other: _Path) -> bool:
-        """Whether the two walk alike (their velocities within ``LIVE_VELOCITY_GATE_M_S``), or either cannot tell
-        yet."""
-        mine, theirs = self.velocity(), other.velocity()
-        return mine is None or theirs is None or float(np.linalg.norm(mine - theirs)) <= LIVE_VELOCITY_GATE_M_S
 
 
 @dataclasses.dataclass
@@ -146,8 +138,6 @@ class LiveFusion:
                     k[0] == key[0] and time_s - self._tracks[k].seen_s <= self.recent_s for k in person.members):
                 continue  # this camera sees them as another track now
             gap_s = time_s - person.seen_s
-            if not track.path.walks_alike(person.path):
-                continue  # two people passing close by
             last_s, last_place = person.path.places[-1]
             if gap_s <= self.recent_s:  # seen now by another camera: within the gate
                 spread = max(float(np.max(self._tracks[k].now.position_sd)) for k in person.members
@@ -158,8 +148,7 @@ class LiveFusion:
                     time_s - last_s)
                 options.append((float(np.linalg.norm(place - walked)), handover_reach_m(gap_s), n))
         for other_key, other in self._tracks.items():
-            if other_key[0] != key[0] and other.person is None and time_s - other.seen_s <= self.recent_s and \
-                    track.path.walks_alike(other.path):
+            if other_key[0] != key[0] and other.person is None and time_s - other.seen_s <= self.recent_s:
                 options.append((float(np.linalg.norm(place - other.now.joints[0, :2])),
                                 gate_m(sd, float(np.max(other.now.position_sd))), other_key))
         # World people first; another camera's undecided track only where no world person may be them.
