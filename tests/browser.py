@@ -35,9 +35,9 @@ def console_errors(page: Path, fragment: str = "") -> str:
 
 
 def screenshot(url: str, path: Path, size: str = "1000,800", live: bool = False) -> np.ndarray:
-    """(H, W, 3) the page at ``url`` as Chromium draws it; ``live``: after 1.5 s of real time (a page fed by a
-    stream), else after its scripts settle."""
-    timing = "--timeout=1500" if live else "--virtual-time-budget=2000"
+    """(H, W, 3) the page at ``url`` as Chromium draws it; ``live``: after 3 s of real time (a page fed by a
+    stream: time for Chromium to start, connect and draw on a busy machine), else after its scripts settle."""
+    timing = "--timeout=3000" if live else "--virtual-time-budget=2000"
     _run([timing, f"--window-size={size}", f"--screenshot={path}", url], path.with_name(path.stem + "-profile"))
     from PIL import Image
 

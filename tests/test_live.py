@@ -462,9 +462,9 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
 
     from ray3d.live.runner import LiveOptions, run_live
 
-    people = _scene(120)
+    people = _scene(600)  # a minute: the stream runs until the screenshots are taken, then it is stopped
     source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=True)
-    listening = threading.Event()
+    listening, stop = threading.Event(), threading.Event()
     urls = []
 
     def started(url):
@@ -472,19 +472,33 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
         listening.set()
 
     runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people)),
-                              kwargs={"site": Site((ROOM,), (DOOR,)), "started": started,
+                              kwargs={"site": Site((ROOM,), (DOOR,)), "started": started, "stop": stop,
                                       "options": LiveOptions(port=0, min_track_s=0.5)})
     runner.start()
     assert listening.wait(30)
+    for _ in range(100):  # people on the page's feed (the stream has begun)
+        if len(json.loads(urllib.request.urlopen(urls[0] + "state", timeout=5).read()).get("people", [])) == 2:
+            break
+        time.sleep(0.1)
+
+    def drawn(shot: np.ndarray) -> np.ndarray:
+        plan = shot[60:540, 8:630]  # the floor plan's canvas: its dots, trails, zones and lines
+        return np.abs(plan - plan.mean(axis=-1, keepdims=True)).max(axis=-1) > 60
+
     shots = []
     for k in range(2):
-        time.sleep(1.5 if k == 0 else 1.0)
-        shots.append(screenshot(urls[0], tmp_path / f"page{k}.png", size="1100,800", live=True))
+        time.sleep(1.0)
+        for attempt in range(3):  # headless Chromium's --timeout sometimes stops the page before its feed's first
+            shot = screenshot(urls[0], tmp_path / f"page{k}-{attempt}.png", size="1100,800", live=True)
+            if drawn(shot).sum() > 200:  # snapshot arrives; another launch is another page
+                break
+        shots.append(shot)
     state = json.loads(urllib.request.urlopen(urls[0] + "state", timeout=5).read())
+    stop.set()
+    source.close()
     runner.join(timeout=60)
-    plan = [shot[60:540, 8:630] for shot in shots]  # the floor plan's canvas
-    coloured = [(np.abs(p - p.mean(axis=-1, keepdims=True)).max(axis=-1) > 60) for p in plan]  # dots, trails, zones
-    assert all(c.sum() > 200 for c in coloured)
+    plan = [shot[60:540, 8:630] for shot in shots]
+    assert all(drawn(shot).sum() > 200 for shot in shots)
     assert (np.abs(plan[0] - plan[1]).max(axis=-1) > 60).sum() > 50  # the people moved between the two
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     upto = [e for e in events if e["frames"][-1] <= state["frame"] and e["event"] == "line crossed"]
