@@ -35,6 +35,9 @@ class _Path:
         self.places: deque = deque()
 
     def add(self, time_s: float, place: np.ndarray) -> None:
+        """The place at ``time_s``; a later answer for the same moment (another camera's) replaces it."""
+        if self.places and self.places[-1][0] >= time_s:
+            self.places.pop()
         self.places.append((time_s, place.copy()))
         while self.places[-1][0] - self.places[0][0] > WALK_S:
             self.places.popleft()
@@ -50,7 +53,6 @@ class _CameraTrack:
     now: PersonNow
     seen_s: float
     first_s: float
-    path: _Path = dataclasses.field(default_factory=_Path)
     updates: int = 0
     agreeing: tuple[int | None, int] = (None, 0)  # (world person, updates in a row it stayed within the gate)
     person: int | None = None
@@ -60,9 +62,8 @@ class _CameraTrack:
 @dataclasses.dataclass
 class _WorldPerson:
     members: set = dataclasses.field(default_factory=set)  # (view, track)
-    path: _Path = dataclasses.field(default_factory=_Path)  # fused floor points of every camera seeing them at once
+    path: _Path = dataclasses.field(default_factory=_Path)  # their fused floor points
     seen_s: float = -np.inf
-    ended: bool = False
 
 
 class LiveFusion:
@@ -75,19 +76,18 @@ class LiveFusion:
         self.handover_s, self.decide_updates = handover_s, max(3, int(round(decide_s / frame_period_s)))
         self.recent_s = 1.5 * frame_period_s  # seen now: every camera's latest frame, whatever their phases
         self._tracks: dict[tuple[int, int], _CameraTrack] = {}
-        self._people: dict[int, _WorldPerson] = {}
+        self._people: dict[int, _WorldPerson] = {}  # the world people not gone for good
+        self._next_person = 0
 
     def update(self, view: int, time_s: float, people: list[PersonNow]) -> list[PersonNow]:
         for now in people:
             key = (view, now.track)
             track = self._tracks.setdefault(key, _CameraTrack(now, time_s, time_s))
             track.now, track.seen_s = now, time_s
-            track.path.add(time_s, now.joints[0, :2])
             track.updates += 1
             if track.person is None:
                 self._decide(key, track, time_s)
-        return [p for n, person in self._people.items() if not person.ended
-                if (p := self._fused(n, person, time_s)) is not None]
+        return [p for n, person in self._people.items() if (p := self._fused(n, person, time_s)) is not None]
 
     def finished(self, view: int, track: int) -> None:
         if (view, track) in self._tracks:
@@ -97,13 +97,12 @@ class LiveFusion:
 
     def ended(self, time_s: float, seen: bool = False) -> list:
         """The world people gone for good at ``time_s`` (with ``seen``: with when they were last seen)."""
-        gone = [n for n, person in self._people.items() if not person.ended and
-                all(self._tracks[k].finished for k in person.members) and time_s - person.seen_s > self.handover_s]
-        for n in gone:
-            self._people[n].ended = True
-            for key in self._people[n].members:
+        gone = [(n, person.seen_s) for n, person in self._people.items()
+                if all(self._tracks[k].finished for k in person.members) and time_s - person.seen_s > self.handover_s]
+        for n, _ in gone:  # forgotten: a long stream keeps only who may still be in view
+            for key in self._people.pop(n).members:
                 self._tracks.pop(key, None)
-        return [(n, self._people[n].seen_s) for n in gone] if seen else gone
+        return gone if seen else [n for n, _ in gone]
 
     def _decide(self, key: tuple[int, int], track: _CameraTrack, time_s: float) -> None:
         """Join the track to the world person (or the other camera's undecided track, making one new person
@@ -124,7 +123,7 @@ class LiveFusion:
             self._people[track.person].members.add(key)
 
     def _new_person(self) -> int:
-        number = max(self._people, default=-1) + 1
+        number, self._next_person = self._next_person, self._next_person + 1
         self._people[number] = _WorldPerson()
         return number
 
@@ -134,7 +133,7 @@ class LiveFusion:
         place, sd = track.now.joints[0, :2], float(np.max(track.now.position_sd))
         options = []  # (how far off, what)
         for n, person in self._people.items():
-            if person.ended or not person.path.places or any(
+            if not person.path.places or any(
                     k[0] == key[0] and time_s - self._tracks[k].seen_s <= self.recent_s for k in person.members):
                 continue  # this camera sees them as another track now
             gap_s = time_s - person.seen_s
@@ -169,10 +168,7 @@ class LiveFusion:
         covariance = np.linalg.inv(information.sum(axis=0))
         joints = np.einsum("kij,kj->ki", covariance,
                            np.einsum("nkij,nkj->ki", information, np.stack([t.now.joints for _, t in current])))
-        # Where they are and how they walk, from the answers of this moment only: one camera's new answer with
-        # another's of a frame before is a mix neither saw.
-        if all(t.seen_s == time_s for _, t in current):
-            person.path.add(time_s, joints[0, :2])
         person.seen_s = max(t.seen_s for _, t in current)
+        person.path.add(person.seen_s, joints[0, :2])  # when the newest of its answers was seen
         statures = [t.now.stature_m for _, t in current if t.now.stature_m is not None]
         return PersonNow(n, joints, root_spread(covariance[None])[0], float(np.mean(statures)) if statures else None)
