@@ -191,6 +191,22 @@ def _camera(args: argparse.Namespace, default_image_size: tuple[int, int] | None
                                args.hfov, default_image_size)
 
 
+def cameras_per_input(args: argparse.Namespace, inputs: list, plural: str, singular: str) -> list[str | None]:
+    """The ``--camera`` of each input, in order: one each where there are several (a single input may have none:
+    its camera then comes from --camera-height / --pitch); refused in one line when the counts differ."""
+    given = args.camera or []
+    if (len(inputs) > 1 or len(given) > 1) and len(given) != len(inputs):
+        from ray3d.errors import InputError
+
+        raise InputError(f"--camera: {len(given)} given for {len(inputs)} {plural}; give one per {singular}, in order")
+    return given or [None]
+
+
+def with_camera(args: argparse.Namespace, camera_file: str | None) -> argparse.Namespace:
+    """``args`` for one of several inputs: its own ``--camera`` (and so its camera file's floor)."""
+    return argparse.Namespace(**{**vars(args), "camera": camera_file})
+
+
 def _lift_options(args: argparse.Namespace):
     from ray3d.io.camera_files import floor_of_camera_file, read_floor
     from ray3d.options import LiftOptions

@@ -66,24 +66,21 @@ def lift(args: argparse.Namespace) -> int:
 def lift_several(args: argparse.Namespace) -> int:
     """``ray3d lift`` with several keypoint files, one per camera (``--camera`` once each, in order): each lifted
     as one camera's, then one fused world in --out (.json)."""
-    from ray3d.cli.commands import _camera, _lift_options
+    from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, with_camera
     from ray3d.errors import InputError
     from ray3d.fusion import fuse_worlds
     from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import write_world
     from ray3d.lift import Lifter
 
-    cameras = args.camera or []
-    if len(cameras) != len(args.keypoints):
-        raise InputError(f"--camera: {len(cameras)} given for {len(args.keypoints)} keypoint files; give one per file, "
-                         "in order")
+    cameras = cameras_per_input(args, args.keypoints, "keypoint files", "file")
     if args.out.suffix.lower() != ".json":
         raise InputError(f"{args.out}: several cameras' people are fused into a .json world file", ("out",))
     refuse_existing(check_output(args.out, (*args.keypoints, *cameras)), args.force)
     lifter = Lifter.load(args.checkpoint) if args.checkpoint else None
     worlds = []
     for path, camera_file in zip(args.keypoints, cameras):
-        one = argparse.Namespace(**{**vars(args), "camera": camera_file})  # this camera and its floor
+        one = with_camera(args, camera_file)
         keypoints = read_keypoints(path, args.layout, args.fps, subject=args.subject, action=args.action,
                                    camera_index=args.camera_index)
         world = (lifter or Lifter.load(layout=keypoints.layout)).lift_keypoints(keypoints, _camera(one),

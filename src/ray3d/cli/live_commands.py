@@ -19,9 +19,8 @@ EXIT_CODES = {"ended": 0, "stalled": 3, "broke off": 4}
 def live(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ray3d.cli.commands import _camera, _lift_options
+    from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, with_camera
     from ray3d.cli.fusion_commands import parse_offsets
-    from ray3d.errors import InputError
     from ray3d.io.site_files import read_site
     from ray3d.lift import Lifter
     from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
@@ -30,13 +29,10 @@ def live(args: argparse.Namespace) -> int:
 
     plan = read_site(args.site) if args.site else None
     lift_options = _lift_options(args)
-    camera_files = args.camera or [None]
-    if len(camera_files) != len(args.source) and (len(args.source) > 1 or len(camera_files) > 1):
-        raise InputError(f"--camera: {len(camera_files)} given for {len(args.source)} sources; give one per source, "
-                         "in order")
+    camera_files = cameras_per_input(args, args.source, "sources", "source")
     offsets = parse_offsets(args.offsets)
     sources = [FrameSource.open(s, args.fps, False if args.unpaced else None, args.stall_timeout) for s in args.source]
-    cameras = [camera_for_video(_camera(argparse.Namespace(**{**vars(args), "camera": camera_file}), s.image_size),
+    cameras = [camera_for_video(_camera(with_camera(args, camera_file), s.image_size),
                                 VideoInfo(s.name, 0, s.fps, s.image_size))
                for s, camera_file in zip(sources, camera_files)]
     group = SourceGroup(sources)

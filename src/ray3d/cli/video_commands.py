@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.commands import _camera, _lift_options, print_refinements
+from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, print_refinements, with_camera
 from ray3d.errors import InputError
 
 
@@ -14,9 +14,7 @@ def video(args: argparse.Namespace) -> int:
     from ray3d.cli.site_commands import refuse_site_outputs, report_site
     from ray3d.io.site_files import read_site
 
-    cameras = args.camera or [None]
-    if len(cameras) != len(args.input) and (len(args.input) > 1 or len(cameras) > 1):
-        raise InputError(f"--camera: {len(cameras)} given for {len(args.input)} videos; give one per video, in order")
+    cameras = cameras_per_input(args, args.input, "videos", "video")
     plan = None
     if args.site is not None:  # refused before any work, not after it
         refuse_site_outputs(args.out / "site", (*args.input, args.site), args.force)
@@ -39,7 +37,7 @@ def _one_video(args: argparse.Namespace, video: Path, camera_file: str | None, o
     from ray3d.options import VideoOptions
     from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
-    one = argparse.Namespace(**{**vars(args), "camera": camera_file})  # this video's camera and floor
+    one = with_camera(args, camera_file)
     info = read_video_info(video)
     camera = camera_for_video(_camera(one, info.image_size), info)
     options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)

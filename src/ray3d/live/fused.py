@@ -143,8 +143,8 @@ class LiveFusion:
                              if time_s - self._tracks[k].seen_s <= self.recent_s)
                 options.append((float(np.linalg.norm(place - last_place)), gate_m(sd, spread), n))
             elif gap_s <= self.handover_s:  # gone from every camera lately: where their walk leads
-                walked = last_place + (person.path.velocity() if person.path.velocity() is not None else 0.0) * (
-                    time_s - last_s)
+                velocity = person.path.velocity()
+                walked = last_place + (0.0 if velocity is None else velocity) * (time_s - last_s)
                 options.append((float(np.linalg.norm(place - walked)), handover_reach_m(gap_s), n))
         for other_key, other in self._tracks.items():
             if other_key[0] != key[0] and other.person is None and time_s - other.seen_s <= self.recent_s:
