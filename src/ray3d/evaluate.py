@@ -27,8 +27,8 @@ from ray3d.data.virtual_cameras import SET_NAMES, centre_clip, grid
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.io.camera_files import load_cameras
-from ray3d.models.inference import inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
+from ray3d.models.precision import with_precision
 from ray3d.models.tensor_batch import TensorBatch
 from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
 from ray3d.skeleton import H36M17, layout_skeleton
@@ -103,7 +103,7 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
              frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
              joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool | RefineConfig = False,
-             progress: bool = False) -> dict:
+             progress: bool = False, precision: str = "fp32") -> dict:
     """Metrics of ``model`` (a network, a checkpoint name or path, or ``"rfrh"``) over every (camera, clip).
 
     ``given_cameras`` (one per camera) are what the model is told instead of the true cameras (calibration
@@ -115,12 +115,15 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     with ``keypoint_error`` 0 for GT 2D, since the joints' rays are then exact). ``progress`` shows a bar over the cameras.
     ``within_1sd`` / ``within_2sd``: the share of frames whose root lies within 1 / 2 of its reported standard
     deviation along its ray (``across_...``: across it; ``ray3d.metrics.root_error_in_sds``), with or without
-    the refinement; not for RFRH. ``per_posture``: the same
+    the refinement; not for RFRH. ``precision``: the network's arithmetic (``models.precision``: fp32, bf16,
+    int8). ``per_posture``: the same
     measures for the frames whose true pose is upright, sitting or crouching, lying, or airborne
     (``ray3d.body.postures``).
     """
     if refine and model == RFRH:
         raise ValueError("refine needs a model that predicts every joint; RFRH predicts only the root")
+    if precision != "fp32" and model == RFRH:
+        raise InputError(f"precision: {precision} needs a network; rfrh has none (fp32 only)", ("precision",))
     rng = np.random.default_rng(seed)
     if joints not in SCORED_LAYOUTS:
         raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
@@ -129,7 +132,7 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     if isinstance(model, str) and model != RFRH:
         model, document = load_model(model)
     if isinstance(model, LiftingNetwork):
-        model = inference_network(model)
+        model = with_precision(model, precision)
     window = _window(model)
     # GT 2D is exact: the refinement may put each joint on its ray; noisy 2D is weighed as a detector's.
     refine_config = (refine if isinstance(refine, RefineConfig)

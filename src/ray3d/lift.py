@@ -9,6 +9,7 @@ one world frame), long sequences (in chunks), smoothing of the 2D input and 3D o
 from __future__ import annotations
 
 import dataclasses
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +24,9 @@ from ray3d.geometry import Camera, CameraBatch
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
 from ray3d.io.keypoints import Keypoints, TrackDetections
 from ray3d.io.world import LiftResult, World
-from ray3d.models.inference import inference_network
+from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
+from ray3d.models.precision import check_precision, with_precision
 from ray3d.models.tensor_batch import TensorBatch
 from ray3d.options import LiftOptions
 from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
@@ -32,6 +34,9 @@ from ray3d.keypoint_input import (MODEL_FPS, check_feet_below_horizon, check_in_
                                  model_confidences, stand_in_for_unseen)
 from ray3d.lift_stream import LiftStream
 from ray3d.skeleton import Skeleton, conversion_matrix, convert_keypoints, layout_skeleton
+
+SMALL_BATCHES_BEFORE_TRACING = 3
+
 
 class LiftedTracks(dict):
     """{track id: LiftResult} of the tracks lifted, and ``unliftable``: {track id: why} of those that could not
@@ -51,12 +56,20 @@ class Lifter:
         if isinstance(model, LiftingNetwork):
             self.device = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
             self.model = inference_network(model).to(self.device)
-        else:  # the TorchScript and ONNX Runtime backends run on the CPU
+        else:  # the TorchScript, ONNX Runtime and reduced-precision backends run on the CPU
             self.device, self.model = torch.device("cpu"), model
+        self.precision = getattr(model, "precision", "fp32")
+        # Eager torch spends a small batch's time in Python dispatch (the lite model: 2-3 ms for one window
+        # against about 1 ms traced): a lifter that keeps being given small batches (a stream, live) runs them
+        # through a frozen TorchScript trace of the same network, made once. Ray-input models only: a
+        # pixel-input trace is bound to one image width.
+        self._small_batches, self._small_batch_runner, self._tracing = 0, None, threading.Lock()
+        self._traceable = (isinstance(self.model, LiftingNetwork) and self.device.type == "cpu"
+                           and self.model.config.input.endswith("rays"))
 
     @classmethod
     def load(cls, name_or_path: str | None = None, device: str | None = None, backend: str = "torch",
-             image_width: float = 1000.0, layout: str = "h36m17") -> Lifter:
+             image_width: float = 1000.0, layout: str = "h36m17", precision: str = "fp32") -> Lifter:
         """A shipped model by name (``ray3d``, ``ray3d-real``, ``videopose3d``, ...) or a checkpoint path; without
         one, the shipped model for keypoints of ``layout`` (``checkpoints.default_model``: ``ray3d`` for H36M-17,
         ``ray3d-real`` for a detector's layout).
@@ -64,9 +77,18 @@ class Lifter:
         ``backend="torchscript"`` runs a frozen TorchScript trace on the CPU (lowest latency with torch alone:
         live use); ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``). Pixel-input
         models are then built for images ``image_width`` pixels wide.
+
+        ``precision="bf16"`` or ``"int8"`` runs the network's hidden matrix products in that precision on the
+        CPU (``models.precision``; its accuracy cost is in docs/RESULTS.md and ``ray3d evaluate --precision``).
         """
+        check_precision(precision)
         name_or_path = name_or_path or default_model(layout)
         model, document = load_model(name_or_path)
+        if precision != "fp32":
+            if backend != "torch" or (device or "cpu") != "cpu":
+                raise InputError(f"precision {precision!r} runs on the torch backend on the CPU; got backend "
+                                 f"{backend!r}, device {device or 'cpu'!r}")
+            return cls(with_precision(model, precision), document, name=str(name_or_path))
         if backend in ("torchscript", "onnx"):
             from ray3d.models import backends
 
@@ -215,7 +237,30 @@ class Lifter:
         layout seen by ``camera`` -> (N, 17, 3) world joints."""
         cameras = CameraBatch.repeated(camera, len(pixels))
         batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device, confidences)
-        return predict_world(self.model, batch, cameras, flip_test).cpu().numpy()
+        return predict_world(self._runner(len(pixels)), batch, cameras, flip_test).cpu().numpy()
+
+    def _runner(self, windows: int):
+        """What runs a batch of ``windows``: the network, or from the third small batch (below
+        ``BATCH_PER_GROUP`` windows) on, its TorchScript trace."""
+        if not self._traceable or windows >= BATCH_PER_GROUP:
+            return self.model
+        with self._tracing:  # live lifts from more than one thread
+            self._small_batches += 1
+            if self._small_batches >= SMALL_BATCHES_BEFORE_TRACING:
+                self._trace_small_batches()
+        return self._small_batch_runner or self.model
+
+    def prepare_small_batches(self) -> None:
+        """Make the small-batch trace now (about 0.2 s), for a caller about to send small batches on a clock
+        (``ray3d live``), rather than on its third batch. Nothing for a lifter that does not trace."""
+        with self._tracing:
+            self._trace_small_batches()
+
+    def _trace_small_batches(self) -> None:
+        if self._traceable and self._small_batch_runner is None:
+            from ray3d.models.backends import TorchScriptLiftingModel
+
+            self._small_batch_runner = TorchScriptLiftingModel(self.model, batches=(2,))
 
     def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False, fps: float | None = None,
                wait_for_future: bool = True) -> LiftStream:

@@ -1,14 +1,27 @@
-"""Speed of every model on this machine: parameters, FLOPs per frame, batched and whole-sequence inference
-throughput, single-window latency, live-mode latency per frame (``LiftStream.push``), training samples/s (the
-step alone, and with the sample generator in the loop), which GEMM kernels each layer type runs, and the
-``ray3d video`` rate when a video is given. Beside them the machine's own limits, measured in the same run: the
-fp32 matmul peak (through ``nn.Linear`` / MKL, a 1x1 ``conv1d`` / oneDNN and, with the onnx extra, ONNX Runtime's
-MatMul) and the memory bandwidth, and per model the bounds they set: frames/s and training samples/s at the
-peak, and the single-window latency of reading every weight once. Medians over repetitions after warm-up; the
-peak is the best repetition of the best shape."""
+"""Speed of the models on this machine, every figure beside the machine's own bound measured in the same rounds.
+
+What is timed, per model: batched inference (frames/s) and single-window latency of every form and backend (the
+torch inference form in fp32, bf16 and int8 (``models.precision``), the network as trained, TorchScript, and ONNX
+Runtime with the onnx extra), the live ``LiftStream.push``, and training (one step on a fixed batch, and ``ray3d
+train``'s loop with the sample generator in it). What bounds them, timed in the same rounds: the matrix-product
+peak in fp32, bf16 and int8 (the fastest of (8192 x 640) @ (640 x 640), (4096 x 1024) @ (1024 x 1024) and
+(4096 x 2048) @ (2048 x 2048) products through ``nn.Linear``, and as ``models.precision`` runs its bf16 and int8
+layers) and the memory read bandwidth. Each figure runs for about ``ROUND_SECONDS`` per round (as many calls as fit; the mean for rates,
+the median for latencies).
+
+Why rounds: on a shared 2-core machine the rate drifts by tens of percent over minutes, so one form timed after
+another measured the order more than the form. Every figure is timed once per round, in an order rotated from
+round to round, beside the bounds; each figure's fraction of its bound is taken within its round and the
+median over rounds reported, with the spread (largest over smallest) of the figure over the rounds.
+"""
 
 from __future__ import annotations
 
+import copy
+import os
+import platform
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -17,58 +30,74 @@ import numpy as np
 import torch
 
 from ray3d.models import PRESETS, LiftingNetwork
-from ray3d.models.inference import inference_network
 from ray3d.models.network import count_parameters, flops_per_frame, lifting_loss
+from ray3d.models.precision import PRECISIONS, Bfloat16Products, Int8Products, bf16_native, with_precision
 from ray3d.models.tensor_batch import TensorBatch
 
+DEFAULT_MODELS = ("ray3d", "ray3d-paper")
+PEAK_SHAPES = ((8192, 640), (4096, 1024), (4096, 2048))  # (rows, size): a round's peak is the fastest
+ROUND_SECONDS = 0.25  # each figure's share of a round: enough calls of a short run to take this long
+BYTES_PER_WEIGHT = {"fp32": 4, "bf16": 2, "int8": 1}
 
-# Where each backend's matrix products run: every layer of our networks, the temporal convolutions included
-# (``FrameGroupLinear``), is a Linear, so torch takes the nn.Linear path of the GEMM probe.
-GEMM_PATHS = {"torch": "linear", "torchscript": "linear", "onnxruntime": "onnxruntime"}
+
+def interleaved(runs: dict[str, Callable[[], float]], rounds: int, warmup: int = 1) -> dict[str, np.ndarray]:
+    """{name: (rounds,) values}: each run (returning what it measured, e.g. seconds) once per round, in an order
+    rotated by one from round to round, after ``warmup`` untimed calls of each."""
+    names = list(runs)
+    for name in names:
+        for _ in range(warmup):
+            runs[name]()
+    values: dict[str, list[float]] = {name: [] for name in names}
+    for r in range(rounds):
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            values[name].append(runs[name]())
+    return {name: np.array(v) for name, v in values.items()}
 
 
-def repetition_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> np.ndarray:
-    """Wall time of each of ``repeats`` calls after ``warmup`` untimed ones."""
-    for _ in range(warmup):
-        function()
-    times = []
-    for _ in range(repeats):
+def seconds_of(function: Callable[[], object]) -> Callable[[], float]:
+    """A run that times one call of ``function``."""
+    def run() -> float:
         start = time.perf_counter()
         function()
-        times.append(time.perf_counter() - start)
-    return np.array(times)
+        return time.perf_counter() - start
+    return run
 
 
-def median_seconds(function: Callable[[], object], repeats: int, warmup: int = 2) -> float:
-    return float(np.median(repetition_seconds(function, repeats, warmup)))
+def per_call_seconds_of(function: Callable[[], object], typical: str = "mean") -> Callable[[], float]:
+    """A run that calls ``function`` for about ``ROUND_SECONDS`` (as many calls as its first, untimed call says
+    fit) and gives the seconds per call: their mean (throughput) or their median (latency)."""
+    calls: list[int] = []
+
+    def run() -> float:
+        if not calls:  # the first call (the warm-up) sizes the rest
+            calls.append(max(1, round(ROUND_SECONDS / max(seconds_of(function)(), 1e-6))))
+            return 0.0
+        times = [seconds_of(function)() for _ in range(calls[0])]
+        return float(np.mean(times) if typical == "mean" else np.median(times))
+    return run
 
 
-@torch.no_grad()
-def matmul_peak_gflops(shapes: tuple[tuple[int, int], ...] = ((1024, 8192), (2048, 8192)),
-                       repeats: int = 10) -> dict[str, float]:
-    """The best fp32 GEMM rate of (batch x size) @ (size x size) products over ``shapes`` ((size, batch)
-    pairs), per path: nn.Linear, a 1x1 conv1d over a (1, size, batch) layout, and ONNX Runtime's MatMul."""
-    rates: dict[str, float] = {}
-    for size, batch in shapes:
-        linear = torch.nn.Linear(size, size, bias=False)
-        conv = torch.nn.Conv1d(size, size, 1, bias=False)
-        x = torch.randn(batch, size)
-        x_conv = x.T.unsqueeze(0).contiguous()  # (1, C, B): the batch as the conv's length
-        flops = 2.0 * batch * size * size
-        runs = {"linear_gflops": lambda: linear(x), "conv1d_gflops": lambda: conv(x_conv)}
-        onnx_matmul = _onnx_runner(linear, x)
-        if onnx_matmul is not None:
-            runs["onnxruntime_gflops"] = onnx_matmul
-        for path, run in runs.items():
-            rates[path] = max(rates.get(path, 0.0), flops / repetition_seconds(run, repeats).min() / 1e9)
-    return rates
+def peak_runs() -> tuple[dict[str, Callable[[], float]], float]:
+    """({"peak_<precision>": run}, FLOPs per second): the matrix-product probe in every precision, a hidden layer
+    as ``models.precision`` runs it; each run gives the best rate (FLOP/s) of the ``PEAK_SHAPES`` in its round."""
+    x = {size: torch.randn(rows, size) for rows, size in PEAK_SHAPES}
+    runs = {}
+    for precision in PRECISIONS:
+        probes = []
+        for rows, size in PEAK_SHAPES:
+            linear = torch.nn.Linear(size, size, bias=False).eval()
+            layer = {"fp32": linear, "bf16": Bfloat16Products(copy.deepcopy(linear)),
+                     "int8": Int8Products(linear)}[precision]
+            probes.append((2.0 * rows * size * size, per_call_seconds_of(torch.no_grad()(
+                lambda layer=layer, x=x[size]: layer(x)))))
+        runs[f"peak_{precision}"] = lambda probes=probes: max(flops / max(run(), 1e-12) for flops, run in probes)
+    return runs
 
 
-@torch.no_grad()
-def memory_gbps(megabytes: int = 512, repeats: int = 10) -> float:
-    """Read bandwidth from memory (GB/s): the median time to sum a float32 array far larger than the caches."""
+def memory_run(megabytes: int = 256) -> tuple[Callable[[], float], int]:
+    """(a run that sums a float32 array far larger than the caches, the bytes it reads): the read bandwidth."""
     array = torch.ones(megabytes * 2**20 // 4)
-    return array.numel() * 4 / 1e9 / float(np.median(repetition_seconds(array.sum, repeats)))
+    return per_call_seconds_of(array.sum, "median"), array.numel() * 4
 
 
 def bounds(params: int, flops: float, peak_gflops: float, bandwidth_gbps: float) -> dict[str, float]:
@@ -77,6 +106,44 @@ def bounds(params: int, flops: float, peak_gflops: float, bandwidth_gbps: float)
     return {"bound_batch_frames_per_s": peak_gflops * 1e9 / flops,
             "bound_train_samples_per_s": peak_gflops * 1e9 / (3 * flops),
             "bound_latency_ms": 1e3 * params * 4 / (bandwidth_gbps * 1e9)}
+
+
+def machine() -> dict:
+    """What ran the figures: the CPU, its cores and vector extensions, torch's kernel choices."""
+    flags: set[str] = set()
+    model = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("flags"):
+                flags = set(line.split(":", 1)[1].split())
+            elif line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return {"cpu": model, "cores": os.cpu_count(), "torch": torch.__version__, "torch_threads": torch.get_num_threads(),
+            "vector_extensions": sorted(f for f in flags if f.startswith(("avx512", "amx")) or f in ("avx2", "fma")),
+            "cpu_capability": torch.backends.cpu.get_cpu_capability(), "blas": blas_library(),
+            "bf16_native": bf16_native(), "quantized_engine": torch.backends.quantized.engine,
+            "onednn_kernels": onednn_kernels()}
+
+
+def onednn_kernels() -> list[str]:
+    """The oneDNN implementations (with their instruction set) a bf16 linear layer runs, from oneDNN's verbose
+    log of one call; fp32 linear layers run the BLAS above, int8 ones the quantized engine."""
+    layer, x = torch.nn.Linear(256, 256).to(torch.bfloat16), torch.randn(64, 256).to(torch.bfloat16)
+    with tempfile.TemporaryFile() as log:
+        sys.stdout.flush()
+        saved = os.dup(1)
+        os.dup2(log.fileno(), 1)  # oneDNN writes to the process's stdout
+        try:
+            with torch.no_grad(), torch.backends.mkldnn.verbose(torch.backends.mkldnn.VERBOSE_ON):
+                layer(x)
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+        log.seek(0)
+        lines = log.read().decode(errors="replace").splitlines()
+    return sorted({line.split(",")[5] + " " + line.split(",")[6] for line in lines if ",exec,cpu," in line})
 
 
 _MATMUL_OPS = frozenset({"mm", "addmm", "bmm", "baddbmm", "addmv", "mv", "mkldnn_linear", "convolution",
@@ -124,40 +191,113 @@ def layer_gemm_paths(model: torch.nn.Module, batch) -> dict[str, list[str]]:
     return {layer: sorted(ops) for layer, ops in sorted(paths.items())}
 
 
-def _onnx_runner(linear: torch.nn.Linear, x: torch.Tensor) -> Callable[[], object] | None:
-    """``linear(x)`` through ONNX Runtime, or None without the onnx extra."""
-    import io
-    import warnings
-
-    try:
-        import onnxruntime
-    except ImportError:
-        return None
-    buffer = io.BytesIO()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        torch.onnx.export(linear, (x[:2],), buffer, input_names=["x"], dynamic_axes={"x": {0: "batch"}},
-                          opset_version=17, dynamo=False)
-    options = onnxruntime.SessionOptions()
-    options.intra_op_num_threads = torch.get_num_threads()
-    session = onnxruntime.InferenceSession(buffer.getvalue(), options, providers=["CPUExecutionProvider"])
-    values = {"x": x.numpy()}
-    return lambda: session.run(None, values)
-
-
 def _batch(model: LiftingNetwork, size: int) -> TensorBatch:
     return TensorBatch.example(model.receptive_field, model.skeleton.num_joints, size)
 
 
-def _inference_times(run, model: LiftingNetwork, repeats: int, batch_size: int, sequence_frames: int):
-    """(batch seconds, single-window seconds, whole-sequence seconds) of ``run(TensorBatch)``."""
-    batch, single, sequence = (_batch(model, n) for n in (batch_size, 1, sequence_frames))
-    chunks = [TensorBatch(sequence.pixels[i:i + 4096], sequence.rays[i:i + 4096], sequence.camera_params[i:i + 4096],
-                          sequence.intrinsics[i:i + 4096], sequence.roll[i:i + 4096], 1000.0)
-              for i in range(0, sequence_frames, 4096)]
-    with torch.no_grad():
-        return (median_seconds(lambda: run(batch), repeats), median_seconds(lambda: run(single), max(repeats * 4, 20)),
-                median_seconds(lambda: [run(c) for c in chunks], max(1, repeats // 2), warmup=0))  # warm already
+def model_forms(name: str, backends: bool = True) -> dict[str, tuple[str, str, Callable]]:
+    """{form: (backend, precision, runner)} of preset ``name`` (random weights: speed does not depend on them):
+    the torch inference form in every precision, the network as trained, and with ``backends`` TorchScript and,
+    when installed, ONNX Runtime."""
+    from ray3d.models.backends import OnnxLiftingModel, TorchScriptLiftingModel
+
+    model = LiftingNetwork(PRESETS[name]).eval()
+    forms = {f"torch {p}": ("torch", p, with_precision(model, p)) for p in PRECISIONS}
+    forms["torch as trained"] = ("torch", "fp32", model)
+    if backends:
+        forms["torchscript"] = ("torchscript", "fp32", TorchScriptLiftingModel(model))
+        try:
+            forms["onnxruntime"] = ("onnxruntime", "fp32", OnnxLiftingModel(model, threads=torch.get_num_threads()))
+        except Exception:  # the onnx extra is not installed: the other forms stand alone
+            pass
+    return forms
+
+
+def _fraction(numerator: np.ndarray, denominator: np.ndarray) -> float:
+    return float(np.median(numerator / denominator))
+
+
+def _spread(values: np.ndarray) -> float:
+    return float(values.max() / values.min())
+
+
+@torch.no_grad()
+def measure_inference(name: str, rounds: int, batch_size: int = 1024, backends: bool = True) -> list[dict]:
+    """One record per form of preset ``name``: batched frames/s and single-window latency, each timed in every
+    round beside the matrix-product peaks and the memory bandwidth, with its fraction of its bound."""
+    model = LiftingNetwork(PRESETS[name]).eval()
+    params, flops = count_parameters(model), flops_per_frame(model)
+    forms = model_forms(name, backends)
+    batch, single = _batch(model, batch_size), _batch(model, 1)
+    runs = peak_runs()
+    runs["memory"], memory_bytes = memory_run()
+    for form, (_, _, runner) in forms.items():
+        runs[f"{form} batch"] = per_call_seconds_of(lambda r=runner: r(batch))
+        runs[f"{form} latency"] = per_call_seconds_of(lambda r=runner: r(single), "median")
+    times = interleaved(runs, rounds)
+    peak = {p: times[f"peak_{p}"] / 1e9 for p in PRECISIONS}  # GFLOP/s per round
+    bandwidth = memory_bytes / times["memory"] / 1e9  # GB/s per round
+    records = []
+    for form, (backend, precision, _) in forms.items():
+        rate = batch_size / times[f"{form} batch"]
+        latency = times[f"{form} latency"]
+        weight_bytes = params * BYTES_PER_WEIGHT[precision]
+        records.append({
+            "model": name, "preset": "paper" if name.endswith("-paper") else "lite", "form": form,
+            "backend": backend, "precision": precision, "params": params, "mflops_per_frame": flops / 1e6,
+            "batch_frames_per_s": float(np.median(rate)), "latency_ms": 1e3 * float(np.median(latency)),
+            # fractions within each round: of the fp32 peak (the claim against fp32), of the form's own
+            # precision's peak, and of reading the weights once at the round's bandwidth
+            "batch_fraction_of_fp32_peak": _fraction(rate * flops / 1e9, peak["fp32"]),
+            "batch_fraction_of_own_peak": _fraction(rate * flops / 1e9, peak[precision]),
+            "latency_fraction_of_bound": _fraction(weight_bytes / (bandwidth * 1e9), latency),
+            "spread": {"batch": _spread(rate), "latency": _spread(latency)},
+        })
+    fp32 = next(r for r in records if r["form"] == "torch fp32")
+    for record in records:  # within-round ratios against the fp32 inference form, the precision claim
+        record["batch_speedup_over_fp32"] = _fraction(times["torch fp32 batch"], times[f"{record['form']} batch"])
+        record["latency_ratio_to_fp32"] = _fraction(times[f"{record['form']} latency"], times["torch fp32 latency"])
+    fp32["peaks_gflops"] = {p: float(np.median(v)) for p, v in peak.items()}
+    fp32["memory_gbps"] = float(np.median(bandwidth))
+    fp32.update(bounds(params, flops, fp32["peaks_gflops"]["fp32"], fp32["memory_gbps"]))
+    fp32["layer_gemm_paths"] = layer_gemm_paths(forms["torch fp32"][2], _batch(model, 64))
+    return records
+
+
+def measure_training(name: str, rounds: int, train_batch: int = 1024, motion=None) -> dict:
+    """Training samples/s of preset ``name``: one step on a fixed batch, and ``ray3d train``'s loop (the sample
+    generator in it; None without the mocap), each timed in every round beside the fp32 peak, with the
+    fraction of the training bound (3x the forward FLOPs at that peak)."""
+    from ray3d.train import TrainConfig, make_optimizer, training_steps
+
+    config = PRESETS[name]
+    trainer = LiftingNetwork(config).train()
+    flops = flops_per_frame(trainer)
+    optimizer = make_optimizer(trainer, TrainConfig(model=config))  # the optimizer ``ray3d train`` uses
+    train_input = _batch(trainer, train_batch)
+    target_pose, target_root = torch.randn(train_batch, trainer.skeleton.num_joints, 3), torch.rand(train_batch, 3) + 2
+
+    def step():
+        pose, root = trainer(train_input)
+        loss = lifting_loss(pose, root, target_pose, target_root)[0]
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+
+    runs = {"peak_fp32": peak_runs()["peak_fp32"], "step": seconds_of(step)}
+    motion = motion if motion is not None else training_motion()
+    if motion is not None:
+        steps = training_steps(TrainConfig(model=config, batch_size=train_batch), motion)
+        runs["loop"] = seconds_of(lambda: next(steps))
+    times = interleaved(runs, rounds)
+    bound = times["peak_fp32"] / (3 * flops)  # samples/s per round
+    record = {"model": name, "train_batch": train_batch, "bound_train_samples_per_s": float(np.median(bound))}
+    for key in ("step", "loop"):
+        rate = train_batch / times[key] if key in times else None
+        record[f"train_{key}_samples_per_s"] = None if rate is None else float(np.median(rate))
+        record[f"train_{key}_fraction_of_bound"] = None if rate is None else _fraction(rate, bound)
+        record[f"train_{key}_spread"] = None if rate is None else _spread(rate)
+    return record
 
 
 def stream_ms_per_frame(runner, frames: int = 120) -> float:
@@ -180,73 +320,6 @@ def stream_ms_per_frame(runner, frames: int = 120) -> float:
     return 1e3 * float(np.median(times))
 
 
-def measure_backend(name: str, backend: str, repeats: int = 5, batch_size: int = 1024,
-                    sequence_frames: int = 10_000) -> dict | None:
-    """The same inference figures through ``backend`` ("torchscript" or "onnxruntime"); None when ONNX Runtime
-    is asked for and the onnx extra is not installed."""
-    from ray3d.models.backends import OnnxLiftingModel, TorchScriptLiftingModel
-
-    model = LiftingNetwork(PRESETS[name]).eval()
-    if backend == "torchscript":
-        runtime = TorchScriptLiftingModel(model)
-    else:
-        try:
-            runtime = OnnxLiftingModel(model, threads=torch.get_num_threads())
-        except Exception:  # the optional extra is missing: the other rows stand alone
-            return None
-    batch_s, latency_s, sequence_s = _inference_times(runtime, model, repeats, batch_size, sequence_frames)
-    return {"model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": backend,
-            "gemm_path": GEMM_PATHS[backend],
-            "params": count_parameters(model), "mflops_per_frame": flops_per_frame(model) / 1e6,
-            "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
-            "latency_ms": 1e3 * latency_s, "stream_ms_per_frame": stream_ms_per_frame(runtime),
-            "train_samples_per_s": None}
-
-
-def measure_model(name: str, repeats: int = 5, batch_size: int = 1024, sequence_frames: int = 10_000,
-                  train_batch: int = 1024, peak_gflops: float | None = None, motion=None) -> dict:
-    """The speed record of one preset (randomly initialised weights: speed does not depend on them).
-    ``motion``: the training performers' mocap for the training loop's rate (loaded when not given)."""
-    config = PRESETS[name]
-    model = LiftingNetwork(config).eval()
-    flops = flops_per_frame(model)
-    lifted = inference_network(model)  # what ``Lifter`` runs
-    batch_s, latency_s, sequence_s = _inference_times(lifted, model, repeats, batch_size, sequence_frames)
-    # The same network as trained (batch norms, per-group layers), timed in the same run: the ratio is the claim.
-    training_form_s = _inference_times(model, model, repeats, batch_size, sequence_frames)
-    trainer = LiftingNetwork(config).train()
-    from ray3d.train import TrainConfig, make_optimizer
-
-    optimizer = make_optimizer(trainer, TrainConfig(model=config))  # the optimizer ``ray3d train`` uses
-    train_input = _batch(trainer, train_batch)
-    target_pose, target_root = torch.randn(train_batch, model.skeleton.num_joints, 3), torch.rand(train_batch, 3) + 2
-
-    def step():
-        pose, root = trainer(train_input)
-        loss = lifting_loss(pose, root, target_pose, target_root)[0]
-        optimizer.zero_grad()
-        loss.backward()
-        optimizer.step()
-
-    train_s = median_seconds(step, max(2, repeats // 2), warmup=1)
-    loop_rate = train_loop_samples_per_s(config, train_batch, max(2, repeats // 2), motion)
-    record = {
-        "model": name, "preset": "paper" if name.endswith("-paper") else "lite", "backend": "torch",
-        "gemm_path": GEMM_PATHS["torch"],
-        "params": count_parameters(model), "mflops_per_frame": flops / 1e6,
-        "batch_frames_per_s": batch_size / batch_s, "sequence_frames_per_s": sequence_frames / sequence_s,
-        "latency_ms": 1e3 * latency_s, "stream_ms_per_frame": stream_ms_per_frame(lifted),
-        "training_form": {"batch_frames_per_s": batch_size / training_form_s[0],
-                          "latency_ms": 1e3 * training_form_s[1],
-                          "sequence_frames_per_s": sequence_frames / training_form_s[2]},
-        "train_samples_per_s": train_batch / train_s, "train_loop_samples_per_s": loop_rate,
-        "layer_gemm_paths": layer_gemm_paths(lifted, _batch(model, 64)),
-    }
-    if peak_gflops:
-        record["fraction_of_peak"] = record["batch_frames_per_s"] * flops / 1e9 / peak_gflops
-    return record
-
-
 def training_motion():
     """The shipped mocap's training performers, or None where it is not there."""
     from ray3d.data.motion import load_shipped
@@ -256,18 +329,6 @@ def training_motion():
         return load_shipped(split="train")
     except InputError:
         return None
-
-
-def train_loop_samples_per_s(config, batch_size: int, repeats: int, motion=None) -> float | None:
-    """Training samples/s of ``ray3d train``'s loop itself (``train.training_steps``: the sample generator
-    drawing each batch from the training performers' ``motion``, then the step); None without the mocap."""
-    from ray3d.train import TrainConfig, training_steps
-
-    motion = motion if motion is not None else training_motion()
-    if motion is None:
-        return None
-    steps = training_steps(TrainConfig(model=config, batch_size=batch_size), motion)
-    return batch_size / median_seconds(lambda: next(steps), repeats, warmup=1)
 
 
 def measure_video(video, camera, frames: int = 100) -> dict:
@@ -290,27 +351,25 @@ def measure_video(video, camera, frames: int = 100) -> dict:
             "end_to_end_frames_per_s": result.frames / sum(seconds.values())}
 
 
-def measure_all(models: list[str] | None = None, repeats: int = 5, video=None, camera=None, video_frames: int = 100,
-                **sizes) -> dict:
-    """Every figure for ``models`` (default: every preset), and ``ray3d video``'s rate when ``video`` and its
-    ``camera`` are given."""
-    peak = matmul_peak_gflops(repeats=2 * repeats)
-    best = max(peak.values())
-    bandwidth = memory_gbps()
+def measure_all(models: list[str] | None = None, rounds: int = 7, video=None, camera=None, video_frames: int = 100,
+                batch_size: int = 1024, train_batch: int = 1024, backends: bool = True) -> dict:
+    """Every figure for ``models`` (default ``DEFAULT_MODELS``; ``["all"]``: every preset), and ``ray3d
+    video``'s rate when ``video`` and its ``camera`` are given."""
+    names = list(PRESETS) if models == ["all"] else list(models or DEFAULT_MODELS)
     motion = training_motion()
-    records = []
-    for name in models or list(PRESETS):
-        record = measure_model(name, repeats, peak_gflops=best, motion=motion, **sizes)
-        record.update(bounds(record["params"], record["mflops_per_frame"] * 1e6, best, bandwidth))
-        records.append(record)
-        for backend in ("torchscript", "onnxruntime"):
-            record = measure_backend(name, backend, repeats, sizes.get("batch_size", 1024),
-                                     sizes.get("sequence_frames", 10_000))
-            if record is not None:
-                record["fraction_of_peak"] = record["batch_frames_per_s"] * record["mflops_per_frame"] * 1e6 / 1e9 / best
-                records.append(record)
-    return {"matmul_peak_gflops": best, "matmul_paths_gflops": peak, "memory_gbps": bandwidth,
-            "blas": blas_library(), "torch_threads": torch.get_num_threads(), "models": records,
+    inference, training, streams = [], [], []
+    for name in names:
+        inference += measure_inference(name, rounds, batch_size, backends)
+        training.append(measure_training(name, max(3, rounds // 2), train_batch, motion))
+        streams.append(measure_streams(name))
+    return {"machine": machine(), "rounds": rounds, "batch": batch_size, "inference": inference,
+            "training": training, "streams": streams,
             "video": measure_video(video, camera, video_frames) if video is not None else None}
 
 
+def measure_streams(name: str, rounds: int = 3) -> dict:
+    """Live latency (ms per ``LiftStream.push``) of preset ``name`` per precision, interleaved over rounds."""
+    model = LiftingNetwork(PRESETS[name]).eval()
+    runs = {p: (lambda net=with_precision(model, p): stream_ms_per_frame(net)) for p in PRECISIONS}
+    times = interleaved(runs, rounds, warmup=0)
+    return {"model": name, **{f"stream_ms_{p}": float(np.median(v)) for p, v in times.items()}}

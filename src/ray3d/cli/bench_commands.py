@@ -95,30 +95,33 @@ def speed(args: argparse.Namespace) -> int:
         if args.camera is None:
             raise InputError("bench speed: --video needs --camera")
         camera = read_camera(args.camera)
-    result = measure_all(args.models, args.repeats, args.video, camera, args.video_frames, batch_size=args.batch,
-                         sequence_frames=args.sequence_frames, train_batch=args.train_batch)
-    by_path = ", ".join(f"{name.removesuffix('_gflops')} {rate:.0f}"
-                        for name, rate in result["matmul_paths_gflops"].items())
-    print(f"fp32 matmul peak: {result['matmul_peak_gflops']:.0f} GFLOP/s ({by_path}); memory "
-          f"{result['memory_gbps']:.1f} GB/s; BLAS {result['blas']}; torch threads {result['torch_threads']}")
-    print(f"{'model':<15}{'backend':<13}{'params':>12}{'MFLOP/f':>9}{'batch f/s':>11}{'seq f/s':>10}"
-          f"{'latency ms':>11}{'stream ms':>10}{'train s/s':>10}{'loop s/s':>10}{'% peak':>8}")
-    for r in result["models"]:
-        train_rate, loop_rate = (f"{r[key]:>10,.0f}" if r.get(key) else f"{'-':>10}"
-                                 for key in ("train_samples_per_s", "train_loop_samples_per_s"))
-        print(f"{r['model']:<15}{r['backend']:<13}{r['params']:>12,}{r['mflops_per_frame']:>9.2f}"
-              f"{r['batch_frames_per_s']:>11,.0f}{r['sequence_frames_per_s']:>10,.0f}{r['latency_ms']:>11.2f}"
-              f"{r['stream_ms_per_frame']:>10.2f}{train_rate}{loop_rate}{100 * r['fraction_of_peak']:>8.1f}")
-    torch_rows = [r for r in result["models"] if r["backend"] == "torch"]
-    print("torch, the inference form (models.inference) against the network as trained, same run:")
-    print("\n".join(f"  {r['model']:<15}batch {r['batch_frames_per_s']:,.0f} / "
-                    f"{r['training_form']['batch_frames_per_s']:,.0f} f/s, latency {r['latency_ms']:.2f} / "
-                    f"{r['training_form']['latency_ms']:.2f} ms" for r in torch_rows))
-    print("the machine's bounds (at the matmul peak; latency: reading the fp32 weights once):")
-    for r in torch_rows:
+    result = measure_all(args.models, args.rounds, args.video, camera, args.video_frames, batch_size=args.batch,
+                         train_batch=args.train_batch)
+    m = result["machine"]
+    print(f"{m['cpu']}, {m['cores']} cores ({m['cpu_capability']}; bf16 {'native' if m['bf16_native'] else 'emulated'}), "
+          f"torch {m['torch']} on {m['torch_threads']} threads, BLAS {m['blas']}, int8 engine {m['quantized_engine']}, "
+          f"oneDNN bf16: {'; '.join(m['onednn_kernels']) or '-'}; {result['rounds']} interleaved rounds, medians")
+    print(f"{'model':<13}{'form':<18}{'batch f/s':>10}{'x fp32':>8}{'% fp32 peak':>12}{'% own peak':>11}"
+          f"{'latency ms':>11}{'% bound':>8}{'spread b/l':>12}")
+    for r in result["inference"]:
+        print(f"{r['model']:<13}{r['form']:<18}{r['batch_frames_per_s']:>10,.0f}{r['batch_speedup_over_fp32']:>8.2f}"
+              f"{100 * r['batch_fraction_of_fp32_peak']:>12.0f}{100 * r['batch_fraction_of_own_peak']:>11.0f}"
+              f"{r['latency_ms']:>11.2f}{100 * r['latency_fraction_of_bound']:>8.0f}"
+              f"{r['spread']['batch']:>7.2f}/{r['spread']['latency']:.2f}")
+    for r in (r for r in result["inference"] if "peaks_gflops" in r):
+        peaks = ", ".join(f"{p} {v:.0f}" for p, v in r["peaks_gflops"].items())
         paths = "; ".join(f"{layer} {'+'.join(ops)}" for layer, ops in r["layer_gemm_paths"].items())
-        print(f"  {r['model']:<15}batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, train <= "
-              f"{r['bound_train_samples_per_s']:,.0f} s/s, latency >= {r['bound_latency_ms']:.2f} ms; {paths}")
+        print(f"  {r['model']}: matmul peaks {peaks} GFLOP/s, memory {r['memory_gbps']:.1f} GB/s (same rounds); fp32 "
+              f"bounds: batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, latency >= {r['bound_latency_ms']:.2f} ms; {paths}")
+    for r in result["training"]:
+        loop = ("-" if r["train_loop_samples_per_s"] is None else
+                f"{r['train_loop_samples_per_s']:,.0f} ({100 * r['train_loop_fraction_of_bound']:.0f} %)")
+        print(f"training {r['model']} (batch {r['train_batch']}): step {r['train_step_samples_per_s']:,.0f} samples/s "
+              f"({100 * r['train_step_fraction_of_bound']:.0f} % of the bound, {r['bound_train_samples_per_s']:,.0f}), "
+              f"loop with the sample generator {loop}")
+    for r in result["streams"]:
+        print(f"live push {r['model']}: " + ", ".join(f"{k.removeprefix('stream_ms_')} {v:.2f} ms"
+                                                       for k, v in r.items() if k.startswith("stream_ms_")))
     if result["video"]:
         v = result["video"]
         print(f"ray3d video, {v['frames']} frames of {v['video']} ({v['people']} people): people "

@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from ray3d.cli.arguments import chosen_lifter
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -120,9 +121,17 @@ def evaluate(args: argparse.Namespace) -> int:
         refuse_existing(check_output(args.json), args.force)
     datasets = tuple(args.datasets.split(",")) if args.datasets else None
     clips, source = evaluation_motion(args.mocap, args.split, datasets, args.data_dir)
-    result = run(args.checkpoint, clips, evaluation_cameras(args.cameras), args.flip_test, args.frame_stride,
-                 joints=args.joints, noise_px=args.noise_px, refine=args.refine, progress=True)
-    result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, **result}
+    cameras = evaluation_cameras(args.cameras)
+
+    def measured(precision: str) -> dict:
+        return run(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride, joints=args.joints,
+                   noise_px=args.noise_px, refine=args.refine, progress=True, precision=precision)
+
+    result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, "precision": args.precision,
+              **measured(args.precision)}
+    if args.precision != "fp32":  # what the reduced precision costs, on the same clips
+        full = measured("fp32")
+        result["change_from_fp32_mm"] = {k: result[k] - full[k] for k in METRICS if result[k] is not None}
     print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
           f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
     header = "".join(f"{k.removesuffix('_mm'):>12}" for k in METRICS)
@@ -137,6 +146,9 @@ def evaluate(args: argparse.Namespace) -> int:
     for name, values in result["per_posture"].items():
         print(row(f"posture: {name}", values))
     print(row("overall (mm)", result))
+    if "change_from_fp32_mm" in result:
+        print(f"{args.precision} against fp32 (mm, same clips and cameras): " + ", ".join(
+            f"{k.removesuffix('_mm')} {v:+.2f}" for k, v in result["change_from_fp32_mm"].items()))
     if result.get("within_1sd") is not None:
         print(f"the true root within the reported sd along its ray: {100 * result['within_1sd']:.1f} % of frames "
               f"within 1 sd, {100 * result['within_2sd']:.1f} % within 2; across it: "
@@ -276,14 +288,17 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 
 def lift(args: argparse.Namespace) -> int:
     """One keypoint file and its camera (``ray3d.cli.fusion_commands.lift`` hands several on to ``lift_several``)."""
+    from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import export_paths
-    from ray3d.lift import Lifter, lift_file
-
+    from ray3d.lift import lift_file
 
     check_output(args.out, (args.camera,))
     camera = _camera(args)
+    layout = args.layout
+    if layout is None and not args.checkpoint and args.precision != "fp32":  # the default model is the file's layout's
+        layout = read_keypoints(args.keypoints, fps=args.fps).layout
     keypoints, world = lift_file(
-        args.keypoints, camera, args.out, Lifter.load(args.checkpoint) if args.checkpoint else None, args.layout,
+        args.keypoints, camera, args.out, chosen_lifter(args, layout), args.layout,
         args.fps, args.force,
         dict(subject=args.subject, action=args.action, camera_index=args.camera_index), _lift_options(args),
         progress=True)

@@ -77,13 +77,13 @@ def lift_several(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() != ".json":
         raise InputError(f"{args.out}: several cameras' people are fused into a .json world file", ("out",))
     refuse_existing(check_output(args.out, (*args.keypoints, *cameras)), args.force)
-    lifter = Lifter.load(args.checkpoint) if args.checkpoint else None
+    lifter = Lifter.load(args.checkpoint, precision=args.precision) if args.checkpoint else None
     worlds = []
     for path, camera_file in zip(args.keypoints, cameras):
         one = with_camera(args, camera_file)
         keypoints = read_keypoints(path, args.layout, args.fps, subject=args.subject, action=args.action,
                                    camera_index=args.camera_index)
-        world = (lifter or Lifter.load(layout=keypoints.layout)).lift_keypoints(keypoints, _camera(one),
+        world = (lifter or Lifter.load(layout=keypoints.layout, precision=args.precision)).lift_keypoints(keypoints, _camera(one),
                                                                                 _lift_options(one))
         print(f"{path}: {len(world.tracks)} track(s) through camera {world.camera.name or camera_file}")
         worlds.append(world.in_frame("world"))

@@ -19,10 +19,10 @@ EXIT_CODES = {"ended": 0, "stalled": 3, "broke off": 4}
 def live(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from ray3d.cli.arguments import chosen_lifter
     from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, with_camera
     from ray3d.cli.fusion_commands import parse_offsets
     from ray3d.io.site_files import read_site
-    from ray3d.lift import Lifter
     from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
     from ray3d.live.source import FrameSource, SourceGroup
     from ray3d.video import VideoInfo, camera_for_video, make_detector
@@ -45,7 +45,7 @@ def live(args: argparse.Namespace) -> int:
                           None if args.quiet else sys.stdout, args.min_track, args.max_gap)
     several = len(sources) > 1
     summary = run_live(group, cameras if several else cameras[0], args.out, detectors if several else detectors[0],
-                       Lifter.load(args.checkpoint) if args.checkpoint else None, plan, options, lift_options, stop,
+                       chosen_lifter(args, detectors[0].layout), plan, options, lift_options, stop,
                        started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True), offsets_s=offsets)
     latency = summary.latency_ms
     print(f"{summary.why}: {summary.processed} of {summary.read} frames processed ({summary.dropped} dropped, "

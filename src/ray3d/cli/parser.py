@@ -13,7 +13,8 @@ from ray3d.cli import fusion_commands as fusion_handlers
 from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
 from ray3d.cli import video_commands as video_handlers
-from ray3d.temporal import OUTPUT_SMOOTHING
+from ray3d.cli.arguments import (add_camera_arguments, add_data_dir, add_force, add_lens_arguments,
+                                 add_lifting_arguments, add_precision)
 
 
 def _import_common(parser: argparse.ArgumentParser) -> None:
@@ -23,32 +24,7 @@ def _import_common(parser: argparse.ArgumentParser) -> None:
                         help="leading native frames to discard, e.g. a synthetic T-pose")
     parser.add_argument("--no-floor", action="store_true", help="keep z as in the file (no floor at z = 0)")
     parser.add_argument("--subject", default="user", help="performer name stored with the clips")
-    _add_force(parser, "replace OUT if it exists")
-
-
-def _add_data_dir(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--data-dir", help="folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR "
-                        "or ../shared/data/mocap)")
-
-
-def _add_force(parser: argparse.ArgumentParser, what: str) -> None:
-    parser.add_argument("--force", action="store_true", help=what)
-
-
-def _add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_note: str = "") -> None:
-    parser.add_argument("--hfov", type=float, help=f"{role}: horizontal field of view in degrees")
-    parser.add_argument("--focal", type=float, help=f"{role}: focal length in pixels (instead of --hfov)")
-    parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels{image_size_note}")
-
-
-def _add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "", several: bool = False) -> None:
-    parser.add_argument("--camera", action="append" if several else "store",
-                        help="camera JSON (ours or OpenCV), OpenCV YAML, FILE.toml:NAME (Pose2Sim, Anipose) or "
-                             "h36m:SUBJECT:CAMERA_ID" + ("; once per input, in order" if several else ""))
-    parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
-    parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
-    parser.add_argument("--roll", type=float, help="with --pitch: camera roll in degrees (default 0)")
-    _add_lens_arguments(parser, "with --pitch", image_size_note)
+    add_force(parser, "replace OUT if it exists")
 
 
 class OneLineErrors(argparse.ArgumentParser):
@@ -56,23 +32,6 @@ class OneLineErrors(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
-
-
-def _add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTPUT_SMOOTHING) -> None:
-    parser.add_argument("--checkpoint", help="shipped model name or checkpoint path (default: ray3d for H36M-17 "
-                        "keypoints, ray3d-real, trained for detectors, for any detector's layout and for videos)")
-    parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
-    parser.add_argument("--smooth-3d", choices=["savgol", "one-euro", "none"], default=smooth_3d,
-                        help=f"smooth the 3D output in time (default {smooth_3d})")
-    parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
-    parser.add_argument("--no-refine", action="store_true",
-                        help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
-    parser.add_argument("--floor", help="a JSON file declaring floor regions (floor_regions: stages, platforms, "
-                        "ramps; docs/floor.md) the refinement rests the feet on (default: the camera file's own, "
-                        "else the plain floor z = 0)")
-    parser.add_argument("--frame", choices=["world", "camera"], default="world",
-                        help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
-                             "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -96,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
     data_commands = data.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
 
     info = data_commands.add_parser("info", help="what motion data is available: clips, frames, minutes, splits")
-    _add_data_dir(info)
+    add_data_dir(info)
     info.set_defaults(handler=handlers.data_info)
 
     bvh = data_commands.add_parser("import-bvh", help="BVH takes -> a motion npz (H36M-17, metres, z up)")
@@ -119,8 +78,8 @@ def build_parser() -> argparse.ArgumentParser:
     cams.add_argument("--split", default="test", choices=["train", "validation", "test", "all"],
                       help="clips the cameras must see entirely (default: test)")
     cams.add_argument("--no-filter", action="store_true", help="write the whole grid, without the in-image filter")
-    _add_data_dir(cams)
-    _add_force(cams, "replace OUT if it exists")
+    add_data_dir(cams)
+    add_force(cams, "replace OUT if it exists")
     cams.set_defaults(handler=handlers.cameras)
 
     train = commands.add_parser("train", help="train a model on the training performers with random cameras")
@@ -133,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--batch-size", type=int)
     train.add_argument("--seed", type=int)
     train.add_argument("--threads", type=int, help="torch CPU threads per process")
-    _add_data_dir(train)
+    add_data_dir(train)
     train.add_argument("--quiet", action="store_true", help="no progress bar or per-epoch lines")
     train.set_defaults(handler=handlers.train)
 
@@ -153,16 +112,17 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_argument("--refine", action="store_true",
                             help="lift each (camera, clip) as a track with the track-level refinement, as ray3d lift does")
     evaluation.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
+    add_precision(evaluation)
     evaluation.add_argument("--json", type=Path, help="write the results here")
-    _add_force(evaluation, "replace --json if it exists")
-    _add_data_dir(evaluation)
+    add_force(evaluation, "replace --json if it exists")
+    add_data_dir(evaluation)
     evaluation.set_defaults(handler=handlers.evaluate)
 
     lift = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
     lift.add_argument("--keypoints", required=True, type=Path, action="append",
                       help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d "
                            "npz; several, one per camera (each with its --camera): one fused world")
-    _add_camera_arguments(lift, several=True)
+    add_camera_arguments(lift, several=True)
     lift.add_argument("--find-offsets", action="store_true", help="several keypoint files: find how far apart their "
                                                                   "clocks are from the people both cameras see")
     lift.add_argument("--out", required=True, type=Path,
@@ -170,11 +130,11 @@ def build_parser() -> argparse.ArgumentParser:
                            ".bvh (a skeleton with joint rotations: Blender, Maya; one file per track)")
     lift.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, halpe26, blazepose33, body25, ...)")
     lift.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
-    _add_lifting_arguments(lift)
+    add_lifting_arguments(lift)
     lift.add_argument("--subject", help="VideoPose3D npz: the subject")
     lift.add_argument("--action", help="VideoPose3D npz: the action")
     lift.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
-    _add_force(lift, "replace --out if it exists")
+    add_force(lift, "replace --out if it exists")
     lift.set_defaults(handler=fusion_handlers.lift)
 
     video = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
@@ -182,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
                                               "videos, one per camera: one world, one track per person")
     video.add_argument("input", type=Path, nargs="+", help="the video file(s) (anything OpenCV reads: .mp4, .avi, "
                                                            "...); several: one per calibrated camera, in step")
-    _add_camera_arguments(video, image_size_note=" (default: the video's)", several=True)
+    add_camera_arguments(video, image_size_note=" (default: the video's)", several=True)
     video.add_argument("--find-offsets", action="store_true", help="several videos: find how far apart they "
                                                                    "started from the people both see")
     video.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
@@ -202,8 +162,8 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--privacy", action="store_true", help="write nothing derived from the pixels but "
                        "skeletons, tracks and events: no overlay video")
     # Detector keypoints of real footage: the model trained for them.
-    _add_lifting_arguments(video)
-    _add_force(video, "replace existing outputs in --out")
+    add_lifting_arguments(video)
+    add_force(video, "replace existing outputs in --out")
     video.set_defaults(handler=video_handlers.video)
 
     fuse = commands.add_parser("fuse", help="several cameras' world files (ray3d lift / video, one per camera) -> "
@@ -219,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
     fuse.add_argument("--handover", type=float, default=2.0,
                       help="a person leaving one view and entering another within this many seconds keeps their "
                            "track (default 2)")
-    _add_force(fuse, "replace --out if it exists")
+    add_force(fuse, "replace --out if it exists")
     fuse.set_defaults(handler=fusion_handlers.fuse)
 
     live = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
@@ -227,7 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.add_argument("source", nargs="+", help="a video file (played at its own rate), a camera device number, or a "
                                                 "stream URL OpenCV opens (rtsp://, http://); several: one per "
                                                 "calibrated camera, their people followed as one world")
-    _add_camera_arguments(live, image_size_note=" (default: the stream's)", several=True)
+    add_camera_arguments(live, image_size_note=" (default: the stream's)", several=True)
     live.add_argument("--offsets", help="several sources: seconds each one's clock is ahead of the first's, comma "
                                         "separated (the first 0; default all 0: sources in step)")
     live.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, world.csv (several "
@@ -250,7 +210,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
     live.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
     live.add_argument("--quiet", action="store_true", help="no events on stdout (they are still in events.jsonl)")
-    _add_lifting_arguments(live)
+    add_lifting_arguments(live)
     live.set_defaults(handler=live_handlers.live)
 
     batch = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
@@ -280,7 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
     viz.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
     viz.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
-    _add_force(viz, "replace existing outputs")
+    add_force(viz, "replace existing outputs")
     viz.set_defaults(handler=handlers.viz)
 
     site = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
@@ -290,7 +250,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
     site.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "
                                                              "places.csv")
-    _add_force(site, "replace existing tables")
+    add_force(site, "replace existing tables")
     site.set_defaults(handler=site_handlers.site)
 
     bench = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
@@ -303,7 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     robustness.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
     robustness.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
     robustness.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
-    _add_data_dir(robustness)
+    add_data_dir(robustness)
     robustness.set_defaults(handler=bench_handlers.robustness)
     calibration = bench_commands.add_parser("calibration", help="camera estimation from a walking person: errors "
                                                                 "and their cost to Ray3D (CSV, JSON, markdown)")
@@ -316,7 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibration.add_argument("--seed", type=int, default=0)
     calibration.add_argument("--split", choices=["train", "validation", "test"], default="test",
                              help="whose walking clips (default: the test performers)")
-    _add_data_dir(calibration)
+    add_data_dir(calibration)
     calibration.set_defaults(handler=bench_handlers.calibration)
     real = bench_commands.add_parser("real-video", help="physical checks (feet on the floor, stature, walking speed, "
                                                         "bones, skating, jitter) on a video and on emulated detections")
@@ -332,7 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     real.add_argument("--emulated-layout", choices=["h36m17", "coco17"],
                       help="what the emulated detector reports (default: what the model reads, H36M-17 or COCO-17)")
     real.add_argument("--seed", type=int, default=0)
-    _add_data_dir(real)
+    add_data_dir(real)
     real.set_defaults(handler=bench_handlers.real_video)
     near = bench_commands.add_parser("real-near", help="near, low real cameras against 3D truth: each view of "
                                      "../shared/data/real-near through ray3d video's finder and lifter")
@@ -345,15 +305,15 @@ def build_parser() -> argparse.ArgumentParser:
     near.set_defaults(handler=bench_handlers.real_near)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")
     speed_bench.add_argument("--json", type=Path, help="write the results here")
-    speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: all)")
-    speed_bench.add_argument("--repeats", type=int, default=3, help="timed repetitions per figure (median)")
+    speed_bench.add_argument("--models", nargs="+", help="presets to measure (default: ray3d ray3d-paper; all: every preset)")
+    speed_bench.add_argument("--rounds", type=int, default=7,
+                             help="interleaved rounds: every figure and bound timed once per round (median)")
     speed_bench.add_argument("--batch", type=int, default=1024, help="windows per inference batch")
-    speed_bench.add_argument("--sequence-frames", type=int, default=10_000)
     speed_bench.add_argument("--train-batch", type=int, default=1024)
     speed_bench.add_argument("--video", type=Path, help="also time ray3d video on this video (the video extra)")
     speed_bench.add_argument("--camera", type=Path, help="the video's camera file")
     speed_bench.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
-    _add_force(speed_bench, "replace --json if it exists")
+    add_force(speed_bench, "replace --json if it exists")
     speed_bench.set_defaults(handler=bench_handlers.speed)
 
     calibrate = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
@@ -368,9 +328,9 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--track", help="with --from-person: only this track (default: every track, jointly)")
     calibrate.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
     calibrate.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
-    _add_lens_arguments(calibrate, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
+    add_lens_arguments(calibrate, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
     calibrate.add_argument("--out", required=True, type=Path, help="camera JSON to write")
-    _add_force(calibrate, "replace --out if it exists")
+    add_force(calibrate, "replace --out if it exists")
     calibrate.set_defaults(handler=handlers.calibrate)
 
     models = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
@@ -387,13 +347,13 @@ def build_parser() -> argparse.ArgumentParser:
     exporting.add_argument("--command-line", help="the training command, recorded with the weights")
     exporting.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
     exporting.add_argument("--machine", help="where it was trained, recorded with the weights")
-    _add_force(exporting, "replace --out if it exists")
+    add_force(exporting, "replace --out if it exists")
     exporting.set_defaults(handler=handlers.export)
 
     speed = data_commands.add_parser("samples-speed", help="measure the training-sample generator's throughput")
     speed.add_argument("--batch", type=int, default=1024)
     speed.add_argument("--frames", type=int, default=9)
     speed.add_argument("--repeats", type=int, default=20)
-    _add_data_dir(speed)
+    add_data_dir(speed)
     speed.set_defaults(handler=handlers.samples_speed)
     return parser

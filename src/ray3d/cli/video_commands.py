@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ray3d.cli.arguments import chosen_lifter
 from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, print_refinements, with_camera
 from ray3d.errors import InputError
 
@@ -33,7 +34,6 @@ def video(args: argparse.Namespace) -> int:
 def _one_video(args: argparse.Namespace, video: Path, camera_file: str | None, out: Path):
     import numpy as np
 
-    from ray3d.lift import Lifter
     from ray3d.options import VideoOptions
     from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
@@ -41,8 +41,8 @@ def _one_video(args: argparse.Namespace, video: Path, camera_file: str | None, o
     info = read_video_info(video)
     camera = camera_for_video(_camera(one, info.image_size), info)
     options = VideoOptions(args.fps, args.start, args.frames, args.max_gap, args.min_track)
-    result = lift_video(info, camera, out, make_detector(args.detector, camera),
-                        Lifter.load(args.checkpoint) if args.checkpoint else None, _lift_options(one), options,
+    detector = make_detector(args.detector, camera)
+    result = lift_video(info, camera, out, detector, chosen_lifter(args, detector.layout), _lift_options(one), options,
                         world_format=args.format, overlay=not (args.no_overlay or args.privacy), overwrite=args.force)
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])

@@ -49,7 +49,8 @@ class _Backend:
         self.image_width = image_width
 
     def _check_width(self, batch: TensorBatch) -> None:
-        if batch.image_width != self.image_width:
+        """Pixel-input models baked the image width in; ray-input models never read it."""
+        if self.config.input.startswith("pixels") and batch.image_width != self.image_width:
             raise InputError(f"this {type(self).__name__} was built for {self.image_width:g}-pixel-wide images, got "
                              f"{batch.image_width:g}")
 
@@ -63,9 +64,10 @@ class _Backend:
 class TorchScriptLiftingModel(_Backend):
     """A ``LiftingNetwork``'s inference form traced and frozen by TorchScript (CPU). A trace keeps the path its
     example took, so the form is traced twice: at a small batch (the stacked groups: latency) and at a large
-    one (per-group layers: throughput); each call runs the trace for its batch size."""
+    one (per-group layers: throughput); each call runs the trace for its batch size. ``batches=(2,)`` traces
+    the small-batch path only (for a caller that sends it nothing else)."""
 
-    def __init__(self, model: LiftingNetwork, image_width: float = 1000.0):
+    def __init__(self, model: LiftingNetwork, image_width: float = 1000.0, batches: tuple[int, ...] = (2, BATCH_PER_GROUP)):
         super().__init__(model, image_width)
         network = _TensorInputs(inference_network(model.cpu()), image_width).eval()
         with torch.no_grad(), warnings.catch_warnings():
@@ -73,11 +75,12 @@ class TorchScriptLiftingModel(_Backend):
             warnings.simplefilter("ignore", category=DeprecationWarning)
             self.modules = {batch: torch.jit.freeze(torch.jit.trace(
                 network, _example_inputs(model, image_width, batch), check_trace=False))
-                for batch in (2, BATCH_PER_GROUP)}
+                for batch in batches}
 
     def __call__(self, batch: TensorBatch) -> tuple[torch.Tensor, torch.Tensor]:
         self._check_width(batch)
-        module = self.modules[BATCH_PER_GROUP if len(batch.rays) >= BATCH_PER_GROUP else 2]
+        module = self.modules[BATCH_PER_GROUP if len(batch.rays) >= BATCH_PER_GROUP and BATCH_PER_GROUP in self.modules
+                              else 2]
         with torch.no_grad():
             return module(*(getattr(batch, n).cpu() for n in INPUT_NAMES))
 

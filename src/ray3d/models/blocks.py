@@ -15,6 +15,12 @@ def receptive_field(kernels: tuple[int, ...]) -> int:
     return math.prod(kernels)
 
 
+def stack_frames(x: torch.Tensor, kernel: int) -> torch.Tensor:
+    """(B, L, C) -> (B, L / kernel, kernel * C): each ``kernel`` consecutive frames side by side."""
+    batch, length, channels = x.shape
+    return x.reshape(batch, length // kernel, kernel * channels)
+
+
 class FrameGroupLinear(nn.Linear):
     """A width-k, stride-k temporal convolution, channels last: (B, L, C_in) -> (B, L / k, C_out), computed as
     one Linear over each k consecutive frames stacked. The same maths as ``nn.Conv1d(kernel=k, stride=k)``, but
@@ -26,8 +32,7 @@ class FrameGroupLinear(nn.Linear):
         self.kernel = kernel
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        batch, length, channels = x.shape
-        return super().forward(x.reshape(batch, length // self.kernel, self.kernel * channels))
+        return super().forward(stack_frames(x, self.kernel))
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
         weight = state_dict.get(prefix + "weight")

@@ -1,0 +1,68 @@
+"""The arguments several commands share: adding them to a parser, and reading them back into what the
+library takes."""
+
+from __future__ import annotations
+
+import argparse
+
+from ray3d.models.precision import PRECISIONS
+from ray3d.temporal import OUTPUT_SMOOTHING
+
+
+def add_data_dir(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--data-dir", help="folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR "
+                        "or ../shared/data/mocap)")
+
+
+def add_force(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument("--force", action="store_true", help=what)
+
+
+def add_lens_arguments(parser: argparse.ArgumentParser, role: str, image_size_note: str = "") -> None:
+    parser.add_argument("--hfov", type=float, help=f"{role}: horizontal field of view in degrees")
+    parser.add_argument("--focal", type=float, help=f"{role}: focal length in pixels (instead of --hfov)")
+    parser.add_argument("--image-size", help=f"{role}: WIDTHxHEIGHT in pixels{image_size_note}")
+
+
+def add_camera_arguments(parser: argparse.ArgumentParser, image_size_note: str = "", several: bool = False) -> None:
+    parser.add_argument("--camera", action="append" if several else "store",
+                        help="camera JSON (ours or OpenCV), OpenCV YAML, FILE.toml:NAME (Pose2Sim, Anipose) or "
+                             "h36m:SUBJECT:CAMERA_ID" + ("; once per input, in order" if several else ""))
+    parser.add_argument("--camera-height", type=float, help="instead of --camera: camera height above the floor, m")
+    parser.add_argument("--pitch", type=float, help="instead of --camera: degrees the camera looks down")
+    parser.add_argument("--roll", type=float, help="with --pitch: camera roll in degrees (default 0)")
+    add_lens_arguments(parser, "with --pitch", image_size_note)
+
+
+def add_precision(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--precision", choices=PRECISIONS, default="fp32",
+                        help="the network's arithmetic on the CPU: fp32 (default), or its hidden matrix products in "
+                             "bf16 or int8 (faster; accuracy cost in docs/RESULTS.md)")
+
+
+def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTPUT_SMOOTHING) -> None:
+    parser.add_argument("--checkpoint", help="shipped model name or checkpoint path (default: ray3d for H36M-17 "
+                        "keypoints, ray3d-real, trained for detectors, for any detector's layout and for videos)")
+    add_precision(parser)
+    parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
+    parser.add_argument("--smooth-3d", choices=["savgol", "one-euro", "none"], default=smooth_3d,
+                        help=f"smooth the 3D output in time (default {smooth_3d})")
+    parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    parser.add_argument("--no-refine", action="store_true",
+                        help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
+    parser.add_argument("--floor", help="a JSON file declaring floor regions (floor_regions: stages, platforms, "
+                        "ramps; docs/floor.md) the refinement rests the feet on (default: the camera file's own, "
+                        "else the plain floor z = 0)")
+    parser.add_argument("--frame", choices=["world", "camera"], default="world",
+                        help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
+                             "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
+
+
+def chosen_lifter(args: argparse.Namespace, layout: str | None = None):
+    """``--checkpoint`` (or the shipped model for keypoints of ``layout``) in ``--precision``; None, the
+    library's own choice for the input's layout, when neither is given."""
+    from ray3d.lift import Lifter
+
+    if not args.checkpoint and args.precision == "fp32":
+        return None
+    return Lifter.load(args.checkpoint, layout=layout or "h36m17", precision=args.precision)
