@@ -134,3 +134,23 @@ def test_a_job_on_a_local_two_cpu_ray_equals_ray3d_lift_and_resumes(tmp_path, ca
     assert "1 done, 4 skipped (up to date), 1 failed" in capsys.readouterr().out
     assert not (out / ".take3.partial").exists()
     assert not ray.is_initialized()
+
+
+def test_a_manifest_row_may_ask_for_a_reduced_precision(tmp_path):
+    from ray3d.io.world import read_world
+
+    _keypoint_files(tmp_path, 1)
+    manifest = _manifest(tmp_path / "m.csv", [{"input": "take0.npz", "camera": CAMERA, "name": "fp32"},
+                                              {"input": "take0.npz", "camera": CAMERA, "name": "int8",
+                                               "precision": "int8"}])
+    full, reduced = read_manifest(manifest)
+    assert reduced.options["precision"] == "int8" and full.fingerprint() != reduced.fingerprint()
+    out = tmp_path / "out"
+    out.mkdir()
+    assert process_entry(full, out, "a")["status"] == process_entry(reduced, out, "b")["status"] == "done"
+    joints = [read_world(out / name / "world.json").track().joints for name in ("fp32", "int8")]
+    apart = np.linalg.norm(joints[0] - joints[1], axis=-1)
+    assert 0 < apart.mean() < 0.02  # the int8 answer, a few millimetres from fp32's
+    bad = _manifest(tmp_path / "bad.csv", [{"input": "take0.npz", "camera": CAMERA, "precision": "fp16"}])
+    with pytest.raises(InputError, match="precision"):
+        read_manifest(bad)

@@ -268,6 +268,15 @@ class Lifter:
         return LiftStream(self, camera, layout, flip_test, fps, wait_for_future)
 
 
+def chosen_lifter(checkpoint: str | None = None, precision: str = "fp32", layout: str | None = None) -> Lifter | None:
+    """``checkpoint`` (or the shipped model for keypoints of ``layout``) in ``precision``; None when neither a
+    checkpoint nor a reduced precision is asked for: then ``lift_file``, ``lift_video`` and ``run_live`` choose
+    the shipped model for their input's layout themselves."""
+    if not checkpoint and check_precision(precision) == "fp32":
+        return None
+    return Lifter.load(checkpoint, layout=layout or "h36m17", precision=precision)
+
+
 def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifter: Lifter | None = None,
               layout: str | None = None, fps: float | None = None, overwrite: bool = False,
               read_options: dict | None = None, options: LiftOptions = LiftOptions(),

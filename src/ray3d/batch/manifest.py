@@ -6,7 +6,7 @@ CSV with a header row, or JSON (a list of objects, or ``{"inputs": [...]}``). Co
 - ``name``: the input's output folder below the job's (default: the input's file name without suffix);
 - the camera: ``camera`` (a camera file or ``h36m:SUBJECT:CAMERA_ID``), or ``camera_height``, ``pitch``,
   ``roll``, ``hfov`` or ``focal``, and ``image_size`` (``WIDTHxHEIGHT``; a video's own by default);
-- the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``smooth_2d``,
+- the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``precision``, ``smooth_2d``,
   ``smooth_3d``, ``flip_test``, ``refine``, ``format``; for keypoints ``layout`` and ``fps``; for videos
   ``detector``, ``fps``, ``start``, ``frames``, ``max_gap``, ``min_track``.
 
@@ -28,6 +28,7 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.io.camera_files import camera_from_options, floor_of_camera_file
 from ray3d.io.text_files import read_csv_rows, read_json
+from ray3d.models.precision import PRECISIONS
 from ray3d.options import LiftOptions, VideoOptions
 from ray3d.temporal import SMOOTHING_METHODS
 
@@ -80,7 +81,8 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "pitch": (_number, _BOTH), "roll": (_number, _BOTH),
     "hfov": (_number, _BOTH), "focal": (_number, _BOTH),
     "image_size": (lambda v: parse_image_size(v, "image_size"), _BOTH),
-    "checkpoint": (_text, _BOTH), "smooth_2d": (_choice(SMOOTHING_METHODS), _BOTH),
+    "checkpoint": (_text, _BOTH), "precision": (_choice(PRECISIONS), _BOTH),
+    "smooth_2d": (_choice(SMOOTHING_METHODS), _BOTH),
     "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
     "refine": (_flag, _BOTH), "format": (_choice(WORLD_FORMATS), _BOTH),
     "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)),

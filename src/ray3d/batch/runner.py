@@ -62,7 +62,8 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     cannot mend a bad input); any other exception is raised, for Ray to retry."""
     import torch
 
-    from ray3d.lift import lift_file
+    from ray3d.io.keypoints import read_keypoints
+    from ray3d.lift import chosen_lifter, lift_file
 
     torch.set_num_threads(threads)
     started = time.perf_counter()
@@ -72,17 +73,22 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     world_file = f"world{o.get('format', '.json')}"
     try:
         if entry.kind == "keypoints":
+            layout = o.get("layout")
+            if layout is None and "checkpoint" not in o and o.get("precision", "fp32") != "fp32":
+                layout = read_keypoints(entry.input, fps=o.get("fps")).layout  # its default model is the layout's
             _, world = lift_file(entry.input, entry.camera(), temporary / world_file,
-                                 _lifter(o), o.get("layout"), o.get("fps"),
-                                 options=entry.lift_options())
+                                 chosen_lifter(o.get("checkpoint"), o.get("precision", "fp32"), layout),
+                                 o.get("layout"), o.get("fps"), options=entry.lift_options())
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:
             from ray3d.video import DEFAULT_DETECTOR, camera_for_video, lift_video, make_detector, read_video_info
 
             info = read_video_info(entry.input)
             camera = camera_for_video(entry.camera(info.image_size), info)
-            result = lift_video(info, camera, temporary, make_detector(o.get("detector", DEFAULT_DETECTOR), camera),
-                                _lifter(o), entry.lift_options(),
+            detector = make_detector(o.get("detector", DEFAULT_DETECTOR), camera)
+            result = lift_video(info, camera, temporary, detector,
+                                chosen_lifter(o.get("checkpoint"), o.get("precision", "fp32"), detector.layout),
+                                entry.lift_options(),
                                 entry.video_options(), world_format=o.get("format", ".json"), progress=False)
             world, frames = result.world, result.frames
     except InputError as err:
@@ -97,13 +103,6 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
                                                   indent=1))
     _move_into_place(temporary, target)
     return summary
-
-
-def _lifter(options: dict):
-    """The manifest's model, or None: the shipped one for the input's layout."""
-    from ray3d.lift import Lifter
-
-    return Lifter.load(options["checkpoint"]) if "checkpoint" in options else None
 
 
 def _move_into_place(temporary: Path, target: Path) -> None:

@@ -59,10 +59,7 @@ def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTP
 
 
 def chosen_lifter(args: argparse.Namespace, layout: str | None = None):
-    """``--checkpoint`` (or the shipped model for keypoints of ``layout``) in ``--precision``; None, the
-    library's own choice for the input's layout, when neither is given."""
-    from ray3d.lift import Lifter
+    """``--checkpoint`` in ``--precision`` (``ray3d.lift.chosen_lifter``)."""
+    from ray3d.lift import chosen_lifter as chosen
 
-    if not args.checkpoint and args.precision == "fp32":
-        return None
-    return Lifter.load(args.checkpoint, layout=layout or "h36m17", precision=args.precision)
+    return chosen(args.checkpoint, args.precision, layout)
