@@ -30,6 +30,7 @@ from torch import nn
 from ray3d.errors import InputError
 from ray3d.models.blocks import FrameGroupLinear, stack_frames
 from ray3d.models.inference import BATCH_PER_GROUP, StackedLinear, StackedRIEBranch, inference_network
+from ray3d.models.network import predict_with_flip
 from ray3d.models.tensor_batch import TensorBatch
 
 PRECISIONS = ("fp32", "bf16", "int8")
@@ -132,7 +133,7 @@ class ReducedPrecisionNetwork(nn.Module):
             raise ValueError("ReducedPrecisionNetwork: fp32 is the network itself")
         self.precision = precision
         with torch.no_grad():
-            network = copy.deepcopy(inference_network(model.cpu()))
+            network = copy.deepcopy(inference_network(model)).cpu()  # the caller's model stays where it is
             examples = [TensorBatch.example(network.receptive_field, network.skeleton.num_joints, size)
                         for size in (1, BATCH_PER_GROUP)]
             kept = set(output_layer_names(network)) | set(input_layer_names(network, examples))
@@ -156,8 +157,6 @@ class ReducedPrecisionNetwork(nn.Module):
             return self.network(batch)
 
     def predict(self, batch, flip_test: bool = False):
-        from ray3d.models.network import predict_with_flip
-
         return predict_with_flip(self, self.config, batch, flip_test)
 
     def to_world(self, points, cameras, camera_params):
