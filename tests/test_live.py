@@ -151,6 +151,7 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
     from ray3d.lift import Lifter
 
     lifter = Lifter.load()  # before the stream starts: frames that come while it loads would be dropped
+    lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
     detector = _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
     return run_live(source, CAMERA, tmp_path / "live", detector, lifter, site=site,

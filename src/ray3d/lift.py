@@ -244,23 +244,28 @@ class Lifter:
         ``BATCH_PER_GROUP`` windows) on, its TorchScript trace."""
         if not self._traceable or windows >= BATCH_PER_GROUP:
             return self.model
-        with self._tracing:  # live lifts from more than one thread
-            self._small_batches += 1
-            if self._small_batches >= SMALL_BATCHES_BEFORE_TRACING:
-                self._trace_small_batches()
+        self._small_batches += 1
+        if self._small_batch_runner is None and self._small_batches >= SMALL_BATCHES_BEFORE_TRACING:
+            self._trace_small_batches()
         return self._small_batch_runner or self.model
 
     def prepare_small_batches(self) -> None:
-        """Make the small-batch trace now (about 0.2 s), for a caller about to send small batches on a clock
-        (``ray3d live``), rather than on its third batch. Nothing for a lifter that does not trace."""
-        with self._tracing:
-            self._trace_small_batches()
+        """Make the small-batch trace now (about 0.2 s, holding the interpreter: a thread would not hide it)
+        rather than on the third small batch: for a caller about to send small batches on a clock (``ray3d
+        live``), before its frames flow."""
+        self._trace_small_batches()
 
     def _trace_small_batches(self) -> None:
-        if self._traceable and self._small_batch_runner is None:
-            from ray3d.models.backends import TorchScriptLiftingModel
+        # Not waiting for a trace another thread is making: meanwhile its small batches run the network itself.
+        if not self._traceable or not self._tracing.acquire(blocking=False):
+            return
+        try:
+            if self._small_batch_runner is None:
+                from ray3d.models.backends import TorchScriptLiftingModel
 
-            self._small_batch_runner = TorchScriptLiftingModel(self.model, batches=(2,))
+                self._small_batch_runner = TorchScriptLiftingModel(self.model, batches=(2,))
+        finally:
+            self._tracing.release()
 
     def stream(self, camera: Camera, layout: str = "h36m17", flip_test: bool = False, fps: float | None = None,
                wait_for_future: bool = True) -> LiftStream:

@@ -290,7 +290,7 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
         raise InputError(f"{events_path}: exists; ray3d live never writes over an output", ("out",))
     stop = stop or threading.Event()
     lifter = lifter or Lifter.load(layout=detectors[0].layout)
-    lifter.prepare_small_batches()  # now, not while frames arrive: its 0.2 s would drop them
+    lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
     site = site or Site()
     group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
     views = _Views(group, cameras, detectors, lifter, out_dir, options, lift_options, offsets_s)
