@@ -62,7 +62,6 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     cannot mend a bad input); any other exception is raised, for Ray to retry."""
     import torch
 
-    from ray3d.io.keypoints import read_keypoints
     from ray3d.lift import chosen_lifter, lift_file
 
     torch.set_num_threads(threads)
@@ -73,11 +72,9 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     world_file = f"world{o.get('format', '.json')}"
     try:
         if entry.kind == "keypoints":
-            layout = o.get("layout")
-            if layout is None and "checkpoint" not in o and o.get("precision", "fp32") != "fp32":
-                layout = read_keypoints(entry.input, fps=o.get("fps")).layout  # its default model is the layout's
             _, world = lift_file(entry.input, entry.camera(), temporary / world_file,
-                                 chosen_lifter(o.get("checkpoint"), o.get("precision", "fp32"), layout),
+                                 chosen_lifter(o.get("checkpoint"), o.get("precision", "fp32"), o.get("layout"),
+                                               entry.input),
                                  o.get("layout"), o.get("fps"), options=entry.lift_options())
             frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         else:

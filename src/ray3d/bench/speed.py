@@ -77,12 +77,12 @@ def per_call_seconds_of(function: Callable[[], object], typical: str = "mean") -
     return run
 
 
-def peak_runs() -> tuple[dict[str, Callable[[], float]], float]:
-    """({"peak_<precision>": run}, FLOPs per second): the matrix-product probe in every precision, a hidden layer
-    as ``models.precision`` runs it; each run gives the best rate (FLOP/s) of the ``PEAK_SHAPES`` in its round."""
+def peak_runs(precisions: tuple[str, ...] = PRECISIONS) -> dict[str, Callable[[], float]]:
+    """{"peak_<precision>": run}: the matrix-product probe in each of ``precisions``, a hidden layer as
+    ``models.precision`` runs it; each run gives the best rate (FLOP/s) of the ``PEAK_SHAPES`` in its round."""
     x = {size: torch.randn(rows, size) for rows, size in PEAK_SHAPES}
     runs = {}
-    for precision in PRECISIONS:
+    for precision in precisions:
         probes = []
         for rows, size in PEAK_SHAPES:
             linear = torch.nn.Linear(size, size, bias=False).eval()
@@ -225,9 +225,9 @@ def _spread(values: np.ndarray) -> float:
 def measure_inference(name: str, rounds: int, batch_size: int = 1024, backends: bool = True) -> list[dict]:
     """One record per form of preset ``name``: batched frames/s and single-window latency, each timed in every
     round beside the matrix-product peaks and the memory bandwidth, with its fraction of its bound."""
-    model = LiftingNetwork(PRESETS[name]).eval()
-    params, flops = count_parameters(model), flops_per_frame(model)
     forms = model_forms(name, backends)
+    model = forms["torch as trained"][2]
+    params, flops = count_parameters(model), flops_per_frame(model)
     batch, single = _batch(model, batch_size), _batch(model, 1)
     runs = peak_runs()
     runs["memory"], memory_bytes = memory_run()
@@ -284,7 +284,7 @@ def measure_training(name: str, rounds: int, train_batch: int = 1024, motion=Non
         loss.backward()
         optimizer.step()
 
-    runs = {"peak_fp32": peak_runs()["peak_fp32"], "step": seconds_of(step)}
+    runs = {**peak_runs(("fp32",)), "step": seconds_of(step)}
     motion = motion if motion is not None else training_motion()
     if motion is not None:
         steps = training_steps(TrainConfig(model=config, batch_size=train_batch), motion)

@@ -58,8 +58,8 @@ def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTP
                              "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
 
 
-def chosen_lifter(args: argparse.Namespace, layout: str | None = None):
+def chosen_lifter(args: argparse.Namespace, layout: str | None = None, keypoints_path=None):
     """``--checkpoint`` in ``--precision`` (``ray3d.lift.chosen_lifter``)."""
     from ray3d.lift import chosen_lifter as chosen
 
-    return chosen(args.checkpoint, args.precision, layout)
+    return chosen(args.checkpoint, args.precision, layout, keypoints_path)

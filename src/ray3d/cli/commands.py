@@ -288,17 +288,13 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 
 def lift(args: argparse.Namespace) -> int:
     """One keypoint file and its camera (``ray3d.cli.fusion_commands.lift`` hands several on to ``lift_several``)."""
-    from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import export_paths
     from ray3d.lift import lift_file
 
     check_output(args.out, (args.camera,))
     camera = _camera(args)
-    layout = args.layout
-    if layout is None and not args.checkpoint and args.precision != "fp32":  # the default model is the file's layout's
-        layout = read_keypoints(args.keypoints, fps=args.fps).layout
     keypoints, world = lift_file(
-        args.keypoints, camera, args.out, chosen_lifter(args, layout), args.layout,
+        args.keypoints, camera, args.out, chosen_lifter(args, args.layout, args.keypoints), args.layout,
         args.fps, args.force,
         dict(subject=args.subject, action=args.action, camera_index=args.camera_index), _lift_options(args),
         progress=True)

@@ -97,10 +97,14 @@ def undistort(xy_distorted: Array, dist: Array, initial: Array | None = None,
     xp = namespace(xy_distorted)
     xd, yd = xy_distorted[..., 0], xy_distorted[..., 1]
     tolerance = _step_tolerance(xd)
+    residual = None  # of the start, when it needs no polish
     if initial is None and isinstance(xy_distorted, np.ndarray) and np.ndim(dist) == 1:
         initial = opencv_undistort(xy_distorted, dist)
-        # Full precision already (a step of Newton's would be below the tolerance; NaN counts as done): no polish.
-        iterations = 0 if not bool((abs(distort(initial, dist) - xy_distorted) > tolerance).any()) else iterations
+        residual = distort(initial, dist) - xy_distorted
+        if bool((abs(residual) > tolerance).any()):  # not at full precision everywhere (NaN counts as done)
+            residual = None
+        else:
+            iterations = 0
     x, y = (xd, yd) if initial is None else (initial[..., 0], initial[..., 1])
     k1, k2, p1, p2, k3 = _split(dist)
     for _ in range(iterations):
@@ -116,7 +120,8 @@ def undistort(xy_distorted: Array, dist: Array, initial: Array | None = None,
         if not bool((abs(step_x) + abs(step_y) > tolerance).any()):
             break
     _, j11, j12, j22 = _jacobian(x, y, dist)
-    residual = distort(stack_last([x, y]), dist) - xy_distorted
+    if residual is None:
+        residual = distort(stack_last([x, y]), dist) - xy_distorted
     # Beyond the fold the Jacobian's determinant turns negative: such a root is not the physical ray.
     converged = ((residual * residual).sum(-1) < UNDISTORT_TOLERANCE) & (j11 * j22 - j12 * j12 > 0)
     nan = xp.full_like(x, float("nan"))
