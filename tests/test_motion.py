@@ -59,3 +59,29 @@ def test_bad_npz_files(tmp_path):
     not_npz.write_text("hello")
     with pytest.raises(InputError, match="cannot read as a motion npz"):
         MotionSet.load(not_npz)
+
+
+def test_performers_are_grounded_at_the_planted_ankle_height():
+    """A performer whose planted ankle joint sits 0.16 m up (HDM05's dg) is lowered to the common height, one
+    at 0.07 m is left where they are; the shift is added to the clips' floor offsets and every clip of a
+    performer moves alike."""
+    from ray3d.body import ANKLES, PLANTED_ANKLE_HEIGHT_M
+    from ray3d.data.motion import ground_performers, planted_ankle_heights
+
+    rng = np.random.default_rng(0)
+
+    def standing(ankle_height: float, frames: int = 40) -> np.ndarray:
+        pose = rng.normal(0, 0.2, (17, 3)) + [0.0, 0.0, 1.0]
+        pose[list(ANKLES), 2] = [ankle_height, ankle_height + 0.2]
+        return np.repeat(pose[None], frames, axis=0).astype(np.float32)
+
+    motion = MotionSet.from_clips([standing(0.16), standing(0.16), standing(PLANTED_ANKLE_HEIGHT_M)],
+                                  clip_id=["a", "b", "c"], subject="s", orig_subject=["dg", "dg", "cmu"])
+    assert planted_ankle_heights(motion) == pytest.approx({"dg": 0.16, "cmu": PLANTED_ANKLE_HEIGHT_M}, abs=1e-6)
+    grounded = ground_performers(motion)
+    lowest = grounded.positions[:, list(ANKLES), 2].min(1)
+    np.testing.assert_allclose(lowest, PLANTED_ANKLE_HEIGHT_M, atol=1e-6)
+    np.testing.assert_allclose(grounded.positions[..., :2], motion.positions[..., :2])
+    np.testing.assert_allclose(grounded.clips["floor_offset_m"], [0.09, 0.09, 0.0], atol=1e-6)
+    assert planted_ankle_heights(grounded) == pytest.approx({"dg": PLANTED_ANKLE_HEIGHT_M,
+                                                             "cmu": PLANTED_ANKLE_HEIGHT_M}, abs=1e-6)

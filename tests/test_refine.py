@@ -155,3 +155,50 @@ def test_the_floor_cue_is_not_used_where_the_feet_are_not_seen():
     _, hidden = refine_track(too_far, camera, 60.0, feet_seen=np.zeros(len(truth), bool))
     assert seen.floor_cue.all() and seen.contact.mean() > 0.9 and abs(np.median(seen.scale) - 1 / 1.1) < 0.03
     assert not hidden.floor_cue.any() and not hidden.contact.any() and abs(np.median(hidden.scale) - 1) < 0.03
+
+
+def test_the_cues_that_carried_each_frame_are_reported():
+    """Feet seen from a camera looking down: the floor carries the distance; legs hidden: the network (and the
+    size) do; the shares of every frame sum to one and the world file's record names a cue per frame."""
+    from ray3d.refine import CUES
+
+    camera, truth = _camera(height=4.0, pitch=30.0, distance=6.0), _consistent_person(still=True)
+    too_far = scale_about(truth, camera.center, np.full(len(truth), 1.1))
+    _, seen = refine_track(too_far, camera, 60.0)
+    _, hidden = refine_track(too_far, camera, 60.0, feet_seen=np.zeros(len(truth), bool))
+    for found in (seen, hidden):
+        np.testing.assert_allclose(found.cue_shares.sum(axis=1), 1.0)
+    assert (seen.cue_shares.argmax(axis=1) == CUES.index("floor")).all()
+    assert hidden.cue_shares[:, CUES.index("floor")].max() == 0.0
+    assert (hidden.cue_shares.argmax(axis=1) == CUES.index("network")).all()
+    record = seen.summary()
+    assert record["frames"]["cue"] == ["floor"] * len(truth) and record["cue_shares"]["floor"] > 0.5
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(1.0, 7.0), st.floats(-3.0, 3.0), st.floats(6.0, 12.0), st.floats(0.85, 1.2))
+def test_planted_feet_seen_never_leave_the_answer_worse_than_the_network(height, aim, distance, network_scale):
+    """Noise-free: a person standing on the floor with the feet seen, the network's distance off by a shared
+    factor; the foot's ray meeting the floor is exact, so the fused position is never worse than the network's
+    (the better cue) and, where the ray meets the floor steeply enough to measure, much better."""
+    pitch = np.degrees(np.arctan2(height - 1.0, distance)) + aim  # looking at the person, give or take
+    camera, truth = _camera(height=height, pitch=pitch, distance=distance), _consistent_person(40, still=True)
+    assert camera.sees(truth)
+    wrong = scale_about(truth, camera.center, np.full(len(truth), network_scale))
+    refined, found = refine_track(wrong, camera, 30.0, _rays(camera, truth), config=EXACT_2D)
+    before, after = metrics.mrpe(wrong, truth), metrics.mrpe(refined, truth)
+    assert after <= before + 1e-6
+    if found.floor_cue.all() and abs(network_scale - 1) > 0.05:
+        assert after < 0.5 * before
+
+
+def test_a_detectors_ankle_stands_higher_than_the_mocaps():
+    """Rays of a detector's keypoints pass through its ankle keypoint, which stands higher on a planted foot than
+    the mocap's ankle joint: the refinement expects it there for detector layouts only."""
+    from ray3d import body
+
+    assert RefineConfig.for_model({}, "coco17").contact_ankle_height_m == body.DETECTOR_PLANTED_ANKLE_HEIGHT_M
+    assert RefineConfig.for_model({}, "blazepose33").contact_ankle_height_m == body.DETECTOR_PLANTED_ANKLE_HEIGHT_M
+    assert RefineConfig.for_model({}, "h36m17").contact_ankle_height_m == body.PLANTED_ANKLE_HEIGHT_M
+    assert body.DETECTOR_PLANTED_ANKLE_HEIGHT_M > body.PLANTED_ANKLE_HEIGHT_M
+    assert RefineConfig.for_model({}, "coco17", contact_ankle_height_m=0.1).contact_ankle_height_m == 0.1

@@ -157,3 +157,114 @@ def test_detector_noise_grows_with_the_person_and_legs_swap(rng):
     residual = (batch.pixels[:, 4] - clean) / span[:, None, None]
     assert np.std(residual) == pytest.approx(0.02, rel=0.1)
     assert np.isfinite(batch.rays).all()
+
+
+def _standing(count: int, frames: int = 9) -> np.ndarray:
+    """(count, frames, 17, 3) an upright person (a fixed adult pose) at the world origin."""
+    from ray3d.demo import demo_clip
+
+    pose = demo_clip()[0].astype(np.float64)
+    pose = pose - np.array([*pose[0, :2], 0.0])
+    return np.broadcast_to(pose, (count, frames, 17, 3)).copy()
+
+
+def _level_cameras(count: int, size=(1280, 720), distance=3.0, pitch_deg=0.0, height=1.2) -> CameraBatch:
+    from ray3d.data.virtual_cameras import mounted_camera
+    from ray3d.geometry import pinhole_intrinsics
+
+    camera = mounted_camera(0.0, height, distance, pitch_deg, "level", pinhole_intrinsics(size, hfov_deg=60.0), size)
+    return CameraBatch.repeated(camera, count)
+
+
+def test_joints_outside_the_picture_are_unseen_and_stand_on_their_parents(rng):
+    """A level camera 1.5 m from an adult in landscape cuts the feet: the ankles (and what is off the image) are
+    unseen, stand where their nearest seen ancestor is, with confidence 0; the hips stay seen."""
+    windows = _standing(2)
+    cameras = _level_cameras(2, distance=1.5)
+    batch = observe(windows, cameras, NINE, rng=rng, config=SampleConfig(hide_outside_image=True))
+    clean = observe(windows, cameras, NINE)
+    outside = ((clean.pixels[:, 4] < 0) | (clean.pixels[:, 4] > [1280, 720])).any(-1)
+    ankle, knee, hip = (H36M17.index(n) for n in ("l_ankle", "l_knee", "l_hip"))
+    assert outside[:, ankle].all()
+    assert (~batch.visible[:, :, outside[0]]).all() and (batch.confidences[:, :, outside[0]] == 0).all()
+    assert batch.visible[:, :, [0, hip, H36M17.index("r_hip")]].all()
+    ancestor = knee if not outside[0, knee] else hip
+    np.testing.assert_allclose(batch.pixels[:, :, ankle], batch.pixels[:, :, ancestor])
+    np.testing.assert_allclose(batch.rays[:, :, ankle], batch.rays[:, :, ancestor])
+    np.testing.assert_allclose(batch.pose, clean.pose)  # the targets are the whole person
+
+
+def test_an_occluder_hides_what_is_below_its_row_and_never_the_hips(rng):
+    from ray3d.data.samples import hidden_joints, occluder_rows
+
+    pixels = observe(_standing(64), _level_cameras(64, distance=4.0), NINE).pixels[:, 4]
+    rows = occluder_rows(pixels, rng, 0.5, H36M17)
+    occluded = np.isfinite(rows)
+    assert 0.3 < occluded.mean() < 0.7
+    hidden = hidden_joints(pixels, np.full((64, 2), np.inf), rows, H36M17)
+    below = pixels[..., 1] > np.nan_to_num(rows, nan=np.inf)[:, None]
+    hips = [H36M17.index(n) for n in ("pelvis", "l_hip", "r_hip")]
+    below[:, hips] = False
+    np.testing.assert_array_equal(hidden, below)
+    assert not hidden[~occluded].any() and hidden[occluded][:, H36M17.index("l_ankle")].all()
+
+
+def test_detector_offsets_move_the_seen_joints_not_the_targets(rng):
+    """The measured offsets at full scale lift an upright person's seen hips 0.065 m and ankles 0.05 m (their
+    rays pass there); the targets stay the mocap's joints."""
+    from ray3d.body import DETECTOR_JOINT_OFFSETS_M
+
+    windows, cameras = _standing(4), _level_cameras(4, distance=4.0)
+    moved = observe(windows, cameras, NINE, rng=rng, config=SampleConfig(detector_offset_scale=(1.0, 1.0)))
+    clean = observe(windows, cameras, NINE)
+    np.testing.assert_allclose(moved.pose, clean.pose)
+    depth = tf.world_to_camera(windows[:, 4], cameras.R[:, None], cameras.t[:, None])[..., 2]
+    camera = cameras.camera(0)
+    for name, (_, _, up) in DETECTOR_JOINT_OFFSETS_M.items():
+        j = H36M17.index(f"l_{name}")
+        rays = tf.rays_normalized_to_camera(moved.rays[:, 4, j].astype(np.float64), cameras.pitch)
+        seen = camera.camera_to_world(rays * depth[:, j, None])
+        assert np.median(seen[:, 2] - windows[:, 4, j, 2]) == pytest.approx(up, abs=0.01)
+
+
+def test_seen_as_a_detector_derives_the_h36m_joints_as_lifting_does(rng):
+    """Seen as COCO-17, the model's thorax is the mid-shoulders and its head comes from the ears, exactly as
+    ``ray3d.skeleton.convert_keypoints`` makes them from a detector's keypoints."""
+    from ray3d.data.samples import detector_points
+    from ray3d.skeleton import convert_keypoints
+
+    windows, cameras = _standing(3), _level_cameras(3, distance=4.0)
+    batch = observe(windows, cameras, NINE, config=SampleConfig(seen_as="coco17"))
+    coco = cameras.camera(0).project(detector_points(windows[0, 4], "coco17"))
+    expected, _ = convert_keypoints(coco, "coco17")
+    np.testing.assert_allclose(batch.pixels[0, 4], expected, atol=1e-6)
+
+
+def test_portrait_cameras_and_camera_mixtures(rng):
+    """A portrait share turns images on their side (principal point near the portrait centre, the person in
+    view); extra camera ranges take their shares of a batch."""
+    motion = _motion(rng, (60,))
+    near = CameraRanges(height_m=(0.8, 1.5), distance_m=(2.0, 5.0), pitch_deg=(0.0, 15.0), hfov_deg=(50.0, 80.0),
+                        image_size=(1280, 720), portrait_probability=1.0)
+    config = SampleConfig(flip_probability=0.0, cameras=CameraRanges(image_size=(1280, 720)),
+                          extra_cameras=(near,), extra_camera_shares=(0.5,))
+    batch = SampleGenerator(motion, config, NINE, seed=3).batch(400)
+    sizes = batch.cameras.sizes
+    portrait = sizes[:, 1] > sizes[:, 0]
+    assert 0.4 < portrait.mean() < 0.6
+    np.testing.assert_allclose(batch.cameras.height[portrait], np.clip(batch.cameras.height[portrait], 0.8, 1.5))
+    assert np.all(np.abs(batch.cameras.intrinsics[portrait, 2:] - [360, 640]) <= 60)
+    pelvis = batch.pixels[:, 4, 0]
+    assert np.mean(((pelvis >= 0) & (pelvis <= sizes)).all(-1)) > 0.95
+    with pytest.raises(Exception, match="extra_camera_shares"):
+        SampleConfig(extra_cameras=(near,), extra_camera_shares=())
+
+
+def test_a_child_share_shrinks_the_body_and_the_head_less(rng):
+    from ray3d.data.samples import child_factors
+
+    factors = child_factors(2000, rng, SampleConfig(child_probability=0.25, child_scale=(0.6, 0.8)))
+    child = factors[:, 1] < 1
+    assert 0.2 < child.mean() < 0.3 and (factors[~child] == 1).all()
+    head = H36M17.index("head")
+    assert (factors[child, head] > factors[child, 1]).all() and (factors[child, 1] >= 0.6).all()

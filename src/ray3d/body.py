@@ -23,8 +23,16 @@ AXIS_JOINTS = {"ankles": ("l_ankle", "r_ankle"), "pelvis": ("pelvis",), "thorax"
 HEAD_OVER_ANKLE_OF_STATURE = AXIS_HEIGHTS["head"] - AXIS_HEIGHTS["ankles"]
 
 # The lowest ankle joint of a planted foot stands this high above the floor (0.069 m on the training performers,
-# interquartile 0.049-0.109 m).
+# interquartile 0.049-0.109 m; each performer's mocap is grounded to it, ``ray3d.data.motion.ground_performers``).
 PLANTED_ANKLE_HEIGHT_M = 0.07
+# Where a keypoint detector puts joints against the mocap's joint centres, metres in the body frame (outward, forward,
+# up), measured on real-near (OpenPose BODY25 keypoints triangulated from four views, against the training
+# performers at the same stature: docs/RESULTS.md, "Trained for the cameras people use"): the hips 0.065 m higher and
+# 0.007 m wider, the knees 0.03 m and the ankles 0.05 m higher (the ankle keypoint of a planted, shod foot stands
+# 0.12-0.14 m up).
+DETECTOR_JOINT_OFFSETS_M = {"hip": (0.007, 0.0, 0.065), "knee": (0.0, 0.0, 0.03), "ankle": (0.0, 0.0, 0.05)}
+# How high a detector's ankle keypoint of a planted foot stands: the rays a detector gives pass there.
+DETECTOR_PLANTED_ANKLE_HEIGHT_M = PLANTED_ANKLE_HEIGHT_M + DETECTOR_JOINT_OFFSETS_M["ankle"][2]
 
 HEAD, PELVIS = H36M17.index("head"), H36M17.index("pelvis")
 ANKLES = (H36M17.index("l_ankle"), H36M17.index("r_ankle"))

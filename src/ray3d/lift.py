@@ -147,7 +147,7 @@ class Lifter:
         joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress, model_scores)
         if resampled:
             joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
-        config = refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document)
+        config = refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document, skeleton)
         if refine:
             measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement
             joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, measured, inputs),

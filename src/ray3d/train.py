@@ -51,6 +51,9 @@ class TrainConfig:
     data_dir: str | None = None
     datasets: tuple[str, ...] = ("cmu", "hdm05")   # which shipped mocap to train and validate on
     threads: int | None = None
+    # Fine-tuning: the weights a run starts from (a checkpoint of the same model; its optimizer state is not
+    # taken), relative to the working directory.
+    init_from: str | None = None
 
     def __post_init__(self) -> None:
         # JSON gives lists and dicts where the fields hold tuples and dataclasses.
@@ -60,8 +63,9 @@ class TrainConfig:
         if isinstance(self.samples, dict):
             samples = dict(self.samples)
             if isinstance(samples.get("cameras"), dict):
-                samples["cameras"] = CameraRanges(**{k: tuple(v) if isinstance(v, list) else v
-                                                     for k, v in samples["cameras"].items()})
+                samples["cameras"] = camera_ranges(samples["cameras"])
+            samples["extra_cameras"] = tuple(camera_ranges(r) if isinstance(r, dict) else r
+                                             for r in samples.get("extra_cameras", ()))
             self.samples = SampleConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in samples.items()})
         if self.model.output_skeleton.name != "h36m17":
             raise InputError(f"model {self.model.name}: the mocap trains H36M-17 outputs, not "
@@ -88,6 +92,11 @@ class TrainConfig:
 
     def to_dict(self) -> dict[str, Any]:
         return json.loads(json.dumps(dataclasses.asdict(self)))
+
+
+def camera_ranges(document: dict[str, Any]) -> CameraRanges:
+    """Camera ranges from a config's form (lists where the fields hold tuples)."""
+    return CameraRanges(**{k: tuple(v) if isinstance(v, list) else v for k, v in document.items()})
 
 
 def config_document(path: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
@@ -249,6 +258,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
     device = torch.device(f"cuda:{rank % torch.cuda.device_count()}" if torch.cuda.is_available() else "cpu")
     torch.manual_seed(config.seed)
     model = LiftingNetwork(config.model).to(device)
+    if config.init_from:
+        model.load_state_dict(unprefixed(read_checkpoint(config.init_from)[0], MODEL_PREFIX))
     optimizer = make_optimizer(model, config)
     ema = None if not config.ema_decay else torch.optim.swa_utils.AveragedModel(
         model, avg_fn=_warming_ema(config.ema_decay), use_buffers=True)

@@ -2,8 +2,9 @@
 one man balancing, four calibrated views 2.7-4.1 m away, triangulated truth). Each camera alone, as a user would
 run ``ray3d video`` on it: how well the person finder sees the man (frames detected, tracks he became, joints'
 distance from the projected truth, time per frame), and how well he is lifted (Abs-MPJPE over the joints the
-truth measures, the pelvis's error on the floor plan) beside the no-learning guess from the same detections (the
-mid-ankle pixel's ray meeting the floor ``GUESS_ANKLE_HEIGHT_M`` up); then the views that found him fused into one
+truth measures, the pelvis's error on the floor plan, the share of frames whose true pelvis lies within 1 and 2
+stated sds along the camera's ray) beside the no-learning guess from the same detections (the
+mid-ankle pixel's ray meeting the floor: ``ray3d.baselines.floor_guess``); then the views that found him fused into one
 world (``ray3d.fusion``).
 """
 
@@ -15,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ray3d import metrics
+from ray3d.baselines.floor_guess import floor_guess
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
@@ -26,14 +29,12 @@ from ray3d.skeleton import H36M17, convert_keypoints
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")
 CALIBRATION, TRUTH = "calibration_qualisys.toml", "balancing_truth.trc"
-GUESS_ANKLE_HEIGHT_M = 0.08
 # The H36M-17 joints the truth measures, and its marker for each (pelvis: the mid-hips).
 TRUTH_MARKERS = {"r_hip": "RHip", "r_knee": "RKnee", "r_ankle": "RAnkle", "l_hip": "LHip", "l_knee": "LKnee",
                  "l_ankle": "LAnkle", "r_shoulder": "RShoulder", "r_elbow": "RElbow", "r_wrist": "RWrist",
                  "l_shoulder": "LShoulder", "l_elbow": "LElbow", "l_wrist": "LWrist"}
 SCORED = ("pelvis", *TRUTH_MARKERS)
 _SCORED = [H36M17.index(name) for name in SCORED]
-_ANKLES = [H36M17.index("l_ankle"), H36M17.index("r_ankle")]
 
 
 def read_truth(path: str | Path) -> np.ndarray:
@@ -97,10 +98,11 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
     lifted = lifter.lift_tracks({longest: people.tracks[longest]}, camera, people.layout, people.fps,
                                 **LiftOptions().lift_arguments())[longest]
     row.update(_errors(lifted, truth))
+    in_sds = metrics.root_error_in_sds(lifted.joints, truth[lifted.frames], lifted.position_sd, camera)
+    row["within_1sd"], row["within_2sd"] = float(np.mean(in_sds[:, 0] <= 1)), float(np.mean(in_sds[:, 0] <= 2))
     frames_seen, pixels_seen = his[longest]
-    ankles = pixels_seen[:, _ANKLES].mean(axis=1)
-    guess = camera.pixels_to_height_plane(ankles[np.isfinite(ankles).all(-1)], GUESS_ANKLE_HEIGHT_M)
-    true_pelvis = truth[frames_seen[np.isfinite(ankles).all(-1)], 0]
+    guess = floor_guess(pixels_seen, camera)
+    true_pelvis = truth[frames_seen, 0]
     reached = np.isfinite(guess).all(-1)
     row["guess_floor_error_m"] = float(np.median(np.linalg.norm(guess[reached, :2] - true_pelvis[reached, :2],
                                                                 axis=-1))) if reached.any() else None
@@ -141,7 +143,8 @@ def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, .
 
 
 COLUMNS = ("view", "detector", "tracks_on_the_man", "frames_detected", "median_2d_error_px", "ms_per_frame",
-           "abs_mpjpe_mm", "pelvis_floor_error_m", "guess_floor_error_m", "pelvis_over_guess")
+           "abs_mpjpe_mm", "pelvis_floor_error_m", "guess_floor_error_m", "pelvis_over_guess", "within_1sd",
+           "within_2sd")
 
 
 def write(out_dir: str | Path, rows: list[dict]) -> list[Path]:

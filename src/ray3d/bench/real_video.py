@@ -18,7 +18,7 @@ from ray3d import metrics
 from ray3d.body import HEAD_OVER_ANKLE_OF_STATURE
 from ray3d.bench.physical import CHECKS, summarise, track_checks
 from ray3d.data.motion import MotionSet
-from ray3d.data.samples import detector_points
+from ray3d.data.samples import body_frames, detector_offsets, detector_points, offset_joints
 from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
@@ -36,17 +36,24 @@ REFINE = (False, True)
 
 
 def emulated_detections(clip: np.ndarray, camera: Camera, rng: np.random.Generator,
-                        layout: Skeleton = H36M17) -> np.ndarray:
+                        layout: Skeleton = H36M17, offset_scale: float = 0.0) -> np.ndarray:
     """(T, J, 2) pixels of ``layout`` of a (T, 17, 3) H36M-17 clip as a detector would report them (NaN where
-    missed)."""
-    pixels = camera.project(detector_points(clip, layout))
+    missed, and where outside the image). ``offset_scale``: how much of a detector's measured joint offsets from
+    the mocap's joint centres (``ray3d.data.samples.DETECTOR_JOINT_OFFSETS_M``) the detector has."""
+    points = detector_points(clip, layout)
+    if offset_scale:
+        points = offset_joints(points[None], body_frames(clip)[None], offset_scale * detector_offsets(layout)[None],
+                               layout)[0]
+    pixels = camera.project(points)
     height = np.ptp(pixels[..., 1], axis=1)
     noisy = pixels + rng.normal(0.0, 1.0, pixels.shape) * (EMULATED_NOISE[0] + EMULATED_NOISE[1] * height)[:, None, None]
     missed = rng.random(pixels.shape[:2]) < EMULATED_MISSES
     # The pelvis, or the hips it comes from, is kept, so that every frame has a root.
     root = ["pelvis"] if "pelvis" in layout.joint_names else ["l_hip", "r_hip"]
-    missed[:, [layout.index(name) for name in root]] = False
-    return np.where(missed[..., None], np.nan, noisy)
+    outside = ((pixels < 0) | (pixels > np.asarray(camera.image_size) - 1)).any(-1)
+    unseen = missed | outside
+    unseen[:, [layout.index(name) for name in root]] = False
+    return np.where(unseen[..., None], np.nan, noisy)
 
 
 def emulated_layout(lifter: Lifter) -> Skeleton:

@@ -82,6 +82,19 @@ def real_near(args: argparse.Namespace) -> int:
                                      tuple(args.views or VIEWS))))
 
 
+def level(args: argparse.Namespace) -> int:
+    from ray3d.bench.level import run, write
+    from ray3d.data import motion as motion_data
+    from ray3d.lift import Lifter
+
+    if args.clips_per_camera < 1 or args.max_frames < 1:
+        raise InputError("bench level: clips per camera and frames must be at least 1",
+                         arguments=("clips_per_camera", "max_frames"))
+    rows = run(Lifter.load(args.checkpoint), motion_data.load_shipped(args.data_dir, "test"), args.clips_per_camera,
+               args.seed, args.max_frames)
+    return _show(write(args.out, rows))
+
+
 def speed(args: argparse.Namespace) -> int:
     from ray3d.bench.speed import measure_all
     from ray3d.io.atomic import check_output, refuse_existing

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ray3d.body import ANKLES, PLANTED_ANKLE_HEIGHT_M
 from ray3d.errors import InputError
 from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS
@@ -185,7 +186,44 @@ def load_shipped(data_dir: str | Path | None = None, split: str = "all",
     sets = [MotionSet.load(path / f) for f in files if (path / f).is_file()]
     if not sets:
         raise InputError(f"{path}: holds none of {', '.join(files)}")
-    return select_split(MotionSet.concatenate(sets), split)
+    return select_split(ground_performers(MotionSet.concatenate(sets)), split)
+
+
+# A lowest ankle moving slower than this (m/s) is planted; a clip's planted height is this percentile of its
+# planted frames' heights (a climber's or a stair walker's other stances stand higher).
+PLANTED_SPEED_M_S = 0.1
+PLANTED_PERCENTILE = 10.0
+
+
+def planted_ankle_heights(motion: MotionSet) -> dict[str, float]:
+    """Per performer (``orig_subject``): how high the lowest ankle joint stands over the floor when planted,
+    the median over their clips of each clip's ``PLANTED_PERCENTILE`` of planted-frame heights (NaN where no
+    clip has a planted frame). Datasets place the ankle joint differently (HDM05's dg sits 0.16 m up, CMU's 05
+    0.03 m)."""
+    heights: dict[str, list[float]] = {}
+    for i in range(motion.num_clips):
+        ankles = motion.clip(i)[:, list(ANKLES)].astype(np.float64)
+        lower = np.argmin(ankles[1:, :, 2], axis=1)
+        speed = np.linalg.norm(np.diff(ankles, axis=0), axis=-1)[np.arange(len(lower)), lower] * motion.clips["fps"][i]
+        height = ankles[1:, :, 2][np.arange(len(lower)), lower]
+        planted = height[speed < PLANTED_SPEED_M_S]
+        if len(planted):
+            heights.setdefault(str(motion.clips["orig_subject"][i]), []).append(
+                float(np.percentile(planted, PLANTED_PERCENTILE)))
+    return {performer: float(np.median(values)) for performer, values in heights.items()}
+
+
+def ground_performers(motion: MotionSet, planted_height_m: float = PLANTED_ANKLE_HEIGHT_M) -> MotionSet:
+    """``motion`` with each performer raised or lowered so that their planted ankle stands ``planted_height_m``
+    over the floor (``planted_ankle_heights``), the shift added to the clips' ``floor_offset_m``: the floor the
+    network learns and the floor the refinement assumes are then one floor."""
+    shift = planted_ankle_heights(motion)
+    per_clip = np.array([planted_height_m - shift.get(str(s), planted_height_m) for s in motion.clips["orig_subject"]])
+    per_frame = np.repeat(per_clip, motion.clip_lengths()).astype(np.float32)
+    positions = motion.positions.copy()
+    positions[..., 2] += per_frame[:, None]
+    clips = {**motion.clips, "floor_offset_m": (motion.clips["floor_offset_m"] - per_clip).astype(np.float32)}
+    return MotionSet(positions, motion.clip_start, clips)
 
 
 def summary(motion: MotionSet) -> dict:

@@ -11,12 +11,13 @@ import dataclasses
 
 import numpy as np
 
+from ray3d.body import DETECTOR_JOINT_OFFSETS_M
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import CameraRanges, sample_cameras
 from ray3d.errors import InputError
 from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
-from ray3d.skeleton import H36M17, LEG_PARTS, Skeleton, flip, layout_skeleton, mirror_pixels
+from ray3d.skeleton import H36M17, LEG_PARTS, Skeleton, conversion_matrix, flip, layout_skeleton, mirror_pixels
 from ray3d.temporal import Window, window_indices
 
 # Face points detectors measure and the mocap lacks, placed from the upper neck (the mocap's neck/nose joint):
@@ -57,7 +58,29 @@ class SampleConfig:
     # each seen joint moves by this standard deviation in metres, in the body's frame, the same over a window
     # (the targets stay the mocap's joints).
     joint_offset_m: float = 0.0
+    # The measured mean offsets of detectors' joints (``DETECTOR_JOINT_OFFSETS_M``) times a factor drawn per sample
+    # from this range (detectors differ), on top of ``joint_offset_m``.
+    detector_offset_scale: tuple[float, float] = (0.0, 0.0)
+    # The detector layout whose keypoints the model's joints are derived from, as lifting derives them (the
+    # H36M-17 pelvis, thorax, spine, neck and head of COCO keypoints); None: the model's own joints are seen.
+    seen_as: str | None = None
+    # Joints outside their camera's image in the window's target frame are unseen for the whole window (people cut
+    # by the picture's edge), as is, for a share ``occluder_probability`` of samples, everything below an image row
+    # drawn between the hips and the lower ankle (a counter, a desk, somebody in front). Unseen joints take their
+    # parent's place, as lifting puts them (``stand_in_for_unseen``); the hips stay seen.
+    hide_outside_image: bool = False
+    occluder_probability: float = 0.0
+    # A share of samples are children: every bone scaled by a factor from ``child_scale``, the head and neck less.
+    child_probability: float = 0.0
+    child_scale: tuple[float, float] = (0.6, 0.85)
     cameras: CameraRanges = CameraRanges()
+    # More camera ranges, each drawn for a share of the samples (the rest from ``cameras``).
+    extra_cameras: tuple[CameraRanges, ...] = ()
+    extra_camera_shares: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if len(self.extra_cameras) != len(self.extra_camera_shares) or sum(self.extra_camera_shares) > 1:
+            raise InputError("samples: extra_camera_shares needs one share per extra camera range, together at most 1")
 
 
 @dataclasses.dataclass
@@ -148,6 +171,45 @@ def offset_joints(points: np.ndarray, axes: np.ndarray, offsets: np.ndarray, ske
     return points + np.einsum("bfij,bkj->bfki", axes, offsets)
 
 
+def detector_offsets(skeleton: Skeleton) -> np.ndarray:
+    """(J, 3) ``DETECTOR_JOINT_OFFSETS_M`` for the joints of ``skeleton`` in the body frame (x to the person's left,
+    y forward, z up): outward is +x on the left side and -x on the right."""
+    offsets = np.zeros((skeleton.num_joints, 3))
+    for j, name in enumerate(skeleton.joint_names):
+        outward, forward, up = DETECTOR_JOINT_OFFSETS_M.get(name[2:], (0.0, 0.0, 0.0))
+        offsets[j] = (outward if j in skeleton.left else -outward, forward, up)
+    return offsets
+
+
+def stand_in_hidden(points: np.ndarray, hidden: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(B, F, J, D) points with each joint ``hidden`` (B, J) put where its nearest unhidden ancestor is (parents
+    come first), as ``ray3d.keypoint_input.stand_in_for_unseen`` places a joint a detector never saw."""
+    points = points.copy()
+    for joint, parent in enumerate(skeleton.parents):
+        if parent >= 0:
+            points[:, :, joint] = np.where(hidden[:, None, joint, None], points[:, :, parent], points[:, :, joint])
+    return points
+
+
+def hidden_joints(pixels: np.ndarray, sizes: np.ndarray, occluded: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(B, J) joints unseen through a window: those of the (B, J, 2) target-frame ``pixels`` outside the (B, 2)
+    image ``sizes``, and, where (B,) ``occluded`` gives an image row (NaN: none), those below it. Hips stay seen."""
+    outside = ((pixels < 0) | (pixels > sizes[:, None])).any(-1)
+    below = pixels[..., 1] > np.nan_to_num(occluded, nan=np.inf)[:, None]
+    hidden = outside | below
+    hidden[:, [j for j, name in enumerate(skeleton.joint_names) if name in ("l_hip", "r_hip", "pelvis")]] = False
+    return hidden
+
+
+def occluder_rows(pixels: np.ndarray, rng: np.random.Generator, probability: float, skeleton: Skeleton) -> np.ndarray:
+    """(B,) an occluder's top image row for a share ``probability`` of the (B, J, 2) target-frame poses, drawn
+    between the hips' row and the lower ankle's; NaN for the rest."""
+    hips = pixels[:, [skeleton.index("l_hip"), skeleton.index("r_hip")], 1].max(-1)
+    ankles = pixels[:, [skeleton.index("l_ankle"), skeleton.index("r_ankle")], 1].max(-1)
+    rows = hips + rng.uniform(0.1, 0.9, len(pixels)) * (ankles - hips)
+    return np.where(rng.random(len(pixels)) < probability, rows, np.nan)
+
+
 def flip_batch(batch: Batch, mask: np.ndarray, skeleton: Skeleton = H36M17) -> Batch:
     """Mirror the samples where (B,) ``mask`` is True: the scene mirrored in the NCS (rays and targets) and its
     image about the principal point; (height, pitch) are unchanged. ``skeleton``: the seen joints' layout (the
@@ -182,21 +244,38 @@ def observe(windows: np.ndarray, cameras: CameraBatch, window: Window, remove_ro
     if frames != window.frames:
         raise ValueError(f"observe: windows of {frames} frames for a {window.frames}-frame window")
     skeleton = layout_skeleton(layout)
-    seen_points = detector_points(windows, skeleton)
+    seen_skeleton = layout_skeleton(config.seen_as or skeleton)
+    seen_points = detector_points(windows, seen_skeleton)
     joints = skeleton.num_joints
-    if rng is not None and config.joint_offset_m > 0:
-        offsets = rng.normal(0.0, config.joint_offset_m, (count, joints, 3))
-        seen_points = offset_joints(seen_points, body_frames(windows), offsets, skeleton)
+    if rng is not None and (config.joint_offset_m > 0 or config.detector_offset_scale[1] > 0):
+        offsets = rng.normal(0.0, config.joint_offset_m, (count, seen_skeleton.num_joints, 3))
+        offsets += rng.uniform(*config.detector_offset_scale, (count, 1, 1)) * detector_offsets(seen_skeleton)
+        seen_points = offset_joints(seen_points, body_frames(windows), offsets, seen_skeleton)
     R, t = cameras.R[:, None, None], cameras.t[:, None, None]
     intrinsics, dist = cameras.intrinsics[:, None, None], cameras.dist[:, None, None]
     has_distortion = cameras.has_distortion
     points_camera = tf.world_to_camera(seen_points, R, t)
     pixels = tf.camera_to_pixels(points_camera, intrinsics, dist if has_distortion else None)
     rays_camera = points_camera / points_camera[..., 2:3]  # exact, no round trip through the lens
-    visible = np.ones((count, frames, joints), dtype=bool)
+    hidden = np.zeros((count, seen_skeleton.num_joints), dtype=bool)
+    if rng is not None and (config.hide_outside_image or config.occluder_probability > 0):
+        seen = pixels[:, window.target]
+        sizes = cameras.sizes if config.hide_outside_image else np.full((count, 2), np.inf)
+        hidden = hidden_joints(seen, sizes, occluder_rows(seen, rng, config.occluder_probability, seen_skeleton),
+                               seen_skeleton)
+    if seen_skeleton.name != skeleton.name:
+        # The model's joints from the detector's, as lifting converts them: a derived joint is unseen when any
+        # of its sources is. Mean pixels are mean normalised rays for a pinhole (and nearly so through a lens).
+        weights = conversion_matrix(seen_skeleton.name, skeleton.name)
+        pixels = np.einsum("kj,bfjd->bfkd", weights, np.where(hidden[:, None, :, None], 0.0, pixels))
+        rays_camera = np.einsum("kj,bfjd->bfkd", weights, np.where(hidden[:, None, :, None], 0.0, rays_camera))
+        hidden = ((weights != 0)[None] & hidden[:, None]).any(-1)
+    pixels = stand_in_hidden(pixels, hidden, skeleton)
+    rays_camera = stand_in_hidden(rays_camera, hidden, skeleton)
+    visible = np.broadcast_to(~hidden[:, None], (count, frames, joints)).copy()
     confidences = np.ones((count, frames, joints))
     if rng is not None and config.drop_probability > 0:
-        visible = rng.random(visible.shape) >= config.drop_probability
+        visible &= rng.random(visible.shape) >= config.drop_probability
         visible[..., 0] = True  # the root has no parent to collapse onto
         parents = [max(p, 0) for p in skeleton.parents]
         pixels = np.where(visible[..., None], pixels, pixels[..., parents, :])
@@ -241,6 +320,19 @@ def observe(windows: np.ndarray, cameras: CameraBatch, window: Window, remove_ro
         world=windows[:, index].astype(np.float32))
 
 
+# A child's head and neck are a larger share of their body: those bones scale by this power of the body's factor.
+CHILD_HEAD_POWER = 0.4
+_HEAD_BONES = [H36M17.index("neck_nose"), H36M17.index("head")]
+
+
+def child_factors(count: int, rng: np.random.Generator, config: SampleConfig) -> np.ndarray:
+    """(B, 17) bone factors: 1 for adults, for a share ``child_probability`` a child's (``child_scale``)."""
+    scale = np.where(rng.random(count) < config.child_probability, rng.uniform(*config.child_scale, count), 1.0)
+    factors = np.repeat(scale[:, None], H36M17.num_joints, axis=1)
+    factors[:, _HEAD_BONES] = scale[:, None] ** CHILD_HEAD_POWER
+    return factors
+
+
 class SampleGenerator:
     """Random training batches from a motion set: uniform (clip, frame) draws, a random camera per sample,
     bone scaling, flips and detector-like 2D noise, all vectorised."""
@@ -264,10 +356,24 @@ class SampleGenerator:
         factors = rng.uniform(*config.bone_scale, (size, 1)) * np.exp(rng.normal(0, config.bone_jitter,
                                                                                 (size, H36M17.num_joints)))
         factors[:, H36M17.left] = factors[:, list(H36M17.flip_permutation[i] for i in H36M17.left)]
+        if config.child_probability > 0:
+            factors *= child_factors(size, rng, config)
         windows = scale_bones(windows, factors[:, None])
-        cameras = sample_cameras(windows[:, self.window.target, 0], rng, config.cameras)
+        cameras = self.cameras(windows[:, self.window.target, 0])
         batch = observe(windows, cameras, self.window, self.remove_roll, rng, config, self.skeleton)
         return flip_batch(batch, rng.random(size) < config.flip_probability, self.skeleton)
+
+    def cameras(self, targets: np.ndarray) -> CameraBatch:
+        """One random camera per (B, 3) target point, from ``cameras`` or, for their shares, ``extra_cameras``."""
+        config, rng = self.config, self.rng
+        if not config.extra_cameras:
+            return sample_cameras(targets, rng, config.cameras)
+        shares = np.array([1 - sum(config.extra_camera_shares), *config.extra_camera_shares])
+        which = rng.choice(len(shares), len(targets), p=shares / shares.sum())
+        parts = [(np.flatnonzero(which == k), ranges)
+                 for k, ranges in enumerate((config.cameras, *config.extra_cameras))]
+        return CameraBatch.scattered([(index, sample_cameras(targets[index], rng, ranges))
+                                      for index, ranges in parts if len(index)], len(targets))
 
 
 THROUGHPUT_CASES = {

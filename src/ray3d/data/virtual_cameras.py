@@ -43,7 +43,12 @@ LOW_HEIGHTS_M, LOW_PITCHES_DEG, LOW_DISTANCES_M = (0.8, 1.4, 2.0), (-3.0, 2.0, 8
 # person near the camera is in view at all.
 NEAR_HEIGHTS_M, NEAR_DISTANCES_M, NEAR_HFOV_DEG = (0.8, 1.5, 2.2, 3.0), (1.5, 2.5, 4.0, 6.0), 90.0
 MOUNTED_AIM_HEIGHT_M = 1.0  # far and near cameras are aimed at this point above the origin
-SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m", "far-test", "low-test", "near-test")
+# Level: a room, a shop, a clinic, a corridor: 0.9-1.5 m high, looking 0-15 degrees down at people 2.5-6 m away,
+# through a 70-degree lens, in landscape and portrait (people then may be cut by the picture's edge).
+LEVEL_HEIGHTS_M, LEVEL_PITCHES_DEG, LEVEL_DISTANCES_M = (0.9, 1.2, 1.5), (0.0, 7.0, 15.0), (2.5, 4.0, 6.0)
+LEVEL_HFOV_DEG, LEVEL_IMAGE_SIZES = 70.0, ((1280, 720), (720, 1280))
+SET_NAMES = ("train", "extrinsic-test", "intrinsic-test", "scale-test", "h36m", "far-test", "low-test", "near-test",
+             "level-test")
 
 
 def base_intrinsics() -> tuple[float, float, float, float]:
@@ -61,14 +66,15 @@ def orbit_camera(yaw_deg: float, pitch_deg: float, distance_m: float, name: str,
 
 
 def mounted_camera(yaw_deg: float, height_m: float, distance_m: float, pitch_deg: float | None, name: str,
-                   intrinsics: tuple[float, float, float, float] | None = None) -> Camera:
+                   intrinsics: tuple[float, float, float, float] | None = None,
+                   image_size: tuple[int, int] = IMAGE_SIZE) -> Camera:
     """A pinhole camera (the base intrinsics unless given) ``height_m`` above the floor and ``distance_m`` from
     the origin along the floor, facing it at a heading ``yaw_deg``; pitched ``pitch_deg``, or, when None, aimed
     at the point ``MOUNTED_AIM_HEIGHT_M`` above the origin."""
     yaw = np.radians(yaw_deg)
     pitch = np.arctan2(height_m - MOUNTED_AIM_HEIGHT_M, distance_m) if pitch_deg is None else np.radians(pitch_deg)
     centre = centre_looking_at([0.0, 0.0, height_m], yaw, 0.0, distance_m)
-    return Camera.from_pose(centre, yaw, pitch, 0.0, *(intrinsics or base_intrinsics()), IMAGE_SIZE, name=name)
+    return Camera.from_pose(centre, yaw, pitch, 0.0, *(intrinsics or base_intrinsics()), image_size, name=name)
 
 
 def _orbit_name(prefix: str, yaw: float, pitch: float, distance: float) -> str:
@@ -119,6 +125,12 @@ def grid(set_name: str) -> list[Camera]:
         wide = pinhole_intrinsics(IMAGE_SIZE, hfov_deg=NEAR_HFOV_DEG)
         return [mounted_camera(y, h, d, None, f"near:height{h:03.1f}:dist{d:03.1f}:yaw{y:03.0f}", wide)
                 for y in MOUNTED_YAWS_DEG for h in NEAR_HEIGHTS_M for d in NEAR_DISTANCES_M]
+    if set_name == "level-test":
+        return [mounted_camera(y, h, d, p, f"level:height{h:03.1f}:pitch{p:02.0f}:dist{d:03.1f}:yaw{y:03.0f}:"
+                               f"{'portrait' if size[1] > size[0] else 'landscape'}",
+                               pinhole_intrinsics(size, hfov_deg=LEVEL_HFOV_DEG), size)
+                for size in LEVEL_IMAGE_SIZES for y in MOUNTED_YAWS_DEG for h in LEVEL_HEIGHTS_M
+                for p in LEVEL_PITCHES_DEG for d in LEVEL_DISTANCES_M]
     raise InputError(f"unknown camera set {set_name!r}; one of {', '.join(SET_NAMES)}")
 
 
@@ -158,7 +170,9 @@ class CameraRanges:
     the person give or take ``aim_fov_fraction`` of its half field of view, so the person may stand anywhere in
     the image; its pitch stays in ``pitch_deg`` (cameras that could not see the person then are drawn again).
     The lens comes from ``hfov_deg`` when given, else from ``focal_px``; focal length and principal point vary so
-    the model cannot learn one lens.
+    the model cannot learn one lens. A share ``portrait_probability`` of the cameras is turned on its side
+    (``image_size`` swapped: a phone held upright, a corridor camera), the field of view then across the
+    narrower side.
     """
 
     distance_m: tuple[float, float] = (3.5, 14.0)
@@ -174,29 +188,40 @@ class CameraRanges:
     height_m: tuple[float, float] | None = None
     hfov_deg: tuple[float, float] | None = None
     aim_fov_fraction: float = 0.7
+    portrait_probability: float = 0.0
 
 
-def _lenses(count: int, rng: np.random.Generator, ranges: CameraRanges) -> tuple[np.ndarray, np.ndarray]:
-    """(B, 4) intrinsics fx, fy, cx, cy and (B, 5) distortion of random lenses."""
-    width, height = ranges.image_size
+def _image_sizes(count: int, rng: np.random.Generator, ranges: CameraRanges) -> np.ndarray:
+    """(B, 2) (width, height) of each camera's image: ``image_size``, or on its side for a portrait share."""
+    sizes = np.tile(np.asarray(ranges.image_size, dtype=float), (count, 1))
+    if ranges.portrait_probability > 0:
+        portrait = rng.random(count) < ranges.portrait_probability
+        sizes[portrait] = sizes[portrait][:, ::-1]
+    return sizes
+
+
+def _lenses(sizes: np.ndarray, rng: np.random.Generator, ranges: CameraRanges) -> tuple[np.ndarray, np.ndarray]:
+    """(B, 4) intrinsics fx, fy, cx, cy and (B, 5) distortion of random lenses for images of (B, 2) ``sizes``."""
+    count = len(sizes)
+    width, height = sizes.T
     if ranges.hfov_deg is None:
         focal = rng.uniform(*ranges.focal_px, count)
     else:
         focal = width / 2 / np.tan(np.radians(rng.uniform(*ranges.hfov_deg, count)) / 2)
     aspect = 1 + rng.uniform(-ranges.aspect_jitter, ranges.aspect_jitter, count)
-    principal = np.array([width / 2, height / 2]) + rng.uniform(-ranges.principal_offset_px,
+    principal = sizes / 2 + rng.uniform(-ranges.principal_offset_px,
                                                                  ranges.principal_offset_px, (count, 2))
     dist = np.zeros((count, 5))
     dist[:, 0] = rng.uniform(*ranges.distortion_k1, count)
     return np.column_stack([focal, focal * aspect, principal]), dist
 
 
-def _mounted_poses(targets: np.ndarray, intrinsics: np.ndarray, rng: np.random.Generator,
+def _mounted_poses(targets: np.ndarray, intrinsics: np.ndarray, sizes: np.ndarray, rng: np.random.Generator,
                    ranges: CameraRanges) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(centres (B, 3), yaw (B,), pitch (B,)) of cameras mounted at a height and aimed near the target."""
     count = len(targets)
     centre, yaw, pitch = np.empty((count, 3)), np.empty(count), np.empty(count)
-    width, height = ranges.image_size
+    width, height = sizes.T
     todo = np.arange(count)
     low, high = np.radians(ranges.pitch_deg)
     for _ in range(100):
@@ -204,8 +229,8 @@ def _mounted_poses(targets: np.ndarray, intrinsics: np.ndarray, rng: np.random.G
         camera_height = rng.uniform(*ranges.height_m, n)
         distance = np.exp(rng.uniform(*np.log(ranges.distance_m), n))
         bearing = rng.uniform(-np.pi, np.pi, n)  # from the camera towards the person
-        half_width = np.arctan(width / 2 / intrinsics[todo, 0])
-        half_height = np.arctan(height / 2 / intrinsics[todo, 1])
+        half_width = np.arctan(width[todo] / 2 / intrinsics[todo, 0])
+        half_height = np.arctan(height[todo] / 2 / intrinsics[todo, 1])
         fraction = ranges.aim_fov_fraction
         elevation = np.arctan2(camera_height - targets[todo, 2], distance)  # positive: the person is below
         wanted = elevation + rng.uniform(-fraction, fraction, n) * half_height
@@ -223,9 +248,10 @@ def _mounted_poses(targets: np.ndarray, intrinsics: np.ndarray, rng: np.random.G
 def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: CameraRanges = CameraRanges()) -> CameraBatch:
     """One random camera per (B, 3) world target point (e.g. each sample's target-frame pelvis)."""
     count = len(targets)
+    sizes = _image_sizes(count, rng, ranges)
     if ranges.height_m is not None:
-        intrinsics, dist = _lenses(count, rng, ranges)
-        centre, yaw, pitch = _mounted_poses(targets, intrinsics, rng, ranges)
+        intrinsics, dist = _lenses(sizes, rng, ranges)
+        centre, yaw, pitch = _mounted_poses(targets, intrinsics, sizes, rng, ranges)
         roll = np.radians(rng.uniform(-ranges.roll_deg, ranges.roll_deg, count))
     else:
         yaw = rng.uniform(-np.pi, np.pi, count)
@@ -235,7 +261,8 @@ def sample_cameras(targets: np.ndarray, rng: np.random.Generator, ranges: Camera
         aim = targets + rng.normal(0.0, ranges.aim_jitter_m, (count, 3))
         centre = centre_looking_at(aim, yaw, pitch, distance)
         centre[:, 2] = np.maximum(centre[:, 2], ranges.min_height_m)
-        intrinsics, dist = _lenses(count, rng, ranges)
+        intrinsics, dist = _lenses(sizes, rng, ranges)
     R = rotation_from_angles(yaw, pitch, roll)
     t = -(R @ centre[:, :, None])[..., 0]
-    return CameraBatch(R, t, intrinsics, dist, centre[:, 2], pitch, roll, ranges.image_size)
+    return CameraBatch(R, t, intrinsics, dist, centre[:, 2], pitch, roll, ranges.image_size,
+                       None if ranges.portrait_probability == 0 else sizes)

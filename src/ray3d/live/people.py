@@ -72,7 +72,7 @@ class LivePeople:
         self.deadline_s = deadline_frames / fps
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
         self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES)
-        self.config = RefineConfig.for_model(lifter.document)
+        self.config = RefineConfig.for_model(lifter.document, detector.layout)
         self.refine_every = max(1, int(round(refine_every_s * fps)))
         self.window = max(2, int(round(refine_window_s * fps)))
         self._following: dict[int, _Following] = {}

@@ -1,0 +1,164 @@
+"""The refinement's least-squares problem over a track: the factors each frame is moved by along its rays, the
+track's body size, the network's shared error and the contact height, weighed by their uncertainties; solved by
+Gauss-Newton with a robust loss, with its covariance and which cue carried each frame."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import splu
+
+from ray3d.body import body_sizes, lowest_ankles
+from ray3d.geometry import Camera
+from ray3d.geometry.floor import Floor
+from ray3d.refine.config import CUES, EVIDENCE_FPS, PINNED_SD, UNCERTAINTY_SAMPLES, RefineConfig
+
+
+class TrackProblem:
+    """The least-squares problem over x = (log s_1..T, log S, b, f)."""
+
+    def __init__(self, joints: np.ndarray, camera: Camera, fps: float, config: RefineConfig, observed: np.ndarray,
+                 floored: np.ndarray, floor: Floor):
+        self.config, self.count, self.floor = config, len(joints), floor
+        self.centre = camera.center
+        distance = np.linalg.norm(joints[:, 0] - self.centre, axis=-1)
+        self.ankle = lowest_ankles(joints)
+        self.floored = floored
+        # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
+        # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
+        self.per_frame = np.sqrt(EVIDENCE_FPS / fps)
+        count = self.count
+        self.columns = columns = count + 3
+        self.size_column, self.bias_column, self.offset_column = count, count + 1, count + 2
+        blocks, targets, weights = [], [], []
+
+        def add(matrix, target, weight) -> None:
+            blocks.append(sparse.csr_matrix(matrix))
+            targets.append(np.broadcast_to(target, matrix.shape[:1]))
+            weights.append(np.broadcast_to(weight, matrix.shape[:1]))
+
+        frames = sparse.eye(count, columns)
+        add(frames - sparse.csr_matrix((np.ones(count), (np.arange(count), np.full(count, self.bias_column))),
+                                       shape=(count, columns)),
+            0.0, self.per_frame / config.network_frame_sd(distance))
+        if count > 2:  # the distance log(s_t d_t) changes smoothly: its second difference is small
+            second = sparse.csr_matrix(sparse.eye(count - 2, columns) - 2 * sparse.eye(count - 2, columns, 1)
+                      + sparse.eye(count - 2, columns, 2))
+            add(second, -(second[:, :count] @ np.log(distance)), 1 / (config.distance_acceleration_sd * fps ** -1.5))
+        add(sparse.hstack([sparse.eye(count), -np.ones((count, 1)), sparse.csr_matrix((count, 2))]),
+            -np.log(np.maximum(body_sizes(joints), 1e-3)), observed * self.per_frame / config.frame_size_sd)
+
+        def prior(column: int, target: float, sd: float) -> None:
+            add(sparse.csr_matrix(([1.0], ([0], [column])), shape=(1, columns)), target, 1 / sd)
+
+        prior(self.size_column, np.log(config.body_size_m), config.body_size_sd)
+        # The network's shared error and the person's contact height are held at 0 in the solution (weighing each
+        # frame's network depth on its own and the contact height at its prior measured best on the test
+        # performers, docs/RESULTS.md) and released to their spreads for its uncertainty.
+        prior(self.bias_column, 0.0, PINNED_SD)
+        prior(self.offset_column, 0.0, PINNED_SD)
+        self.linear, self.target = sparse.vstack(blocks).tocsr(), np.concatenate(targets)
+        self.weight = np.concatenate(weights)
+        self.released = self.weight.copy()
+        self.released[-2:] = 1 / np.array([float(config.network_bias_sd(np.median(distance))),
+                                           config.floor_offset_sd_m])
+        rows = np.flatnonzero(self.floored)
+        self.robust = np.ones(len(self.target) + len(rows), dtype=bool)
+        self.robust[len(self.target) - 3:len(self.target)] = False
+        self.floor_scale_rows = sparse.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)),
+                                                  shape=(len(rows), columns))
+        self.floor_offset_rows = sparse.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)),
+                                                    np.full(len(rows), self.offset_column))), shape=(len(rows), columns))
+
+    def _feet(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The floored frames' factors, lowest ankles moved by them, and the floor's height and gradient there."""
+        scale = np.exp(x[:self.count][self.floored])
+        feet = self.centre + scale[:, None] * (self.ankle[self.floored] - self.centre)
+        height, gradient = self.floor.under_foot(feet[:, :2])
+        return scale, feet, height, gradient
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        config = self.config
+        _, feet, height, _ = self._feet(x)
+        above = feet[:, 2] - height - config.contact_ankle_height_m - x[self.offset_column]
+        return np.concatenate([self.weight * (self.linear @ x - self.target),
+                               above * self.per_frame / config.ankle_height_sd_m])
+
+    def jacobian(self, x: np.ndarray) -> sparse.csr_matrix:
+        scale, _, _, gradient = self._feet(x)
+        offset = self.ankle[self.floored] - self.centre
+        slope = scale * (offset[:, 2] - np.einsum("ti,ti->t", gradient, offset[:, :2]))
+        weight = self.per_frame / self.config.ankle_height_sd_m
+        return sparse.vstack([sparse.diags(self.weight) @ self.linear,
+                              sparse.diags(slope * weight) @ self.floor_scale_rows - weight * self.floor_offset_rows])
+
+    def cost(self, x: np.ndarray) -> float:
+        """Robust (soft L1) for the frames' terms: quadratic within ``robust_scale`` standard deviations, linear
+        beyond; squares for the priors of the track's size, network error and contact height, which would
+        otherwise run away together."""
+        scaled = (self.residuals(x) / self.config.robust_scale) ** 2
+        return float(np.sum(np.where(self.robust, 2 * (np.sqrt(1 + scaled) - 1), scaled)))
+
+    def _robust_weight(self, residuals: np.ndarray) -> np.ndarray:
+        return np.where(self.robust, 1 / np.sqrt(1 + (residuals / self.config.robust_scale) ** 2), 1.0)
+
+    def solve(self, start: np.ndarray, iterations: int = 50, tolerance: float = 1e-10) -> np.ndarray:
+        """Gauss-Newton with iteratively reweighted least squares for the robust loss; each step is one sparse
+        solve of the (banded) normal equations, so long tracks cost little."""
+        x, cost = start.copy(), self.cost(start)
+        for _ in range(iterations):
+            residuals, jacobian = self.residuals(x), self.jacobian(x)
+            weight = self._robust_weight(residuals)
+            normal = (jacobian.T @ sparse.diags(weight) @ jacobian).tocsc()
+            step = splu(normal + sparse.eye(len(x), format="csc") * 1e-12).solve(-(jacobian.T @ (weight * residuals)))
+            for _ in range(20):  # halve a step that does not lower the cost
+                trial = self.cost(x + step)
+                if trial <= cost:
+                    break
+                step = step / 2
+            else:
+                return x
+            x, cost = x + step, trial
+            if np.abs(step).max() < tolerance:
+                break
+        return x
+
+    def cue_shares(self, x: np.ndarray) -> np.ndarray:
+        """(T, 3) each frame's information on its distance (log s_t) from the network, the floor and the body's
+        size (``CUES``), robustly weighted at ``x``, as shares: which cues carried the frame's position. The
+        network's and the size's are counted with what a track shares (the network's error, the person's size
+        against the prior), which many frames do not average away."""
+        config, count = self.config, self.count
+        weight = self._robust_weight(self.residuals(x))
+        rows = len(self.target)
+        network, size = slice(0, count), slice(rows - 3 - count, rows - 3)
+        shared_bias = 1 / self.released[-2]
+        information = np.zeros((count, len(CUES)))
+        information[:, 0] = weight[network] / (self.weight[network] ** -2 + shared_bias ** 2)
+        floor = self.jacobian(x)[rows:, :count]
+        information[self.floored, 1] = weight[rows:] * np.asarray(floor.multiply(floor).sum(axis=1)).ravel()
+        with np.errstate(divide="ignore"):
+            information[:, 2] = weight[size] / (self.weight[size] ** -2 + config.body_size_sd ** 2)
+        return information / np.maximum(information.sum(axis=1, keepdims=True), 1e-300)
+
+    def standard_deviations(self, x: np.ndarray) -> tuple[np.ndarray, float]:
+        """(T,) standard deviations of log s at every frame (evaluated at up to ``UNCERTAINTY_SAMPLES`` frames
+        and interpolated between them) and that of log S, from the robustly weighted Gauss-Newton information,
+        widened by how badly the feet fit the floor: the floor rows' mean squared residual in their standard
+        deviations, where it exceeds 1 (lying, jumping, steps the floor does not know)."""
+        residuals = self.residuals(x)
+        weight = self._robust_weight(residuals)
+        floor = residuals[len(self.target):] / self.per_frame
+        misfit = np.sqrt(max(1.0, float(np.mean(floor ** 2)))) if len(floor) else 1.0
+        pinned, self.weight = self.weight, self.released
+        jacobian = self.jacobian(x)
+        self.weight = pinned
+        information = (jacobian.T @ sparse.diags(weight) @ jacobian).tocsc() + sparse.eye(self.columns) * 1e-12
+        lu = splu(information)
+        frames = np.unique(np.linspace(0, self.count - 1, min(UNCERTAINTY_SAMPLES, self.count)).astype(int))
+        wanted = np.append(frames, self.size_column)
+        unit = np.zeros((self.columns, len(wanted)))
+        unit[wanted, np.arange(len(wanted))] = 1.0
+        variance = np.maximum(lu.solve(unit)[wanted, np.arange(len(wanted))], 0.0)
+        sd = misfit * np.sqrt(variance)
+        return np.interp(np.arange(self.count), frames, sd[:-1]), float(sd[-1])
