@@ -147,30 +147,43 @@ def test_stature_reads_the_head_over_the_lower_ankle_as_a_share_of_height():
 
 def test_the_floor_cue_is_not_used_where_the_feet_are_not_seen():
     """A network's depth 10 % too far, 7 m from the camera (within what the floor test allows there): with the
-    feet seen, the floor pulls the person back onto it; with the legs hidden (or out of the image) nothing says
-    where the floor is, and the network's depth stands."""
+    feet seen, the floor pulls the person back onto it; with the legs hidden (or out of the image) the floor is
+    not used, and the upright head's ray, at the height a head of the person's size stands, pulls them back
+    instead; with the head unseen as well only the network and the size are left, and the network's depth stands."""
     camera, truth = _camera(height=4.0, pitch=30.0, distance=6.0), _consistent_person(still=True)
     too_far = scale_about(truth, camera.center, np.full(len(truth), 1.1))
-    _, seen = refine_track(too_far, camera, 60.0)
-    _, hidden = refine_track(too_far, camera, 60.0, feet_seen=np.zeros(len(truth), bool))
+    rays = _rays(camera, truth)
+    _, seen = refine_track(too_far, camera, 60.0, rays)
+    _, hidden = refine_track(too_far, camera, 60.0, rays, feet_seen=np.zeros(len(truth), bool))
+    headless = rays.copy()
+    headless[:, H36M17.index("head")] = np.nan
+    _, neither = refine_track(too_far, camera, 60.0, headless, feet_seen=np.zeros(len(truth), bool))
     assert seen.floor_cue.all() and seen.contact.mean() > 0.9 and abs(np.median(seen.scale) - 1 / 1.1) < 0.03
-    assert not hidden.floor_cue.any() and not hidden.contact.any() and abs(np.median(hidden.scale) - 1) < 0.03
+    assert not hidden.floor_cue.any() and not hidden.contact.any() and abs(np.median(hidden.scale) - 1 / 1.1) < 0.03
+    assert not neither.floor_cue.any() and abs(np.median(neither.scale) - 1) < 0.03
 
 
 def test_the_cues_that_carried_each_frame_are_reported():
-    """Feet seen from a camera looking down: the floor carries the distance; legs hidden: the network (and the
-    size) do; the shares of every frame sum to one and the world file's record names a cue per frame."""
+    """Feet seen from a camera looking down: the floor carries the distance; legs hidden: the upright head; legs
+    and head hidden: the network; the shares of every frame sum to one and the world file's record names a cue
+    per frame."""
     from ray3d.refine import CUES
 
     camera, truth = _camera(height=4.0, pitch=30.0, distance=6.0), _consistent_person(still=True)
     too_far = scale_about(truth, camera.center, np.full(len(truth), 1.1))
-    _, seen = refine_track(too_far, camera, 60.0)
-    _, hidden = refine_track(too_far, camera, 60.0, feet_seen=np.zeros(len(truth), bool))
-    for found in (seen, hidden):
+    rays, legless = _rays(camera, truth), np.zeros(len(truth), bool)
+    headless = rays.copy()
+    headless[:, H36M17.index("head")] = np.nan
+    _, seen = refine_track(too_far, camera, 60.0, rays)
+    _, hidden = refine_track(too_far, camera, 60.0, rays, feet_seen=legless)
+    _, neither = refine_track(too_far, camera, 60.0, headless, feet_seen=legless)
+    for found in (seen, hidden, neither):
         np.testing.assert_allclose(found.cue_shares.sum(axis=1), 1.0)
     assert (seen.cue_shares.argmax(axis=1) == CUES.index("floor")).all()
     assert hidden.cue_shares[:, CUES.index("floor")].max() == 0.0
-    assert (hidden.cue_shares.argmax(axis=1) == CUES.index("network")).all()
+    assert (hidden.cue_shares.argmax(axis=1) == CUES.index("head")).all()
+    assert neither.cue_shares[:, [CUES.index("floor"), CUES.index("head")]].max() == 0.0
+    assert (neither.cue_shares.argmax(axis=1) == CUES.index("network")).all()
     record = seen.summary()
     assert record["frames"]["cue"] == ["floor"] * len(truth) and record["cue_shares"]["floor"] > 0.5
 
@@ -202,3 +215,15 @@ def test_a_detectors_ankle_stands_higher_than_the_mocaps():
     assert RefineConfig.for_model({}, "h36m17").contact_ankle_height_m == body.PLANTED_ANKLE_HEIGHT_M
     assert body.DETECTOR_PLANTED_ANKLE_HEIGHT_M > body.PLANTED_ANKLE_HEIGHT_M
     assert RefineConfig.for_model({}, "coco17", contact_ankle_height_m=0.1).contact_ankle_height_m == 0.1
+
+
+def test_frames_the_network_put_at_the_camera_follow_their_neighbours():
+    """A network that put the person at the camera in a few frames (seen on level-test) breaks nothing: those
+    frames take the track's distances and the answer stays where the other frames put it."""
+    camera, truth = _camera(), _consistent_person(40)
+    broken = truth.copy()
+    broken[10:13] = camera.center
+    refined, found = refine_track(broken, camera, 30.0, _rays(camera, truth), config=EXACT_2D)
+    assert np.isfinite(refined).all() and metrics.mrpe(refined, truth) < 0.1
+    with pytest.raises(InputError, match="at the camera in every frame"):
+        refine_track(np.broadcast_to(camera.center, truth.shape).copy(), camera, 30.0, _rays(camera, truth))

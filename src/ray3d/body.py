@@ -43,6 +43,8 @@ TRUNK_CHAIN = ("thorax", "spine", "pelvis")
 LEGS = (("l_hip", "l_knee", "l_ankle"), ("r_hip", "r_knee", "r_ankle"))
 ADULT_BODY_SIZE_M = 1.36
 ADULT_BODY_SIZE_SD = 0.12    # relative
+# An upright person's head joint stands this many times their size chain over the floor.
+HEAD_HEIGHT_OF_BODY_SIZE = AXIS_HEIGHTS["head"] * ADULT_STATURE_M / ADULT_BODY_SIZE_M
 
 
 def body_sizes(joints: np.ndarray) -> np.ndarray:

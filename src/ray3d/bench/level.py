@@ -68,6 +68,8 @@ def run(lifter: Lifter, motion: MotionSet, clips_per_camera: int = 1, seed: int 
                             f"{name}_abs_mpjpe_mm": 1e3 * float(metrics.abs_mpjpe(result.joints, clip)),
                             f"{name}_floor_error_m": float(np.median(floor_errors(result.joints[:, 0], clip))),
                             f"{name}_distance_error": float(np.median(np.log(predicted / true))),
+                            f"{name}_distance_error_frame_sd": float(np.std(np.log(predicted / true))),
+                            f"{name}_predicted_distance_m": float(np.median(predicted)),
                             f"{name}_within_1sd": float(np.mean(in_sds[:, 0] <= 1)),
                             f"{name}_within_2sd": float(np.mean(in_sds[:, 0] <= 2))})
                 if refine and result.refinement:

@@ -18,7 +18,7 @@ PINNED_SD = 1e-6  # the prior of a term held at its value
 ROOT_KEYPOINT_SHARE = 0.35
 UNCERTAINTY_FIELDS = ("depth_sd", "depth_bias_sd", "floor_offset_sd_m", "residual_distance_sd")  # what a model measures of itself
 # The cues a frame's distance is read from, in the order of ``Refinement.cue_shares``.
-CUES = ("network", "floor", "size")
+CUES = ("network", "floor", "head", "size")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,6 +33,10 @@ class RefineConfig:
 
     contact_ankle_height_m: float = body.PLANTED_ANKLE_HEIGHT_M
     ankle_height_sd_m: float = 0.05          # contact-height spread plus the network's ankle error, per frame
+    # An upright head's height over the floor against the track's size: the head's bob and lean and the network's
+    # head error, per frame; and one person's head-to-size ratio against the prior's, per track (3 % of 1.6 m).
+    head_height_sd_m: float = 0.05
+    head_offset_sd_m: float = 0.05
     # One person's planted-ankle height against the prior (the floor test), and where their pelvis rests over
     # the floor against the network's pose on the prior (that and the pose's error; the uncertainty), per track.
     contact_height_sd_m: float = 0.02
@@ -97,7 +101,7 @@ class Refinement:
     floor_height_m: np.ndarray  # (T,) the floor under the feet: the known floor where the floor term was
                                 # used, else the network's estimate of where the feet rest (NaN: feet unseen)
     position_sd_m: np.ndarray  # (T, 2) the root's standard deviation along its ray and across it (per axis)
-    cue_shares: np.ndarray     # (T, 3) how much of each frame's distance each of ``CUES`` gave (rows sum to 1)
+    cue_shares: np.ndarray     # (T, 4) how much of each frame's distance each of ``CUES`` gave (rows sum to 1)
     body_size_m: float         # the track's size chain
     stature_m: float           # the person's estimated stature (``ray3d.body.stature`` of the upright frames)
     stature_sd_m: float

@@ -1,6 +1,10 @@
 """The refinement's least-squares problem over a track: the factors each frame is moved by along its rays, the
 track's body size, the network's shared error and the contact height, weighed by their uncertainties; solved by
-Gauss-Newton with a robust loss, with its covariance and which cue carried each frame."""
+Gauss-Newton with a robust loss, with its covariance and which cue carried each frame.
+
+Two cues need no learning: the lowest ankle's ray meeting the floor (where the floor test holds), and, in upright
+frames whose feet give no floor cue (hidden by a counter, below the picture), the head's ray meeting the height an
+upright head of the track's size stands at (``body.HEAD_HEIGHT_OF_BODY_SIZE``)."""
 
 from __future__ import annotations
 
@@ -8,28 +12,32 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.linalg import splu
 
-from ray3d.body import body_sizes, lowest_ankles
+from ray3d.body import HEAD, HEAD_HEIGHT_OF_BODY_SIZE, body_sizes, lowest_ankles
 from ray3d.geometry import Camera
 from ray3d.geometry.floor import Floor
 from ray3d.refine.config import CUES, EVIDENCE_FPS, PINNED_SD, UNCERTAINTY_SAMPLES, RefineConfig
 
 
+PRIORS = 4  # the rows of the track's terms' priors, last of the linear rows: size, network error, contact, head
+
+
 class TrackProblem:
-    """The least-squares problem over x = (log s_1..T, log S, b, f)."""
+    """The least-squares problem over x = (log s_1..T, log S, b, f, h): the frames' factors, the track's size,
+    the network's shared error, the person's contact height and their upright head's height against the prior's."""
 
     def __init__(self, joints: np.ndarray, camera: Camera, fps: float, config: RefineConfig, observed: np.ndarray,
-                 floored: np.ndarray, floor: Floor):
+                 floored: np.ndarray, floor: Floor, headed: np.ndarray):
         self.config, self.count, self.floor = config, len(joints), floor
         self.centre = camera.center
         distance = np.linalg.norm(joints[:, 0] - self.centre, axis=-1)
-        self.ankle = lowest_ankles(joints)
-        self.floored = floored
+        self.ankle, self.head = lowest_ankles(joints), joints[:, HEAD]
+        self.floored, self.headed = floored, headed
         # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
         # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
         self.per_frame = np.sqrt(EVIDENCE_FPS / fps)
         count = self.count
-        self.columns = columns = count + 3
-        self.size_column, self.bias_column, self.offset_column = count, count + 1, count + 2
+        self.columns = columns = count + 4
+        self.size_column, self.bias_column, self.offset_column, self.head_column = range(count, count + 4)
         blocks, targets, weights = [], [], []
 
         def add(matrix, target, weight) -> None:
@@ -45,7 +53,7 @@ class TrackProblem:
             second = sparse.csr_matrix(sparse.eye(count - 2, columns) - 2 * sparse.eye(count - 2, columns, 1)
                       + sparse.eye(count - 2, columns, 2))
             add(second, -(second[:, :count] @ np.log(distance)), 1 / (config.distance_acceleration_sd * fps ** -1.5))
-        add(sparse.hstack([sparse.eye(count), -np.ones((count, 1)), sparse.csr_matrix((count, 2))]),
+        add(sparse.hstack([sparse.eye(count), -np.ones((count, 1)), sparse.csr_matrix((count, PRIORS - 1))]),
             -np.log(np.maximum(body_sizes(joints), 1e-3)), observed * self.per_frame / config.frame_size_sd)
 
         def prior(column: int, target: float, sd: float) -> None:
@@ -57,18 +65,25 @@ class TrackProblem:
         # performers, docs/RESULTS.md) and released to their spreads for its uncertainty.
         prior(self.bias_column, 0.0, PINNED_SD)
         prior(self.offset_column, 0.0, PINNED_SD)
+        prior(self.head_column, 0.0, PINNED_SD)
         self.linear, self.target = sparse.vstack(blocks).tocsr(), np.concatenate(targets)
         self.weight = np.concatenate(weights)
         self.released = self.weight.copy()
-        self.released[-2:] = 1 / np.array([float(config.network_bias_sd(np.median(distance))),
-                                           config.floor_offset_sd_m])
-        rows = np.flatnonzero(self.floored)
-        self.robust = np.ones(len(self.target) + len(rows), dtype=bool)
-        self.robust[len(self.target) - 3:len(self.target)] = False
-        self.floor_scale_rows = sparse.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)),
-                                                  shape=(len(rows), columns))
-        self.floor_offset_rows = sparse.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)),
-                                                    np.full(len(rows), self.offset_column))), shape=(len(rows), columns))
+        self.bias_sd = float(config.network_bias_sd(np.median(distance)))
+        self.released[-3:] = 1 / np.array([self.bias_sd, config.floor_offset_sd_m, config.head_offset_sd_m])
+        self.robust = np.ones(len(self.target) + floored.sum() + headed.sum(), dtype=bool)
+        self.robust[len(self.target) - PRIORS:len(self.target)] = False
+
+        def picks(frames: np.ndarray, column: np.ndarray | int) -> sparse.csr_matrix:
+            """One row per frame of ``frames``, a 1 in ``column`` (a frame's own, or one column for all)."""
+            return sparse.csr_matrix((np.ones(len(frames)), (np.arange(len(frames)),
+                                      np.broadcast_to(column, len(frames)))), shape=(len(frames), columns))
+
+        self.floor_scale_rows = picks(np.flatnonzero(floored), np.flatnonzero(floored))
+        self.floor_offset_rows = picks(np.flatnonzero(floored), self.offset_column)
+        self.head_scale_rows = picks(np.flatnonzero(headed), np.flatnonzero(headed))
+        self.head_size_rows = picks(np.flatnonzero(headed), self.size_column)
+        self.head_offset_rows = picks(np.flatnonzero(headed), self.head_column)
 
     def _feet(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The floored frames' factors, lowest ankles moved by them, and the floor's height and gradient there."""
@@ -77,20 +92,41 @@ class TrackProblem:
         height, gradient = self.floor.under_foot(feet[:, :2])
         return scale, feet, height, gradient
 
+    def _heads(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The headed frames' factors, heads moved by them, and the floor's height and gradient under them."""
+        scale = np.exp(x[:self.count][self.headed])
+        heads = self.centre + scale[:, None] * (self.head[self.headed] - self.centre)
+        height, gradient = self.floor.under_foot(heads[:, :2])
+        return scale, heads, height, gradient
+
     def residuals(self, x: np.ndarray) -> np.ndarray:
         config = self.config
         _, feet, height, _ = self._feet(x)
         above = feet[:, 2] - height - config.contact_ankle_height_m - x[self.offset_column]
+        _, heads, under_heads, _ = self._heads(x)
+        head_height = (heads[:, 2] - under_heads - HEAD_HEIGHT_OF_BODY_SIZE * np.exp(x[self.size_column])
+                       - x[self.head_column])
         return np.concatenate([self.weight * (self.linear @ x - self.target),
-                               above * self.per_frame / config.ankle_height_sd_m])
+                               above * self.per_frame / config.ankle_height_sd_m,
+                               head_height * self.per_frame / config.head_height_sd_m])
 
     def jacobian(self, x: np.ndarray) -> sparse.csr_matrix:
+        def slopes(scale: np.ndarray, points: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+            """d(height over the floor) / d(log s) of points moved along their rays from the camera."""
+            offset = points - self.centre
+            return scale * (offset[:, 2] - np.einsum("ti,ti->t", gradient, offset[:, :2]))
+
         scale, _, _, gradient = self._feet(x)
-        offset = self.ankle[self.floored] - self.centre
-        slope = scale * (offset[:, 2] - np.einsum("ti,ti->t", gradient, offset[:, :2]))
+        slope = slopes(scale, self.ankle[self.floored], gradient)
         weight = self.per_frame / self.config.ankle_height_sd_m
+        head_scale, _, _, head_gradient = self._heads(x)
+        head_slope = slopes(head_scale, self.head[self.headed], head_gradient)
+        head_weight = self.per_frame / self.config.head_height_sd_m
+        size = HEAD_HEIGHT_OF_BODY_SIZE * np.exp(x[self.size_column])
         return sparse.vstack([sparse.diags(self.weight) @ self.linear,
-                              sparse.diags(slope * weight) @ self.floor_scale_rows - weight * self.floor_offset_rows])
+                              sparse.diags(slope * weight) @ self.floor_scale_rows - weight * self.floor_offset_rows,
+                              sparse.diags(head_slope * head_weight) @ self.head_scale_rows
+                              - head_weight * size * self.head_size_rows - head_weight * self.head_offset_rows])
 
     def cost(self, x: np.ndarray) -> float:
         """Robust (soft L1) for the frames' terms: quadratic within ``robust_scale`` standard deviations, linear
@@ -124,21 +160,24 @@ class TrackProblem:
         return x
 
     def cue_shares(self, x: np.ndarray) -> np.ndarray:
-        """(T, 3) each frame's information on its distance (log s_t) from the network, the floor and the body's
-        size (``CUES``), robustly weighted at ``x``, as shares: which cues carried the frame's position. The
+        """(T, 4) each frame's information on its distance (log s_t) from the network, the floor, the head's
+        height and the body's size (``CUES``), robustly weighted at ``x``, as shares: which cues carried the frame's position. The
         network's and the size's are counted with what a track shares (the network's error, the person's size
         against the prior), which many frames do not average away."""
         config, count = self.config, self.count
         weight = self._robust_weight(self.residuals(x))
         rows = len(self.target)
-        network, size = slice(0, count), slice(rows - 3 - count, rows - 3)
-        shared_bias = 1 / self.released[-2]
+        network, size = slice(0, count), slice(rows - PRIORS - count, rows - PRIORS)
+        floors = slice(rows, rows + self.floored.sum())
+        heads = slice(floors.stop, None)
         information = np.zeros((count, len(CUES)))
-        information[:, 0] = weight[network] / (self.weight[network] ** -2 + shared_bias ** 2)
-        floor = self.jacobian(x)[rows:, :count]
-        information[self.floored, 1] = weight[rows:] * np.asarray(floor.multiply(floor).sum(axis=1)).ravel()
+        information[:, CUES.index("network")] = weight[network] / (self.weight[network] ** -2 + self.bias_sd ** 2)
+        frames = self.jacobian(x)[:, :count]
+        squares = np.asarray(frames.multiply(frames).sum(axis=1)).ravel()
+        information[self.floored, CUES.index("floor")] = weight[floors] * squares[floors]
+        information[self.headed, CUES.index("head")] = weight[heads] * squares[heads]
         with np.errstate(divide="ignore"):
-            information[:, 2] = weight[size] / (self.weight[size] ** -2 + config.body_size_sd ** 2)
+            information[:, CUES.index("size")] = weight[size] / (self.weight[size] ** -2 + config.body_size_sd ** 2)
         return information / np.maximum(information.sum(axis=1, keepdims=True), 1e-300)
 
     def standard_deviations(self, x: np.ndarray) -> tuple[np.ndarray, float]:
@@ -148,7 +187,7 @@ class TrackProblem:
         deviations, where it exceeds 1 (lying, jumping, steps the floor does not know)."""
         residuals = self.residuals(x)
         weight = self._robust_weight(residuals)
-        floor = residuals[len(self.target):] / self.per_frame
+        floor = residuals[len(self.target):len(self.target) + self.floored.sum()] / self.per_frame
         misfit = np.sqrt(max(1.0, float(np.mean(floor ** 2)))) if len(floor) else 1.0
         pinned, self.weight = self.weight, self.released
         jacobian = self.jacobian(x)

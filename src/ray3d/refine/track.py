@@ -15,6 +15,8 @@ from ray3d.refine.contact import floor_agreement
 from ray3d.refine.problem import TrackProblem
 from ray3d.skeleton import H36M17, Skeleton
 
+NEAREST_M = 0.2  # a root nearer the camera than this is the network failing, not a person
+
 
 def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(T, 17, 3) world directions of the H36M-17 joints' observed rays: the ray of the (T, J, 2) pixel of the
@@ -66,7 +68,8 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     ray (module docstring). Without them every joint moves along the line from the camera through where the
     network put it. ``observed``: (T,) False for frames filled in across a detector's gap, which then follow
     their neighbours. ``feet_seen``: (T,) False for frames whose ankles the detector did not see (legs hidden or
-    out of the image), where the feet-on-the-floor cue is not used. ``floor``: the floor under the feet (z = 0
+    out of the image), where the feet-on-the-floor cue is not used and, if the person is upright and the head
+    seen, the head's height cue is. ``floor``: the floor under the feet (z = 0
     unless regions are declared).
     """
     joints = np.asarray(joints, dtype=np.float64)
@@ -86,11 +89,21 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
         rays = np.where(measured[..., None], rays, joints - centre)
         rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
         along = np.einsum("tjk,tjk->tj", joints - centre, rays)
+        # A network that put a person at (or behind) the camera says nothing of where they are: such frames take
+        # the track's typical distances and follow their neighbours.
+        degenerate = along[:, 0] < NEAREST_M
+        if degenerate.all():
+            raise InputError("refine: the network put the person at the camera in every frame")
+        along[degenerate] = np.median(along[~degenerate], axis=0)
+        observed = observed & ~degenerate
         joints = centre + along[..., None] * rays
     feet_seen = np.ones(count, dtype=bool) if feet_seen is None else np.asarray(feet_seen, dtype=bool)
     floored, resting = floor_agreement(joints, camera, fps, observed & feet_seen, config, floor)
-    start = np.concatenate([np.zeros(count), [np.log(np.median(body_sizes(joints))), 0.0, 0.0]])
-    problem = TrackProblem(joints, camera, fps, config, observed, floored, floor)
+    head_seen = observed if rays is None else observed & measured[:, body.HEAD]
+    upright = body.postures(joints, floor.height(lowest_ankles(joints)[:, :2])) == body.POSTURES.index("upright")
+    headed = head_seen & upright & ~feet_seen
+    start = np.concatenate([np.zeros(count), [np.log(np.median(body_sizes(joints))), 0.0, 0.0, 0.0]])
+    problem = TrackProblem(joints, camera, fps, config, observed, floored, floor, headed)
     x = problem.solve(start)
     scale, body_size = np.exp(x[:count]), float(np.exp(x[problem.size_column]))
     if rays is None:
