@@ -154,3 +154,15 @@ def test_a_manifest_row_may_ask_for_a_reduced_precision(tmp_path):
     bad = _manifest(tmp_path / "bad.csv", [{"input": "take0.npz", "camera": CAMERA, "precision": "fp16"}])
     with pytest.raises(InputError, match="precision"):
         read_manifest(bad)
+
+
+def test_a_manifest_row_takes_every_format_a_world_is_written_in(tmp_path):
+    """One list of world formats: what ``ray3d video --format`` offers, a manifest accepts (the batch copy once
+    lacked .bvh)."""
+    from ray3d.io.world import WRITTEN_FORMATS
+
+    _keypoint_files(tmp_path, 1)
+    rows = [{"input": "take0.npz", "camera": CAMERA, "name": f"as{suffix}", "format": suffix}
+            for suffix in WRITTEN_FORMATS]
+    assert ".bvh" in WRITTEN_FORMATS
+    assert [e.options["format"] for e in read_manifest(_manifest(tmp_path / "m.csv", rows))] == list(WRITTEN_FORMATS)

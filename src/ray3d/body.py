@@ -66,10 +66,12 @@ def head_over_ankle(joints: np.ndarray) -> np.ndarray:
     return joints[..., HEAD, 2] - lowest_ankle_height(joints)
 
 
-def stature(joints: np.ndarray, upright: np.ndarray | None = None) -> float:
+def stature(joints: np.ndarray, upright: np.ndarray | None = None, ankle_raised_m: float = 0.0) -> float:
     """(T, 17, 3) H36M-17 world joints of one person -> their stature in metres: the median head-over-ankle
-    height of the ``upright`` frames (default: all) over ``HEAD_OVER_ANKLE_OF_STATURE``; NaN without frames."""
-    heights = head_over_ankle(np.asarray(joints, dtype=np.float64))
+    height of the ``upright`` frames (default: all) over ``HEAD_OVER_ANKLE_OF_STATURE``; NaN without frames.
+    ``ankle_raised_m``: how much higher than the mocap's ankle joint the joints' ankles stand (a detector's
+    ankle keypoint: ``DETECTOR_JOINT_OFFSETS_M``)."""
+    heights = head_over_ankle(np.asarray(joints, dtype=np.float64)) + ankle_raised_m
     heights = heights if upright is None else heights[np.asarray(upright, dtype=bool)]
     return float(np.median(heights) / HEAD_OVER_ANKLE_OF_STATURE) if len(heights) else float("nan")
 

@@ -28,12 +28,12 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.io.camera_files import camera_from_options, floor_of_camera_file
 from ray3d.io.text_files import read_csv_rows, read_json
+from ray3d.io.world import WRITTEN_FORMATS
 from ray3d.models.precision import PRECISIONS
 from ray3d.options import LiftOptions, VideoOptions
 from ray3d.temporal import SMOOTHING_METHODS
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")
-WORLD_FORMATS = (".json", ".csv", ".npz", ".trc")
 SMOOTHERS = (*SMOOTHING_METHODS, "none")
 
 
@@ -84,7 +84,7 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "checkpoint": (_text, _BOTH), "precision": (_choice(PRECISIONS), _BOTH),
     "smooth_2d": (_choice(SMOOTHING_METHODS), _BOTH),
     "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
-    "refine": (_flag, _BOTH), "format": (_choice(WORLD_FORMATS), _BOTH),
+    "refine": (_flag, _BOTH), "format": (_choice(WRITTEN_FORMATS), _BOTH),
     "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)),
     "detector": (_text, ("video",)), "start": (_count, ("video",)), "frames": (_count, ("video",)),
     "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)),

@@ -64,6 +64,8 @@ def run(lifter: Lifter, motion: MotionSet, clips_per_camera: int = 1, seed: int 
                 in_sds = metrics.root_error_in_sds(result.joints, clip, result.position_sd, camera)
                 predicted = np.linalg.norm(result.joints[:, 0] - camera.center, axis=-1)
                 true = np.linalg.norm(clip[:, 0] - camera.center, axis=-1)
+                placed = predicted > 0  # a network can put a person at the camera: no distance to compare
+                predicted, true = predicted[placed], true[placed]
                 row.update({f"{name}_mrpe_mm": 1e3 * float(metrics.mrpe(result.joints, clip)),
                             f"{name}_abs_mpjpe_mm": 1e3 * float(metrics.abs_mpjpe(result.joints, clip)),
                             f"{name}_floor_error_m": float(np.median(floor_errors(result.joints[:, 0], clip))),
@@ -79,11 +81,13 @@ def run(lifter: Lifter, motion: MotionSet, clips_per_camera: int = 1, seed: int 
 
 
 def summary(rows: list[dict]) -> dict:
-    """Medians over the pairs lifted, and the ratios to the guess's median floor error."""
+    """Medians over the pairs lifted where the guess has an answer (the feet seen at least once), and the ratios
+    to the guess's median floor error."""
     lifted = [r for r in rows if "refused" not in r and r["guess_floor_error_m"] is not None]
     if not lifted:
         raise InputError("bench level: no pair could be lifted")
-    out = {"pairs": len(lifted), "refused": len(rows) - len(lifted),
+    out = {"pairs": len(lifted), "refused": sum("refused" in r for r in rows),
+           "feet_never_seen": sum("refused" not in r and r["guess_floor_error_m"] is None for r in rows),
            "guess_floor_error_m": float(np.median([r["guess_floor_error_m"] for r in lifted]))}
     for name in ("network", "refined"):
         for key in ("mrpe_mm", "abs_mpjpe_mm", "floor_error_m", "within_1sd", "within_2sd"):
@@ -105,7 +109,8 @@ def write(out_dir: str | Path, rows: list[dict]) -> list[Path]:
         lines.append(f"| {name} | {totals[f'{name}_floor_error_m']:.3f} | {totals[f'{name}_over_guess']:.2f} | "
                      f"{totals[f'{name}_mrpe_mm']:.0f} | {totals[f'{name}_abs_mpjpe_mm']:.0f} | "
                      f"{100 * totals[f'{name}_within_1sd']:.0f} % | {100 * totals[f'{name}_within_2sd']:.0f} % |")
-    lines.append(f"\n{totals['pairs']} pairs lifted, {totals['refused']} refused (the root never in the picture).")
+    lines.append(f"\n{totals['pairs']} pairs lifted beside the guess; {totals['feet_never_seen']} more had no guess (the "
+                 f"feet never in the picture), {totals['refused']} could not be lifted.")
     files = [out_dir / "level.json", out_dir / "level.md"]
     for path, text in zip(files, (json.dumps({"summary": totals, "rows": rows}, indent=1), "\n".join(lines) + "\n")):
         with atomic_path(path, overwrite=True) as temporary:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import ray3d
 from ray3d.body import ADULT_STATURE_M
+from ray3d.io.world import WRITTEN_FORMATS
 from ray3d.cli import bench_commands as bench_handlers
 from ray3d.cli import commands as handlers
 from ray3d.cli import fusion_commands as fusion_handlers
@@ -153,7 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--max-gap", type=float, default=0.5,
                        help="seconds a person may go undetected and keep their track (default 0.5)")
     video.add_argument("--min-track", type=float, default=1.0, help="drop tracks shorter than this, seconds (default 1)")
-    video.add_argument("--format", choices=[".json", ".csv", ".npz", ".trc", ".bvh"], default=".json",
+    video.add_argument("--format", choices=WRITTEN_FORMATS, default=".json",
                        help="world file format (.trc: OpenSim / Pose2Sim markers; .bvh: one skeleton per track)")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")

@@ -23,6 +23,7 @@ from ray3d.skeleton import H36M17, layout_named_by
 
 FORMATS = (".json", ".csv", ".npz")
 EXPORTS = (".trc", ".bvh")  # written for other tools, not read back
+WRITTEN_FORMATS = FORMATS + EXPORTS  # every format a world can be written in: the one list
 UNITS = "metres"
 AXES = "world frame, right-handed: x and y horizontal, z up, floor at z = 0"
 CAMERA_AXES = "camera frame (OpenCV): x right, y down, z forward along the optical axis, origin at the lens"

@@ -125,7 +125,8 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     floor_height = np.where(floored, under, resting)
     log_sd, size_sd = problem.standard_deviations(x)
     sizes_up = contact if contact.any() else observed
-    stature = body.stature(refined, sizes_up)
+    # The limbs were pulled towards the keypoints' rays: the ankles stand where the keypoints put them.
+    stature = body.stature(refined, sizes_up, config.contact_ankle_height_m - body.PLANTED_ANKLE_HEIGHT_M)
     return refined, Refinement(
         scale=scale, contact=contact, floor_cue=floored, floor_height_m=floor_height,
         position_sd_m=np.stack([np.hypot(log_sd, config.residual_distance_sd) * distance,
