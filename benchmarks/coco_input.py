@@ -15,7 +15,7 @@ from ray3d import cameras, metrics
 from ray3d.data.motion import load_shipped
 from ray3d.data.samples import body_frames, detector_points, offset_joints
 from ray3d.data.virtual_cameras import centre_clip
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 from ray3d.skeleton import COCO17
 parser = argparse.ArgumentParser()
 parser.add_argument("--models", nargs="+", default=["ray3d", "ray3d-real", "ray3d-detector"])

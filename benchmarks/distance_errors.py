@@ -17,7 +17,7 @@ import numpy as np
 from ray3d.bench.level import run
 from ray3d.data.motion import load_shipped
 from ray3d.data.virtual_cameras import grid
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 
 BINS_M = (0.0, 4.0, 8.0, 16.0, 30.0, 60.0)
 NEAR_M = 8.0

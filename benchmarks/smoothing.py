@@ -17,7 +17,7 @@ import numpy as np
 from ray3d import cameras, metrics, temporal
 from ray3d.data.motion import load_shipped
 from ray3d.data.virtual_cameras import centre_clip
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 
 FPS = 30.0
 

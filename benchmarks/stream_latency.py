@@ -13,7 +13,7 @@ import torch
 
 from ray3d import cameras
 from ray3d.demo import demo_clip
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--model", default="ray3d")

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from ray3d.io.camera_files import read_camera
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 from ray3d.video import lift_video, make_detector, read_frames, read_video_info
 
 

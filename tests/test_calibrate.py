@@ -215,7 +215,7 @@ def test_calibrate_from_person_cli_writes_a_camera_with_its_uncertainty(tmp_path
 
 def test_bench_calibration_writes_its_tables(test_motion, tmp_path):
     from ray3d.bench import calibration
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     rows = calibration.run(test_motion, Lifter.load(), pairs=1, bootstrap=2,
                            cases={"focal known, true stature": (True, True, 0.0)})
@@ -230,7 +230,7 @@ def test_bench_calibration_writes_its_tables(test_motion, tmp_path):
 
 def test_bench_calibration_with_several_people_per_camera(test_motion, tmp_path, capsys):
     from ray3d.bench import calibration
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     rows = calibration.run(test_motion, Lifter.load(), pairs=1, bootstrap=2, people=3,
                            cases={"focal known, true stature": (True, True, 0.0)})

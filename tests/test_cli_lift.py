@@ -335,7 +335,7 @@ def test_our_bvh_export_reads_back_through_our_importer_within_a_centimetre(tmp_
 def test_the_model_follows_the_keypoints_layout_unless_one_is_named(tmp_path, capsys):
     """H36M-17 keypoints: ray3d; a detector's layout: ray3d-real, trained for detectors; --checkpoint wins."""
     from ray3d.checkpoints import default_model
-    from ray3d.lift import lift_file
+    from ray3d.lifting.lifter import lift_file
 
     assert default_model("h36m17") == "ray3d" and {default_model(n) for n in ("coco17", "body25", "blazepose33",
                                                                               "halpe26")} == {"ray3d-real"}

@@ -12,7 +12,7 @@ import torch
 from ray3d import cameras
 from ray3d.checkpoints import load_model
 from ray3d.demo import demo_clip
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 from ray3d.models import PRESETS, LiftingNetwork, TensorBatch, preset
 from ray3d.models.backends import TorchScriptLiftingModel
 from ray3d.models.blocks import BatchNorm, Dropout

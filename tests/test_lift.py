@@ -170,7 +170,7 @@ def test_a_causal_stream_at_ten_frames_a_second_equals_offline_lifting_at_that_r
 
 
 def test_a_centred_stream_without_waiting_answers_at_once_close_to_offline_and_batches_like_one_by_one(camera):
-    from ray3d.lift_stream import lift_streams
+    from ray3d.lifting.stream import lift_streams
 
     lifter = _untrained("ray3d")
     pixels = camera.project(_walk(20))

@@ -148,7 +148,7 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
     """run_live over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
     from ray3d.live.runner import LiveOptions, run_live
 
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     lifter = Lifter.load()  # before the stream starts: frames that come while it loads would be dropped
     lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
@@ -159,10 +159,10 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
 
 
 def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_it(tmp_path):
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
     from ray3d.live.people import LivePeople
     from ray3d.live.source import LiveFrame
-    from ray3d.options import LiftOptions
+    from ray3d.lifting.options import LiftOptions
 
     people = _scene()
     detector = _ScriptedDetector(people)
@@ -198,7 +198,7 @@ def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_i
 
 
 def test_the_detector_is_given_the_time_until_the_frame_is_due_and_a_person_unseen_once_is_held(tmp_path):
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
     from ray3d.live.people import RUNNER_SHARE, LivePeople
     from ray3d.live.source import LiveFrame
 
@@ -224,8 +224,8 @@ def test_the_detector_is_given_the_time_until_the_frame_is_due_and_a_person_unse
 
 
 def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answer(tmp_path):
-    from ray3d.lift import Lifter
-    from ray3d.options import LiftOptions
+    from ray3d.lifting.lifter import Lifter
+    from ray3d.lifting.options import LiftOptions
 
     people = _scene()
     summary, detector = _run(tmp_path, people, Site((ROOM,), (DOOR,)))
@@ -253,7 +253,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     """Two cameras facing each other see the same two people: the events and the page are of two people (each
     crossing counted once), each camera writes its own world file, and the fused world has two tracks, each
     seen by both cameras, near the truth."""
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions, run_live
 
     people = _scene()
@@ -513,7 +513,7 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
 
 
 def test_a_stream_that_stalls_ends_the_run_with_its_outputs_complete(tmp_path):
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions, run_live
 
     people = _scene(60)

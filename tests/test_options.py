@@ -13,7 +13,7 @@ from ray3d.cli import main
 from ray3d.geometry.floor import FLAT_FLOOR
 from ray3d.io.camera_files import camera_from_options, save_cameras
 from ray3d.io.keypoints import TrackDetections
-from ray3d.options import LiftOptions, VideoOptions
+from ray3d.lifting.options import LiftOptions, VideoOptions
 
 
 def test_a_camera_file_or_a_placed_camera(tmp_path):

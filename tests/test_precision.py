@@ -14,7 +14,7 @@ from ray3d.cli import main
 from ray3d.demo import DEMO_CAMERA, demo_clip
 from ray3d.errors import InputError
 from ray3d.io.world import read_world
-from ray3d.lift import SMALL_BATCHES_BEFORE_TRACING, Lifter
+from ray3d.lifting.lifter import SMALL_BATCHES_BEFORE_TRACING, Lifter
 from ray3d.models import PRESETS, LiftingNetwork
 from ray3d.models.inference import inference_network
 from ray3d.models.precision import (Bfloat16Products, Int8Products, ReducedPrecisionNetwork, input_layer_names,

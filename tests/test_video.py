@@ -17,7 +17,7 @@ from ray3d.cli import main
 from ray3d.demo import demo_clip
 from ray3d.io.keypoints import read_keypoints
 from ray3d.io.world import read_world
-from ray3d.options import VideoOptions
+from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
 from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px

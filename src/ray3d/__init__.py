@@ -13,7 +13,7 @@ except PackageNotFoundError:  # running from a source tree that was never instal
     __version__ = "0.0.0+unknown"
 
 _MODULES = ("calibrate", "cameras", "metrics", "skeleton")
-_NAMES = {"Camera": "ray3d.geometry", "InputError": "ray3d.errors", "Lifter": "ray3d.lift",
+_NAMES = {"Camera": "ray3d.geometry", "InputError": "ray3d.errors", "Lifter": "ray3d.lifting.lifter",
           "read_camera": "ray3d.io.camera_files", "read_world": "ray3d.io.world"}
 
 __all__ = sorted([*_NAMES, *_MODULES, "__version__"])

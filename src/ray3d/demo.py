@@ -15,7 +15,7 @@ from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import shipped_models
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import centre_clip
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
 

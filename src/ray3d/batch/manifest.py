@@ -30,7 +30,7 @@ from ray3d.io.camera_files import camera_from_options, floor_of_camera_file
 from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.io.world import WRITTEN_FORMATS
 from ray3d.models.precision import PRECISIONS
-from ray3d.options import LiftOptions, VideoOptions
+from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.temporal import SMOOTHING_METHODS
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")

@@ -62,7 +62,7 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     cannot mend a bad input); any other exception is raised, for Ray to retry."""
     import torch
 
-    from ray3d.lift import chosen_lifter, lift_file
+    from ray3d.lifting.lifter import chosen_lifter, lift_file
 
     torch.set_num_threads(threads)
     started = time.perf_counter()

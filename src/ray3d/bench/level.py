@@ -22,7 +22,7 @@ from ray3d.data.virtual_cameras import centre_clip, grid
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 
 BODY_SCALES = (0.86, 1.14)      # the performers' statures (1.6-1.75 m) scaled to 1.45-1.95 m
 DETECTOR_OFFSET_SCALES = (0.5, 1.5)

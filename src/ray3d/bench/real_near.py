@@ -23,8 +23,8 @@ from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
 from ray3d.io.camera_files import read_calibration_toml
 from ray3d.io.world import LiftResult, World
-from ray3d.lift import Lifter
-from ray3d.options import LiftOptions, VideoOptions
+from ray3d.lifting.lifter import Lifter
+from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.skeleton import H36M17, convert_keypoints
 
 VIEWS = ("cam01", "cam02", "cam03", "cam04")

@@ -22,8 +22,8 @@ from ray3d.data.samples import body_frames, detector_offsets, detector_points, o
 from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path
-from ray3d.lift import Lifter
-from ray3d.options import LiftOptions
+from ray3d.lifting.lifter import Lifter
+from ray3d.lifting.options import LiftOptions
 from ray3d.skeleton import COCO17, H36M17, Skeleton, layout_skeleton
 
 EMULATED_CAMERAS = CameraRanges(height_m=(2.5, 10.0), distance_m=(6.0, 35.0), pitch_deg=(0.0, 40.0), roll_deg=3.0,

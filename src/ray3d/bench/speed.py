@@ -305,7 +305,7 @@ def stream_ms_per_frame(runner, frames: int = 120) -> float:
     the way back to the world), the live-mode latency, over the bundled demo clip seen by an H36M camera."""
     from ray3d import cameras
     from ray3d.demo import demo_clip
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     camera = cameras.h36m("S9", "54138969")
     pixels = camera.project(demo_clip()[:frames])
@@ -337,7 +337,7 @@ def measure_video(video, camera, frames: int = 100) -> dict:
     tracking), of lifting and writing, and end to end."""
     import tempfile
 
-    from ray3d.options import VideoOptions
+    from ray3d.lifting.options import VideoOptions
     from ray3d.video import DEFAULT_DETECTOR, lift_video, make_detector
 
     with tempfile.TemporaryDirectory() as out:

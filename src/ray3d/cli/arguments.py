@@ -59,7 +59,7 @@ def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTP
 
 
 def chosen_lifter(args: argparse.Namespace, layout: str | None = None, keypoints_path=None):
-    """``--checkpoint`` in ``--precision`` (``ray3d.lift.chosen_lifter``)."""
-    from ray3d.lift import chosen_lifter as chosen
+    """``--checkpoint`` in ``--precision`` (``ray3d.lifting.lifter.chosen_lifter``)."""
+    from ray3d.lifting.lifter import chosen_lifter as chosen
 
     return chosen(args.checkpoint, args.precision, layout, keypoints_path)

@@ -38,7 +38,7 @@ def robustness(args: argparse.Namespace) -> int:
 def calibration(args: argparse.Namespace) -> int:
     from ray3d.bench.calibration import run, write
     from ray3d.data import motion as motion_data
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     if args.people < 1:
         raise InputError(f"bench calibration: people must be at least 1, got {args.people}", arguments=("people",))
@@ -52,7 +52,7 @@ def real_video(args: argparse.Namespace) -> int:
     from ray3d.data import motion as motion_data
     from ray3d.io.camera_files import read_camera
     from ray3d.io.keypoints import read_keypoints
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     lifter, video_rows, name = Lifter.load(args.checkpoint), None, ""
     if args.video or args.keypoints:
@@ -61,7 +61,7 @@ def real_video(args: argparse.Namespace) -> int:
         if args.keypoints:
             keypoints, name = read_keypoints(args.keypoints, fps=args.fps), args.keypoints.name
         else:
-            from ray3d.options import VideoOptions
+            from ray3d.lifting.options import VideoOptions
             from ray3d.video import make_detector, track_video
 
             camera = read_camera(args.camera)
@@ -76,7 +76,7 @@ def real_video(args: argparse.Namespace) -> int:
 
 def real_near(args: argparse.Namespace) -> int:
     from ray3d.bench.real_near import VIEWS, run, write
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     return _show(write(args.out, run(args.data, args.detector, Lifter.load(args.checkpoint),
                                      tuple(args.views or VIEWS))))
@@ -85,7 +85,7 @@ def real_near(args: argparse.Namespace) -> int:
 def level(args: argparse.Namespace) -> int:
     from ray3d.bench.level import run, write
     from ray3d.data import motion as motion_data
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     if args.clips_per_camera < 1 or args.max_frames < 1:
         raise InputError("bench level: clips per camera and frames must be at least 1",

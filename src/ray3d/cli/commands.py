@@ -221,7 +221,7 @@ def with_camera(args: argparse.Namespace, camera_file: str | None) -> argparse.N
 
 def _lift_options(args: argparse.Namespace):
     from ray3d.io.camera_files import floor_of_camera_file, read_floor
-    from ray3d.options import LiftOptions
+    from ray3d.lifting.options import LiftOptions
 
     floor = read_floor(args.floor) if args.floor else floor_of_camera_file(args.camera)
     return LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame, floor)
@@ -289,7 +289,7 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 def lift(args: argparse.Namespace) -> int:
     """One keypoint file and its camera (``ray3d.cli.fusion_commands.lift`` hands several on to ``lift_several``)."""
     from ray3d.io.world import export_paths
-    from ray3d.lift import lift_file
+    from ray3d.lifting.lifter import lift_file
 
     check_output(args.out, (args.camera,))
     camera = _camera(args)

@@ -71,7 +71,7 @@ def lift_several(args: argparse.Namespace) -> int:
     from ray3d.fusion import fuse_worlds
     from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import write_world
-    from ray3d.lift import Lifter
+    from ray3d.lifting.lifter import Lifter
 
     cameras = cameras_per_input(args, args.keypoints, "keypoint files", "file")
     if args.out.suffix.lower() != ".json":

@@ -34,7 +34,7 @@ def video(args: argparse.Namespace) -> int:
 def _one_video(args: argparse.Namespace, video: Path, camera_file: str | None, out: Path):
     import numpy as np
 
-    from ray3d.options import VideoOptions
+    from ray3d.lifting.options import VideoOptions
     from ray3d.video import camera_for_video, lift_video, make_detector, read_video_info
 
     one = with_camera(args, camera_file)

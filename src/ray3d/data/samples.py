@@ -183,7 +183,7 @@ def detector_offsets(skeleton: Skeleton) -> np.ndarray:
 
 def stand_in_hidden(points: np.ndarray, hidden: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(B, F, J, D) points with each joint ``hidden`` (B, J) put where its nearest unhidden ancestor is (parents
-    come first), as ``ray3d.keypoint_input.stand_in_for_unseen`` places a joint a detector never saw."""
+    come first), as ``ray3d.lifting.inputs.stand_in_for_unseen`` places a joint a detector never saw."""
     points = points.copy()
     for joint, parent in enumerate(skeleton.parents):
         if parent >= 0:

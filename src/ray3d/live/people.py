@@ -22,8 +22,8 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
-from ray3d.lift import Lifter
-from ray3d.lift_stream import LiftStream, lift_streams
+from ray3d.lifting.lifter import Lifter
+from ray3d.lifting.stream import LiftStream, lift_streams
 from ray3d.live.source import LiveFrame
 from ray3d.refine import RefineConfig, network_position_sd, refine_track, scale_about
 from ray3d.video.detectors import PoseDetector

@@ -23,14 +23,14 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.world import World, append_world_csv, read_world
-from ray3d.lift import Lifter
+from ray3d.lifting.lifter import Lifter
 from ray3d.live.events import LiveSite
 from ray3d.live.outputs import EventLog, Webhook
 from ray3d.live.people import LivePeople, PersonNow, below_the_stream
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.live.fused import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
-from ray3d.options import LiftOptions
+from ray3d.lifting.options import LiftOptions
 from ray3d.site import Site
 from ray3d.video.tracking import Track
 

@@ -18,8 +18,8 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, TrackDetections, write_keypoints_json
 from ray3d.io.world import World, check_world_output, export_paths, write_world
-from ray3d.lift import Lifter
-from ray3d.options import LiftOptions, VideoOptions
+from ray3d.lifting.lifter import Lifter
+from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.temporal import check_frame_rate
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames

@@ -7,7 +7,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.keypoint_input import MODEL_FPS, checked_keypoints, model_confidences
+from ray3d.lifting.inputs import MODEL_FPS, checked_keypoints, model_confidences
 from ray3d.skeleton import convert_keypoints, layout_skeleton
 
 

@@ -28,11 +28,11 @@ from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.precision import check_precision, with_precision
 from ray3d.models.tensor_batch import TensorBatch
-from ray3d.options import LiftOptions
+from ray3d.lifting.options import LiftOptions
 from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
-from ray3d.keypoint_input import (MODEL_FPS, check_feet_below_horizon, check_in_image, checked_keypoints,
+from ray3d.lifting.inputs import (MODEL_FPS, check_feet_below_horizon, check_in_image, checked_keypoints,
                                  model_confidences, stand_in_for_unseen)
-from ray3d.lift_stream import LiftStream
+from ray3d.lifting.stream import LiftStream
 from ray3d.skeleton import Skeleton, conversion_matrix, convert_keypoints, layout_skeleton
 
 SMALL_BATCHES_BEFORE_TRACING = 3
