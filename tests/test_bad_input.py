@@ -222,3 +222,9 @@ def test_a_fuzzed_npz_member_raises_only_input_errors(tmp_path):
         archive.writestr("keypoints.npy", b"\x93NUMPY\x01\x00" + bytes(range(200)))
     with pytest.raises(InputError, match="k.npz"):
         read_keypoints(path)
+
+
+@pytest.mark.parametrize("stride", ["0", "-3"])
+def test_an_evaluation_stride_below_one_frame_is_refused(stride, capsys):
+    _fails_cleanly(capsys, ["evaluate", "--checkpoint", "ray3d", "--cameras", "h36m", "--frame-stride", stride],
+                   "(--frame-stride)")

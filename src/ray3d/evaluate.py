@@ -125,6 +125,9 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     if precision != "fp32" and model == RFRH:
         raise InputError(f"precision: {precision} needs a network; rfrh has none (fp32 only)", ("precision",))
     rng = np.random.default_rng(seed)
+    if isinstance(frame_stride, bool) or not isinstance(frame_stride, (int, np.integer)) or frame_stride < 1:
+        raise InputError(f"frame_stride: expected a whole number of frames, at least 1, got {frame_stride!r}",
+                         arguments=("frame_stride",))
     if joints not in SCORED_LAYOUTS:
         raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
     scored = [H36M17.index(name) for name in layout_skeleton(joints).joint_names]

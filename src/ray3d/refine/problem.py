@@ -85,25 +85,20 @@ class TrackProblem:
         self.head_size_rows = picks(np.flatnonzero(headed), self.size_column)
         self.head_offset_rows = picks(np.flatnonzero(headed), self.head_column)
 
-    def _feet(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The floored frames' factors, lowest ankles moved by them, and the floor's height and gradient there."""
-        scale = np.exp(x[:self.count][self.floored])
-        feet = self.centre + scale[:, None] * (self.ankle[self.floored] - self.centre)
-        height, gradient = self.floor.under_foot(feet[:, :2])
-        return scale, feet, height, gradient
-
-    def _heads(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The headed frames' factors, heads moved by them, and the floor's height and gradient under them."""
-        scale = np.exp(x[:self.count][self.headed])
-        heads = self.centre + scale[:, None] * (self.head[self.headed] - self.centre)
-        height, gradient = self.floor.under_foot(heads[:, :2])
-        return scale, heads, height, gradient
+    def _moved(self, x: np.ndarray, points: np.ndarray, frames: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The ``frames``' factors, their (T, 3) ``points`` (lowest ankles, heads) moved by them, and the floor's
+        height and gradient under the moved points."""
+        scale = np.exp(x[:self.count][frames])
+        moved = self.centre + scale[:, None] * (points[frames] - self.centre)
+        height, gradient = self.floor.under_foot(moved[:, :2])
+        return scale, moved, height, gradient
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         config = self.config
-        _, feet, height, _ = self._feet(x)
+        _, feet, height, _ = self._moved(x, self.ankle, self.floored)
         above = feet[:, 2] - height - config.contact_ankle_height_m - x[self.offset_column]
-        _, heads, under_heads, _ = self._heads(x)
+        _, heads, under_heads, _ = self._moved(x, self.head, self.headed)
         head_height = (heads[:, 2] - under_heads - HEAD_HEIGHT_OF_BODY_SIZE * np.exp(x[self.size_column])
                        - x[self.head_column])
         return np.concatenate([self.weight * (self.linear @ x - self.target),
@@ -116,10 +111,10 @@ class TrackProblem:
             offset = points - self.centre
             return scale * (offset[:, 2] - np.einsum("ti,ti->t", gradient, offset[:, :2]))
 
-        scale, _, _, gradient = self._feet(x)
+        scale, _, _, gradient = self._moved(x, self.ankle, self.floored)
         slope = slopes(scale, self.ankle[self.floored], gradient)
         weight = self.per_frame / self.config.ankle_height_sd_m
-        head_scale, _, _, head_gradient = self._heads(x)
+        head_scale, _, _, head_gradient = self._moved(x, self.head, self.headed)
         head_slope = slopes(head_scale, self.head[self.headed], head_gradient)
         head_weight = self.per_frame / self.config.head_height_sd_m
         size = HEAD_HEIGHT_OF_BODY_SIZE * np.exp(x[self.size_column])
