@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -202,3 +203,16 @@ def test_a_config_on_a_base_lists_only_its_changes_and_a_loop_of_bases_is_refuse
     _write(tmp_path / "b.json", {"base": "a.json", "preset": "ray3d"})
     with pytest.raises(InputError, match="its bases name it again"):
         config_document(tmp_path / "a.json")
+
+
+def test_fine_tuning_starts_from_the_given_weights(tiny_data_dir, tmp_path):
+    """``init_from`` starts a run from a checkpoint's weights: with a learning rate of zero the run validates
+    exactly as the checkpoint does; from fresh weights it does not."""
+    first = train(_config(tiny_data_dir, epochs=1, batches_per_epoch=4), tmp_path / "first", progress=False)
+    frozen = _config(tiny_data_dir, epochs=1, batches_per_epoch=2, learning_rate=0.0, seed=5,
+                     init_from=str(tmp_path / "first" / "best.safetensors"))
+    tuned = train(frozen, tmp_path / "tuned", progress=False)
+    fresh = train(dataclasses.replace(frozen, init_from=None), tmp_path / "fresh", progress=False)
+    assert tuned["best"]["mpjpe_mm"] == pytest.approx(first["best"]["mpjpe_mm"], rel=0.05)
+    assert abs(fresh["best"]["mpjpe_mm"] - first["best"]["mpjpe_mm"]) > 1.0
+    assert json.loads((tmp_path / "tuned" / "config.json").read_text())["init_from"].endswith("best.safetensors")
