@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import stat
 import subprocess
 import sys
@@ -228,3 +229,54 @@ def test_a_fuzzed_npz_member_raises_only_input_errors(tmp_path):
 def test_an_evaluation_stride_below_one_frame_is_refused(stride, capsys):
     _fails_cleanly(capsys, ["evaluate", "--checkpoint", "ray3d", "--cameras", "h36m", "--frame-stride", stride],
                    "(--frame-stride)")
+
+
+_NUMBERS = st.lists(st.floats(allow_nan=True, allow_infinity=True) | st.integers(-5, 5) | st.text(max_size=3),
+                    max_size=11)
+_MATRIX = (_NUMBERS | st.lists(_NUMBERS, max_size=4)
+           | st.fixed_dictionaries({"rows": st.integers(-2, 20) | st.text(max_size=2), "cols": st.integers(-2, 20),
+                                    "data": _NUMBERS | st.text(max_size=4)}))
+_SIDE = st.integers(-10, 5000) | st.floats() | st.text(max_size=4) | st.booleans() | st.none()
+
+
+@_FUZZ
+@given(fields=st.fixed_dictionaries({"camera_matrix": _MATRIX},
+                                    optional={"dist_coeffs": _MATRIX, "rvec": _MATRIX, "tvec": _MATRIX, "R": _MATRIX,
+                                              "t": _MATRIX, "image_width": _SIDE, "image_height": _SIDE}))
+def test_opencv_json_cameras_of_any_shape_are_refused_in_one_line(tmp_path_factory, fields):
+    """OpenCV's JSON camera form with fields of every wrong shape and type: a camera or one ``InputError``
+    naming the file (structure checked before any reshape; issue 49)."""
+    path = tmp_path_factory.mktemp("fuzz") / "c.json"
+    path.write_text(json.dumps(fields))
+    try:
+        read_camera(path)
+    except InputError as err:
+        assert str(path) in str(err) or "camera" in str(err)
+
+
+@pytest.mark.parametrize("fields, needle", [
+    ({"camera_matrix": list(range(8))}, "camera_matrix: expected 9 numbers, got 8"),
+    ({"rvec": [0, 0]}, "rvec: expected 3 numbers, got 2"),
+    ({"camera_matrix": {"rows": 3, "cols": 3, "data": "abc"}}, "camera_matrix.data: not numeric"),
+    ({"image_width": "wide"}, "image_width: expected a positive whole number"),
+    ({"image_width": ""}, "image_width: expected a positive whole number"),
+    ({"R": [], "t": []}, "R: expected 9 numbers, got 0"),
+])
+def test_the_issue_49_opencv_json_cameras_name_their_field(tmp_path, fields, needle):
+    good = {"camera_matrix": [[1000, 0, 50], [0, 1000, 50], [0, 0, 1]], "rvec": [0.1, 0, 0], "tvec": [0, 0, 5],
+            "image_width": 100, "image_height": 100}
+    document = {**good, **fields}
+    if "R" in fields:
+        del document["rvec"], document["tvec"]
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(document))
+    with pytest.raises(InputError, match=re.escape(needle)):
+        read_camera(path)
+
+
+def test_a_json_nested_deeper_than_python_can_parse_is_refused(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    for read in (read_camera, read_keypoints, read_world):
+        with pytest.raises(InputError, match="nested too deeply"):
+            read(path)

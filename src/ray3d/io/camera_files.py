@@ -45,41 +45,64 @@ def load_cameras(path: str | Path) -> list[Camera]:
     return cams
 
 
-def _matrix(value: Any, path: Path, field: str) -> np.ndarray:
-    """A matrix from a nested list, a flat list, or OpenCV's JSON {rows, cols, data}."""
+def _matrix(value: Any, path: Path, field: str, sizes: tuple[int, ...]) -> np.ndarray:
+    """A field's finite numbers from a nested list, a flat list, or OpenCV's JSON {rows, cols, data}, checked to
+    hold one of ``sizes`` numbers before anything reshapes them."""
     if isinstance(value, dict) and "data" in value:
-        data = np.asarray(value["data"], dtype=np.float64)
-        return data.reshape(int(value.get("rows", 1)), int(value.get("cols", data.size)))
-    return numeric_array(value, f"{path}: {field}")
+        rows, cols = value.get("rows", 1), value.get("cols", None)
+        for name, size in (("rows", rows), ("cols", cols)):
+            if size is not None and (isinstance(size, bool) or not isinstance(size, int) or not 0 < size <= 16):
+                raise InputError(f"{path}: {field}.{name}: expected a whole number 1-16, got {size!r}")
+        data = numeric_array(value["data"], f"{path}: {field}.data").ravel()
+        if cols is not None and data.size != rows * cols:
+            raise InputError(f"{path}: {field}: {rows} x {cols} needs {rows * cols} numbers in data, got {data.size}")
+    else:
+        data = numeric_array(value, f"{path}: {field}").ravel()
+    if data.size not in sizes:
+        expected = " or ".join(str(n) for n in sizes) if len(sizes) < 4 else f"{sizes[0]}-{sizes[-1]}"
+        raise InputError(f"{path}: {field}: expected {expected} numbers, got {data.size}")
+    if not np.isfinite(data).all():
+        raise InputError(f"{path}: {field}: contains NaN or infinite values")
+    return data
+
+
+def _image_side(value: Any, path: Path, field: str) -> int:
+    """A positive whole number of pixels (an integral float as OpenCV's readers give it is one)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(value) or value != int(value) or not 0 < value <= 1_000_000:
+        raise InputError(f"{path}: {field}: expected a positive whole number of pixels, got {value!r}")
+    return int(value)
 
 
 def _from_opencv_fields(fields: dict[str, Any], path: Path) -> Camera:
     if "camera_matrix" not in fields:
         raise InputError(f"{path}: camera without intrinsics: expected 'camera_matrix' (or fx, fy, cx, cy)")
-    K = _matrix(fields["camera_matrix"], path, "camera_matrix").reshape(3, 3)
+    K = _matrix(fields["camera_matrix"], path, "camera_matrix", (9,)).reshape(3, 3)
     dist = _matrix(fields.get("dist_coeffs", fields.get("distortion_coefficients", np.zeros(5))), path,
-                   "dist_coeffs").ravel()
+                   "dist_coeffs", tuple(range(15)))
     if dist.size > 5:
         if np.any(dist[5:] != 0):
             raise InputError(f"{path}: dist_coeffs: only k1, k2, p1, p2, k3 are supported; the rational or thin-prism "
                              "terms beyond are non-zero")
         dist = dist[:5]
     if "R" in fields:
-        R = _matrix(fields["R"], path, "R").reshape(3, 3)
+        R = _matrix(fields["R"], path, "R", (9,)).reshape(3, 3)
     elif "rvec" in fields:
-        R, _ = cv2.Rodrigues(_matrix(fields["rvec"], path, "rvec").reshape(3, 1))
+        R, _ = cv2.Rodrigues(_matrix(fields["rvec"], path, "rvec", (3,)).reshape(3, 1))
     else:
         raise InputError(f"{path}: camera without extrinsics: expected 'rvec' and 'tvec' or 'R' and 't' "
                          "(world -> camera, metres)")
     t_field = "tvec" if "tvec" in fields else "t"
     if t_field not in fields:
         raise InputError(f"{path}: camera without translation: expected 'tvec' or 't' (metres)")
-    t = _matrix(fields[t_field], path, t_field).ravel()
-    width = fields.get("image_width", fields.get("width"))
-    height = fields.get("image_height", fields.get("height"))
-    if width is None or height is None:
-        raise InputError(f"{path}: camera without image size: expected image_width and image_height")
-    return Camera(K, dist, R, t, (int(width), int(height)), name=path.stem)
+    t = _matrix(fields[t_field], path, t_field, (3,))
+    sides = {}
+    for side, names in (("width", ("image_width", "width")), ("height", ("image_height", "height"))):
+        name = next((n for n in names if n in fields), None)
+        if name is None:
+            raise InputError(f"{path}: camera without image size: expected image_width and image_height")
+        sides[side] = _image_side(fields[name], path, name)
+    return Camera(K, dist, R, t, (sides["width"], sides["height"]), name=path.stem)
 
 
 _MATRIX_SIZE = re.compile(r"(?:\brows\b\s*:|\bcols\b\s*:|<rows>|<cols>)\s*([^\s<]*)")

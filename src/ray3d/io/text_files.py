@@ -20,6 +20,8 @@ def read_json(path: str | Path) -> Any:
         raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file") from None
+    except RecursionError:
+        raise InputError(f"{path}: JSON nested too deeply for any file ray3d reads") from None
 
 
 def read_csv_rows(path: str | Path) -> list[dict[str, str]]:
