@@ -280,3 +280,25 @@ def test_a_json_nested_deeper_than_python_can_parse_is_refused(tmp_path):
     for read in (read_camera, read_keypoints, read_world):
         with pytest.raises(InputError, match="nested too deeply"):
             read(path)
+
+
+@pytest.mark.parametrize("change, needle", [
+    (lambda d: d["model"].update(colour="red"), "model: unknown field 'colour'"),
+    (lambda d: d.update(model="abc"), "model: expected an object of model fields, got str"),
+    (lambda d: d["model"].update(channels=64), "does not fit its configuration"),
+    (lambda d: d["model"].update(kernels=[3, 3, 3, 3, 3, 3]), "does not fit its configuration"),
+    (lambda d: d["model"].update(backbone="transformer-xl"), "model: "),
+])
+def test_a_checkpoint_whose_json_does_not_fit_its_weights_is_refused_in_one_line(tmp_path, change, needle, capsys):
+    """A checkpoint's configuration with an unknown key, a string for an object, or sizes that do not match
+    the weights: one line naming the JSON and what is wrong (issue 49), never a raw PyTorch size dump."""
+    from ray3d.checkpoints import load_model, resolve
+
+    source = resolve("ray3d")
+    document = json.loads(source.with_suffix(".json").read_text())
+    change(document)
+    (tmp_path / "m.json").write_text(json.dumps(document))
+    (tmp_path / "m.safetensors").write_bytes(source.read_bytes())
+    with pytest.raises(InputError, match=re.escape(needle)) as refused:
+        load_model(tmp_path / "m.safetensors")
+    assert str(tmp_path / "m.json") in str(refused.value) and "\n" not in str(refused.value)

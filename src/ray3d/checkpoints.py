@@ -69,11 +69,36 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, torch.Tensor], dict[str
     return tensors, document
 
 
-def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, Any]) -> LiftingNetwork:
-    if "model" not in document:
+def model_config(document: dict[str, Any]) -> ModelConfig:
+    """A checkpoint document's ``model`` as a ``ModelConfig``: an object of known fields whose network can be
+    built, or one ``InputError`` naming the field."""
+    fields = document.get("model") if isinstance(document, dict) else None
+    if fields is None:
         raise InputError("checkpoint JSON has no 'model' configuration")
-    model = LiftingNetwork(ModelConfig(**document["model"]))
-    missing, unexpected = model.load_state_dict(unprefixed(tensors), strict=False)
+    if not isinstance(fields, dict):
+        raise InputError(f"checkpoint JSON: model: expected an object of model fields, got {type(fields).__name__}")
+    known = {f.name for f in dataclasses.fields(ModelConfig)}
+    unknown = sorted(set(fields) - known)
+    if unknown:
+        raise InputError(f"checkpoint JSON: model: unknown field {unknown[0]!r}; the fields are {', '.join(sorted(known))}")
+    try:
+        config = ModelConfig(**fields)
+        LiftingNetwork(config)
+    except InputError as err:
+        raise InputError(f"checkpoint JSON: model: {err}") from None
+    except (TypeError, ValueError, KeyError, IndexError, RuntimeError) as err:
+        raise InputError(f"checkpoint JSON: model: a network cannot be built from it ({type(err).__name__}: "
+                         f"{str(err).splitlines()[0][:160] if str(err) else ''})") from None
+    return config
+
+
+def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, Any]) -> LiftingNetwork:
+    model = LiftingNetwork(model_config(document))
+    try:
+        missing, unexpected = model.load_state_dict(unprefixed(tensors), strict=False)
+    except RuntimeError as err:  # PyTorch's size dump: its first mismatch says enough
+        mismatch = next((line.strip() for line in str(err).splitlines() if "size mismatch" in line), str(err)[:200])
+        raise InputError(f"checkpoint does not fit its configuration: {mismatch}") from None
     if missing or unexpected:
         raise InputError(f"checkpoint does not fit its configuration (missing {missing[:3]}, unexpected {unexpected[:3]})")
     return model.eval()
@@ -115,8 +140,12 @@ def resolve(name_or_path: str | Path) -> Path:
 
 def load_model(name_or_path: str | Path = "ray3d") -> tuple[LiftingNetwork, dict[str, Any]]:
     """A model in eval mode and its checkpoint document."""
-    tensors, document = read_checkpoint(resolve(name_or_path))
-    return model_from_checkpoint(tensors, document), document
+    path = resolve(name_or_path)
+    tensors, document = read_checkpoint(path)
+    try:
+        return model_from_checkpoint(tensors, document), document
+    except InputError as err:
+        raise InputError(f"{path.with_suffix('.json')}: {err.message}", arguments=err.arguments) from None
 
 
 def export(source: str | Path, target: str | Path, overwrite: bool = False, averaged: bool = True,
