@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -205,3 +207,14 @@ def test_json_world_files_follow_the_shipped_schema(tmp_path, rng):
     assert not validator.is_valid(dict(document, surprise=1))  # the schema lists every field written
     document["tracks"]["7"]["joints"][0][0] = [1.0, 2.0]
     assert not validator.is_valid(document)
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).parent / "fixtures" / "old_worlds").glob("world-*")),
+                         ids=lambda p: p.name)
+def test_world_files_of_every_earlier_version_still_read(path):
+    """Files users already have keep reading, the fields added since absent (issue 49)."""
+    world = read_world(path)
+    track = world.track()
+    assert list(world.tracks) == ["7"] and track.joints.shape == (6, 17, 3) and np.isfinite(track.joints).all()
+    np.testing.assert_allclose(world.camera.K, CAMERA.K)
+    assert np.abs(track.joints[:, 0, 2] - 0.9).max() < 0.5  # a pelvis at a standing person's height

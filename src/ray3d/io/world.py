@@ -355,7 +355,9 @@ def _optional_array(values) -> np.ndarray | None:
 
 @reads_file("world file")
 def read_world(path: str | Path) -> World:
-    """Read back what :func:`write_world` wrote."""
+    """Read back what :func:`write_world` wrote, in this version or an earlier one (files from before the
+    refinement, the position uncertainty or several cameras read with those absent:
+    ``tests/fixtures/old_worlds``)."""
     path = Path(path)
     suffix = _check_format(path)
     if not path.is_file():
@@ -365,7 +367,7 @@ def read_world(path: str | Path) -> World:
             data = read_npz_entries(path)
             tracks = _from_rows(data["joints"], data["frames"], data["tracks"], data["interpolated"],
                                 float(data["fps"]), [str(n) for n in data["joint_names"]],
-                                json.loads(str(data["refinement_json"])), data.get("position_sd"))
+                                json.loads(str(data.get("refinement_json", "{}"))), data.get("position_sd"))
             return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))), str(data["model"]),
                          str(data["units"]), _frame_described(str(data["axes"])), path)
         if suffix == ".json":
@@ -383,7 +385,7 @@ def read_world(path: str | Path) -> World:
             tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
                                          np.array(e["interpolated_input_joints"], dtype=bool), float(document["fps"]),
                                          np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]),
-                                         e["refinement"], _optional_array(e.get("position_sd_m")), seen_by(e))
+                                         e.get("refinement"), _optional_array(e.get("position_sd_m")), seen_by(e))
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
                          str(document["units"]), _frame_described(str(document["axes"])), path, cameras=cameras)
