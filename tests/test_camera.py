@@ -464,3 +464,33 @@ def test_rotations_rounded_to_seven_digits_are_accepted_and_made_orthonormal():
     np.testing.assert_allclose(kept.R, camera.R, atol=1e-6)
     with pytest.raises(InputError, match=r"not a rotation \(\|R R\^T - I\| = 2\.0\de-03"):
         Camera.from_intrinsics(*camera.intrinsics, camera.dist, camera.R * 1.001, camera.t, camera.image_size)
+
+
+def test_a_camera_says_what_makes_it_unusable_or_implausible(tmp_path):
+    """Real calibrations raise no doubt; a lens whose distortion turns back inside the image is unusable (and
+    refused by the job's camera builder); a camera looking up from the floor, a 1-degree lens (k1 = 1e6) and a
+    principal point a million pixels out are implausible (issue 49)."""
+    import json
+
+    from ray3d import cameras
+    from ray3d.io.camera_files import camera_from_options
+
+    assert cameras.h36m("S9", "54138969").doubts() == ((), ())
+    base = Camera.from_height_pitch(3.0, 20.0, (1280, 720), hfov_deg=60.0)
+    folding = Camera(base.K, [-0.9, 0, 0, 0, 0], base.R, base.t, base.image_size, "folding")
+    unusable, _ = folding.doubts()
+    assert len(unusable) == 1 and "turns back" in unusable[0] and "folding" in unusable[0]
+    path = tmp_path / "folding.json"
+    path.write_text(json.dumps(folding.to_dict()))
+    with pytest.raises(InputError, match="turns back"):
+        camera_from_options(str(path))
+    looking_up = Camera.from_height_pitch(0.3, -30.0, (1000, 1002), hfov_deg=50.0)
+    squeezed = Camera(base.K, [1e6, 0, 0, 0, 0], base.R, base.t, base.image_size, "squeezed")
+    K = base.K.copy()
+    K[0, 2] = 1e6
+    off_centre = Camera(K, base.dist, base.R, base.t, base.image_size, "off")
+    for camera, needle in ((looking_up, "above the horizon"), (squeezed, "degrees across its image"),
+                           (off_centre, "principal point")):
+        unusable, implausible = camera.doubts()
+        assert not unusable and any(needle in doubt for doubt in implausible), (needle, implausible)
+    assert base.doubts() == ((), ())

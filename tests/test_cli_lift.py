@@ -351,3 +351,22 @@ def test_the_model_follows_the_keypoints_layout_unless_one_is_named(tmp_path, ca
     assert main(["lift", "--keypoints", str(files["coco.json"]), "--camera", "h36m:S9:55011271", "--checkpoint",
                  "ray3d", "--out", str(tmp_path / "named.json")]) == 0
     assert read_world(tmp_path / "named.json").model == "ray3d"
+
+
+def test_an_implausible_camera_is_warned_of_and_an_unusable_lens_refused(tmp_path, tiny_checkpoint, capsys):
+    """A camera 0.3 m up looking 30 degrees up still lifts, with one warning that the floor is out of view; a
+    lens whose distortion turns back inside the image is refused in one line (issue 49)."""
+    keypoints = _inputs(tmp_path)["ours.npz"]
+    assert main(["lift", "--keypoints", str(keypoints), "--camera-height", "0.3", "--pitch", "-30", "--hfov", "50",
+                 "--image-size", "1000x1000", "--out", str(tmp_path / "up.json"), "--checkpoint",
+                 str(tiny_checkpoint)]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert any("above the horizon" in line for line in warnings)
+    camera = cameras.h36m("S9", "55011271").to_dict()
+    camera["dist"] = [-0.9, 0, 0, 0, 0]
+    path = tmp_path / "folding.json"
+    path.write_text(json.dumps(camera))
+    code = main(["lift", "--keypoints", str(keypoints), "--camera", str(path), "--out", str(tmp_path / "o.json"),
+                 "--checkpoint", str(tiny_checkpoint)])
+    err = capsys.readouterr().err
+    assert code == 2 and "turns back" in err and err.count("\n") == 1 and not (tmp_path / "o.json").exists()

@@ -15,6 +15,7 @@ from ray3d.skeleton import H36M17
 
 ADULT_STATURE_M = 1.70       # the person a prior imagines when nothing else is known
 ADULT_STATURE_SD_M = 0.07
+PLAUSIBLE_STATURE_M = (0.8, 2.3)  # a small child to the tallest adults; outside it, no person
 # Heights above the floor, as fractions of stature, of the points on a standing person's vertical axis: the
 # mid-ankle, the pelvis, the thorax and the H36M head joint.
 AXIS_HEIGHTS = {"ankles": 0.067, "pelvis": 0.525, "thorax": 0.851, "head": 0.940}

@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from ray3d.body import PLAUSIBLE_STATURE_M
 from ray3d.cli.arguments import chosen_lifter
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output, refuse_existing
@@ -199,8 +200,11 @@ def models(args: argparse.Namespace) -> int:
 def _camera(args: argparse.Namespace, default_image_size: tuple[int, int] | None = None):
     from ray3d.io.camera_files import camera_from_options
 
-    return camera_from_options(args.camera, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
-                               args.hfov, default_image_size)
+    camera = camera_from_options(args.camera, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
+                                 args.hfov, default_image_size)
+    for doubt in camera.doubts()[1]:
+        print(f"warning: {doubt}", file=sys.stderr)
+    return camera
 
 
 def cameras_per_input(args: argparse.Namespace, inputs: list, plural: str, singular: str) -> list[str | None]:
@@ -325,6 +329,10 @@ def print_refinements(tracks: dict) -> None:
             print(f"  track {track}: stature {r['stature_m']:.2f} m, moved x{r['median_scale']:.2f} along the rays, "
                   f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- "
                   f"{r['position_sd_m']:.2f} m")
+            low, high = PLAUSIBLE_STATURE_M  # outside it the camera is the likelier error
+            if not low <= r["stature_m"] <= high:
+                print(f"warning: track {track} comes out {r['stature_m']:.2f} m tall, outside {low}-{high} m: check the "
+                      "camera's height, pitch and lens", file=sys.stderr)
 
 
 def batch(args: argparse.Namespace) -> int:

@@ -297,6 +297,39 @@ class Camera:
         s = xp.where((dz != 0) & (s > 0) & xp.isfinite(s), s, xp.full_like(s, float("nan")))
         return centre + s[..., None] * directions
 
+    def doubts(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """(what makes this camera unusable, what makes it implausible for people on a floor), each a clause naming
+        the camera. Unusable: a lens whose distortion turns back inside the image (its rays cannot be recovered
+        there). Implausible: a field of view across the image under 3 or over 170 degrees; a principal point more
+        than an image's size outside it; an image whose lowest row looks above the horizon (the floor where
+        people stand unseen)."""
+        name = f"camera {self.name}" if self.name else "the camera"
+        width, height = self.image_size
+        fx, fy, cx, cy = self.intrinsics
+        corners = (np.array([[0, 0], [width, 0], [0, height], [width, height]], dtype=float) - [cx, cy]) / [fx, fy]
+        reach = float(np.linalg.norm(corners, axis=-1).max())  # the distorted radius the image reaches
+        k1, k2, _, _, k3 = (float(v) for v in self.dist)
+        radius = np.linspace(0.0, max(4 * reach, 4.0), 4001)
+        distorted = radius * (1 + k1 * radius ** 2 + k2 * radius ** 4 + k3 * radius ** 6)
+        turning = np.flatnonzero(np.diff(distorted) <= 0)
+        if len(turning) and distorted[turning[0]] < reach:
+            return (f"{name}'s lens distortion (k1 {k1:g}, k2 {k2:g}, k3 {k3:g}) turns back {distorted[turning[0]]:.2f} "
+                    f"focal lengths from the centre, inside the image (which reaches {reach:.2f}): its rays cannot be "
+                    "recovered there",), ()
+        doubts = []
+        across = 2 * np.degrees(np.arctan(radius[np.searchsorted(distorted, max(cx, width - cx) / fx)]))
+        if not 3.0 <= across <= 170.0:
+            doubts.append(f"{name} sees {across:.1f} degrees across its image (focal {fx:g} px, k1 {k1:g}): no lens "
+                          "people are filmed with")
+        if not (-width <= cx <= 2 * width and -height <= cy <= 2 * height):
+            doubts.append(f"{name}'s principal point ({cx:g}, {cy:g}) lies far outside its {width}x{height} image")
+        bottom = self.pixels_to_world_directions(np.array([[u, height - 1.0] for u in np.linspace(0, width - 1, 5)]))
+        if np.all(bottom[:, 2] >= 0):
+            doubts.append(f"{name} ({self.camera_height:.2f} m high, pitch {np.degrees(self.pitch):+.0f} degrees) "
+                          "looks above the horizon at the bottom of its image: the floor where people stand is not in "
+                          "view (positive pitch looks down)")
+        return (), tuple(doubts)
+
     def sees(self, points_world: np.ndarray) -> bool:
         """Whether every (..., 3) world point lies in front of the camera and projects inside the image."""
         pixels = self.project(np.asarray(points_world, dtype=np.float64).reshape(-1, 3))

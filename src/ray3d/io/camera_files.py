@@ -214,7 +214,17 @@ def camera_from_options(camera: str | Path | None = None, camera_height: float |
     """The camera of a job, as its options give it: a camera file (or ``h36m:SUBJECT:CAMERA_ID``), or a camera
     placed by ``camera_height`` (m), ``pitch`` and ``roll`` (degrees) and ``hfov`` (degrees) or ``focal``
     (pixels) for images ``image_size`` (``WIDTHxHEIGHT`` or a pair; a video's own, ``default_image_size``,
-    when not given). The one builder behind ``ray3d lift``, ``ray3d video`` and batch manifests."""
+    when not given). The one builder behind ``ray3d lift``, ``ray3d video`` and batch manifests: a camera whose
+    lens cannot be inverted over its image is refused (``Camera.doubts``; what is only implausible the caller
+    warns of)."""
+    built = _camera_of_options(camera, camera_height, pitch, image_size, roll, focal, hfov, default_image_size)
+    unusable, _ = built.doubts()
+    if unusable:
+        raise InputError(unusable[0], arguments=("camera",))
+    return built
+
+
+def _camera_of_options(camera, camera_height, pitch, image_size, roll, focal, hfov, default_image_size) -> Camera:
     placed = {"camera_height": camera_height, "pitch": pitch, "roll": roll, "focal": focal, "hfov": hfov,
               "image_size": image_size}
     if camera is not None:
