@@ -81,3 +81,25 @@ def test_hostile_pickles_are_refused_not_run(tmp_path):
     np.savez(path, positions_3d=array)
     with pytest.raises(InputError, match="holds objects other than arrays.*posix.system|os.system"):
         read_npz_entries(path)
+
+
+def test_frames_named_by_text_say_how_they_were_ordered(tmp_path):
+    """COCO-style results whose image_ids are names: by their numbers where they hold one, else in order of
+    first appearance; the keypoints say which (issue 49), integer ids say nothing."""
+    import json
+
+    from ray3d.io.keypoints import FRAME_ORDERS, read_keypoints
+
+    person = [float(v) for j in range(17) for v in (100 + j, 200 + 3 * j, 0.9)]
+
+    def results(ids):
+        path = tmp_path / f"r{len(list(tmp_path.iterdir()))}.json"
+        path.write_text(json.dumps([{"image_id": i, "category_id": 1, "score": 1.0, "keypoints": person} for i in ids]))
+        return path
+
+    named = read_keypoints(results(["frame_0003.png", "frame_0001.png", "frame_0002.png"]))
+    assert sorted(named.frames.tolist()) == [1, 2, 3]
+    assert named.frame_order == FRAME_ORDERS["digits"]
+    wordy = read_keypoints(results(["left.png", "right.png"]))
+    assert sorted(wordy.frames.tolist()) == [0, 1] and wordy.frame_order == FRAME_ORDERS["appearance"]
+    assert read_keypoints(results([4, 5])).frame_order is None

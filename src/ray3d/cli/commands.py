@@ -200,11 +200,8 @@ def models(args: argparse.Namespace) -> int:
 def _camera(args: argparse.Namespace, default_image_size: tuple[int, int] | None = None):
     from ray3d.io.camera_files import camera_from_options
 
-    camera = camera_from_options(args.camera, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
-                                 args.hfov, default_image_size)
-    for doubt in camera.doubts()[1]:
-        print(f"warning: {doubt}", file=sys.stderr)
-    return camera
+    return camera_from_options(args.camera, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
+                               args.hfov, default_image_size)
 
 
 def cameras_per_input(args: argparse.Namespace, inputs: list, plural: str, singular: str) -> list[str | None]:
@@ -305,6 +302,8 @@ def lift(args: argparse.Namespace) -> int:
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
+    if keypoints.frame_order:
+        print(f"note: {args.keypoints} names its frames by text: ordered {keypoints.frame_order}", file=sys.stderr)
     if keypoints.untracked_dropped:
         print(f"note: {args.keypoints} has several people in some frames but no track ids: lifted each frame's "
               f"most confident person, {keypoints.untracked_dropped} other detection(s) left out (give track ids, "
@@ -318,17 +317,19 @@ def lift(args: argparse.Namespace) -> int:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
     for track, why in world.unliftable.items():
         print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
-    print_refinements(world.tracks)
+    print_refinements(world.tracks, camera)
     return 0
 
 
-def print_refinements(tracks: dict) -> None:
+def print_refinements(tracks: dict, camera=None) -> None:
+    """Each track's refinement, and after the work (a refusal stays one line) what is implausible of them and the camera."""
+    for doubt in () if camera is None else camera.doubts()[1]:
+        print(f"warning: {doubt}", file=sys.stderr)
     for track, result in tracks.items():
         if result.refinement:
             r = result.refinement
             print(f"  track {track}: stature {r['stature_m']:.2f} m, moved x{r['median_scale']:.2f} along the rays, "
-                  f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- "
-                  f"{r['position_sd_m']:.2f} m")
+                  f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- {r['position_sd_m']:.2f} m")
             low, high = PLAUSIBLE_STATURE_M  # outside it the camera is the likelier error
             if not low <= r["stature_m"] <= high:
                 print(f"warning: track {track} comes out {r['stature_m']:.2f} m tall, outside {low}-{high} m: check the "

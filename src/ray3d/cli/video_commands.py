@@ -52,7 +52,7 @@ def _one_video(args: argparse.Namespace, video: Path, camera_file: str | None, o
     seconds = result.seconds
     print(f"  {result.frames / sum(seconds.values()):.1f} frames/s end to end: people {seconds['people']:.1f} s, "
           f"lifting {seconds['lifting']:.1f} s, writing {seconds['writing']:.1f} s")
-    print_refinements(tracks)
+    print_refinements(tracks, camera)
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
     return result

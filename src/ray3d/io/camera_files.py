@@ -161,12 +161,9 @@ def read_calibration_toml(path: str | Path, name: str | None = None) -> Camera:
     if section.get("fisheye"):
         raise InputError(f"{where}: a fisheye lens; ray3d's lens model is OpenCV's pinhole with radial and "
                          "tangential distortion")
-    K = _matrix(section.get("matrix"), path, f"[{wanted[0]}] matrix")
-    rotation = _matrix(section.get("rotation"), path, f"[{wanted[0]}] rotation").reshape(-1)
-    if K.shape != (3, 3) or rotation.shape != (3,):
-        raise InputError(f"{where}: matrix must be 3 x 3 and rotation a Rodrigues vector of 3")
-    R, _ = cv2.Rodrigues(rotation)
-    size = parse_image_size(_matrix(section.get("size"), path, f"[{wanted[0]}] size").round().astype(int).tolist(),
+    K = _matrix(section.get("matrix"), path, f"[{wanted[0]}] matrix", (9,)).reshape(3, 3)
+    R, _ = cv2.Rodrigues(_matrix(section.get("rotation"), path, f"[{wanted[0]}] rotation (Rodrigues)", (3,)))
+    size = parse_image_size(_matrix(section.get("size"), path, f"[{wanted[0]}] size", (2,)).round().astype(int).tolist(),
                             f"{where} size")
     try:
         return Camera.from_intrinsics(K[0, 0], K[1, 1], K[0, 2], K[1, 2], section.get("distortions", [0.0] * 4), R,

@@ -59,6 +59,7 @@ class Keypoints:
     source: str
     path: Path | None = None
     untracked_dropped: int = 0  # detections left out: several people in a frame of a file without track ids
+    frame_order: str | None = None  # how frames named by text (image names) were put in order, where they were
 
     def by_track(self) -> dict[object, TrackDetections]:
         """{track id: its detections} for ``Lifter.lift_tracks``."""
@@ -179,16 +180,23 @@ def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
 _BODY_PREFIX = {17: "coco17", 26: "halpe26", 133: "coco17", 136: "halpe26"}
 
 
-def _frame_number(path: Path, image_id, order: dict) -> int:
+FRAME_ORDERS = {"digits": "by the last number in each image name ('frame_000012.png' is frame 12)",
+                "appearance": "in the order the image names first appear in the file (they hold no number)"}
+
+
+def _frame_number(path: Path, image_id, order: dict, rules: set[str]) -> int:
     """A frame index from an ``image_id``: an integer, or an image name such as "12.jpg" or "frame_000012.png"
-    (its last digits); other names are numbered in order of first appearance."""
+    (its last digits); other names are numbered in order of first appearance. ``rules`` collects which of
+    ``FRAME_ORDERS`` named frames needed."""
     if isinstance(image_id, bool) or image_id is None:
         raise InputError(f"{path}: every entry needs an 'image_id' or 'frame_index'")
     if isinstance(image_id, (int, float)) and float(image_id).is_integer():
         return int(image_id)
     digits = "".join(c if c.isdigit() else " " for c in Path(str(image_id)).stem).split()
     if digits:
+        rules.add("digits")
         return int(digits[-1])
+    rules.add("appearance")
     return order.setdefault(str(image_id), len(order))
 
 
@@ -208,17 +216,18 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
     ``keypoint_scores``): one image's list of instances, or a video's ``[{"frame_id", "instances": [...]}]``."""
     entries = []  # (frame, track or None, keypoints, scores or None, detection score)
     order: dict = {}
+    rules: set[str] = set()
     if all(isinstance(d, dict) and "instances" in d for d in document):
         for k, frame in enumerate(document):
             if not isinstance(frame["instances"], list):
                 raise InputError(f"{path}: frame {k}: 'instances' must be a list")
-            number = _frame_number(path, frame.get("frame_id", k), order)
+            number = _frame_number(path, frame.get("frame_id", k), order, rules)
             entries += [(number, _track_id(i.get("track_id")), i.get("keypoints"), i.get("keypoint_scores"),
                          i.get("bbox_score", i.get("score", 1.0))) for i in frame["instances"] if isinstance(i, dict)]
     elif all(isinstance(d, dict) and "keypoints" in d for d in document):
         image_level = not any("image_id" in d or "frame_index" in d for d in document)
         for d in document:  # one image's mmpose instances carry no frame
-            frame = 0 if image_level else _frame_number(path, d.get("frame_index", d.get("image_id")), order)
+            frame = 0 if image_level else _frame_number(path, d.get("frame_index", d.get("image_id")), order, rules)
             entries.append((frame, _track_id(d.get("track_id", d.get("idx"))), d["keypoints"],
                             d.get("keypoint_scores"), d.get("score", d.get("bbox_score", 1.0))))
         if image_level:  # several people in one image are several tracks
@@ -260,7 +269,8 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
     else:
         tracks, dropped = np.array(tracks), 0
     read = _finish(path, pixels, scores, frames, tracks, layout, fps, "results list")
-    return dataclasses.replace(read, untracked_dropped=dropped)
+    return dataclasses.replace(read, untracked_dropped=dropped,
+                               frame_order="; ".join(FRAME_ORDERS[r] for r in sorted(rules)) or None)
 
 
 def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
