@@ -1,5 +1,5 @@
 """Fuzz every file reader: valid files of each format (keypoints JSON / CSV / npz, AlphaPose and mmpose results,
-camera JSON / YAML, world JSON / CSV / npz, floor points CSV, BVH) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
+camera JSON / YAML / OpenCV JSON / calibration TOML, world JSON / CSV / npz, floor points CSV, BVH) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
 A reader may return a result or raise ``InputError``; anything else is a crash and is listed.
 
     python benchmarks/fuzz_readers.py --files 10000 [--seed 0] [--out DIR]
@@ -14,6 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ray3d import InputError, cameras
@@ -45,7 +46,15 @@ def seeds(folder: Path) -> dict[Path, object]:
         + ", ".join(f"{v:.3f}" for v in K.ravel()) + "]\nrvec: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n"
         "   data: [0.1, 0.2, 0.3]\ntvec: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [0, 0, 4]\n"
         "image_width: 1000\nimage_height: 1002\n")
-    files.update({folder / "c.json": read_camera, folder / "c.yaml": read_camera})
+    rvec, tvec = cv2.Rodrigues(camera.R)[0].ravel().tolist(), camera.t.tolist()
+    (folder / "opencv.json").write_text(json.dumps({
+        "camera_matrix": {"rows": 3, "cols": 3, "data": K.ravel().round(3).tolist()}, "dist_coeffs": [0.01, 0, 0, 0, 0],
+        "rvec": rvec, "tvec": tvec, "image_width": 1000, "image_height": 1002}))
+    (folder / "calibration.toml").write_text(
+        f"[cam_01]\nname = \"cam_01\"\nsize = [1000.0, 1002.0]\nmatrix = {np.round(K, 3).tolist()}\n"
+        f"distortions = [0.01, 0.0, 0.0, 0.0]\nrotation = {rvec}\ntranslation = {tvec}\nfisheye = false\n")
+    files.update({folder / "c.json": read_camera, folder / "c.yaml": read_camera, folder / "opencv.json": read_camera,
+                  folder / "calibration.toml": read_camera})
     world = World({"0": LiftResult(clip, np.zeros((8, 17), dtype=bool), 50.0, np.arange(8))}, camera, "seed")
     for suffix in (".json", ".csv", ".npz"):
         write_world(folder / f"w{suffix}", world)

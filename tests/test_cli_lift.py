@@ -99,14 +99,15 @@ def _cameras(tmp_path):
     files["opencv.json"].write_text(json.dumps({
         "camera_matrix": {"rows": 3, "cols": 3, "data": CAMERA.K.ravel().tolist()}, "dist_coeffs": CAMERA.dist.tolist(),
         "rvec": rvec.ravel().tolist(), "tvec": CAMERA.t.tolist(), "image_width": 1000, "image_height": 1000}))
-    files["opencv.yaml"] = tmp_path / "opencv.yaml"
-    storage = cv2.FileStorage(str(files["opencv.yaml"]), cv2.FILE_STORAGE_WRITE)
-    for key, value in (("camera_matrix", CAMERA.K), ("dist_coeffs", CAMERA.dist[None]), ("R", CAMERA.R),
-                       ("t", CAMERA.t[:, None])):
-        storage.write(key, value)
-    storage.write("image_width", 1000)
-    storage.write("image_height", 1000)
-    storage.release()
+    for suffix in ("yaml", "xml"):  # as OpenCV's FileStorage writes them (ray3d reads them without it)
+        files[f"opencv.{suffix}"] = tmp_path / f"opencv.{suffix}"
+        storage = cv2.FileStorage(str(files[f"opencv.{suffix}"]), cv2.FILE_STORAGE_WRITE)
+        for key, value in (("camera_matrix", CAMERA.K), ("dist_coeffs", CAMERA.dist[None]), ("R", CAMERA.R),
+                           ("t", CAMERA.t[:, None])):
+            storage.write(key, value)
+        storage.write("image_width", 1000)
+        storage.write("image_height", 1000)
+        storage.release()
     return files
 
 

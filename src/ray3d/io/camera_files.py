@@ -5,12 +5,13 @@ camera from its options."""
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 import cv2
 import numpy as np
+import yaml
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
@@ -105,32 +106,49 @@ def _from_opencv_fields(fields: dict[str, Any], path: Path) -> Camera:
     return Camera(K, dist, R, t, (sides["width"], sides["height"]), name=path.stem)
 
 
-_MATRIX_SIZE = re.compile(r"(?:\brows\b\s*:|\bcols\b\s*:|<rows>|<cols>)\s*([^\s<]*)")
+OPENCV_FIELDS = ("camera_matrix", "dist_coeffs", "distortion_coefficients", "rvec", "tvec", "R", "t",
+                 "image_width", "image_height", "width", "height")
+
+
+class _OpenCVYaml(yaml.SafeLoader):
+    """YAML as OpenCV's FileStorage writes it: an ``!!opencv-matrix`` is its mapping {rows, cols, dt, data}."""
+
+
+_OpenCVYaml.add_constructor("tag:yaml.org,2002:opencv-matrix",
+                            lambda loader, node: loader.construct_mapping(node, deep=True))
+
+
+def _opencv_xml_fields(text: str) -> dict[str, Any]:
+    """The top-level fields of OpenCV's XML storage: a matrix (``type_id="opencv-matrix"``) as {rows, cols,
+    data}, anything else as its number."""
+    fields: dict[str, Any] = {}
+    for element in ElementTree.fromstring(text):
+        if element.get("type_id") == "opencv-matrix":
+            fields[element.tag] = {"rows": int(element.findtext("rows", "")), "cols": int(element.findtext("cols", "")),
+                                   "data": [float(v) for v in element.findtext("data", "").split()]}
+        else:
+            fields[element.tag] = float((element.text or "").strip())
+    return fields
 
 
 @reads_file("OpenCV camera file")
 def _read_opencv_storage(path: Path) -> Camera:
-    """An OpenCV YAML / XML camera, its matrix sizes checked first: OpenCV's reader aborts the process on a
-    negative or huge ``rows`` / ``cols``, which no ``try`` can catch."""
+    """An OpenCV YAML / XML camera, parsed here (PyYAML, ElementTree), not by OpenCV's FileStorage: its parser
+    aborts the process on a negative ``rows`` and corrupts its heap on some broken files (benchmarks/
+    fuzz_readers.py), which no ``try`` can catch."""
     if path.stat().st_size > 1_000_000:
         raise InputError(f"{path}: {path.stat().st_size} bytes is too large for a camera file")
-    text = path.read_text(errors="replace")
-    for size in _MATRIX_SIZE.findall(text):
-        if not size.isdigit() or not 0 < int(size) <= 16:
-            raise InputError(f"{path}: matrix size {size!r}: a camera's matrices have 1-16 rows and columns")
+    text = path.read_text()
     if not text.strip():
         raise InputError(f"{path}: empty file")
-    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    if not storage.isOpened():
-        raise InputError(f"{path}: OpenCV cannot read this file")
-    fields: dict[str, Any] = {}
-    for key in ("camera_matrix", "dist_coeffs", "distortion_coefficients", "rvec", "tvec", "R", "t",
-                "image_width", "image_height", "width", "height"):
-        node = storage.getNode(key)
-        if not node.empty():
-            fields[key] = node.mat() if node.isMap() or node.isSeq() else node.real()
-    storage.release()
-    return _from_opencv_fields({k: v for k, v in fields.items() if v is not None}, path)
+    if path.suffix.lower() == ".xml":
+        document = _opencv_xml_fields(text)
+    else:  # OpenCV's "%YAML:1.0" directive is not YAML 1.1's
+        document = yaml.load("\n".join(line for line in text.splitlines() if not line.startswith("%YAML")),
+                             Loader=_OpenCVYaml)
+    if not isinstance(document, dict):
+        raise InputError(f"{path}: not an OpenCV camera file (expected fields such as camera_matrix at the top)")
+    return _from_opencv_fields({k: v for k, v in document.items() if k in OPENCV_FIELDS and v is not None}, path)
 
 
 @reads_file("calibration TOML")
