@@ -2,7 +2,7 @@
 by 2-4 virtual cameras around a room, 3 px noise, each camera losing the person for 0.6 s, its track broken in
 two; two people crossing, 3 cameras) played frame by frame through what `ray3d live` runs for several cameras:
 each camera's tracks lifted causally as they arrive (`LiftStream` without waiting, the network's own position sd),
-then joined and fused by `ray3d.live.fused.LiveFusion`.
+then joined and fused by `ray3d.fusion.live.LiveFusion`.
 
 Reports: world people per true person (1 = no identity switch: hand-overs and broken tracks joined), the live
 fused pelvis and Abs-MPJPE error against the best single camera's live answer on the frames two or more cameras
@@ -23,7 +23,7 @@ from fusion_mocap import (FPS, cameras, crossing_people, identity_switches, scen
                           seen, test_walks)
 
 from ray3d import Lifter  # noqa: E402
-from ray3d.live.fused import LiveFusion  # noqa: E402
+from ray3d.fusion.live import LiveFusion  # noqa: E402
 from ray3d.live.people import PersonNow  # noqa: E402
 from ray3d.refine import RefineConfig, network_position_sd  # noqa: E402
 

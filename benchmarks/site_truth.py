@@ -24,7 +24,9 @@ from ray3d.data.samples import scale_bones
 from ray3d.data.virtual_cameras import centre_clip, grid
 from ray3d.evaluate import evaluation_motion
 from ray3d.io.world import LiftResult
-from ray3d.site import CountingLine, Zone, falls, line_crossings, stature_class, zone_visits
+from ray3d.site.analytics import stature_class
+from ray3d.site.falls import falls
+from ray3d.site.places import CountingLine, Zone, line_crossings, zone_visits
 
 FPS = 30.0
 

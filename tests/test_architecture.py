@@ -53,6 +53,10 @@ def _in_room(module: str, room: str) -> bool:
     ("ray3d.temporal", "ray3d.data"), ("ray3d.io", "ray3d.lifting"), ("ray3d.io", "ray3d.data"),
     ("ray3d.io", "ray3d.models"), ("ray3d.video", "ray3d.data"), ("ray3d.geometry", "ray3d.models"),
     ("ray3d.batch", "ray3d.data"), ("ray3d.lifting", "ray3d.batch"), ("ray3d.video", "ray3d.batch"),
+    ("ray3d.site.places", "ray3d.io"), ("ray3d.io", "ray3d.site.events"), ("ray3d.io", "ray3d.site.report"),
+    ("ray3d.io", "ray3d.site.analytics"), ("ray3d.site", "ray3d.live"), ("ray3d.site", "ray3d.jobs"),
+    ("ray3d.live", "ray3d.jobs"), ("ray3d.fusion", "ray3d.jobs"), ("ray3d.video", "ray3d.jobs"),
+    ("ray3d.lifting", "ray3d.jobs"), ("ray3d.jobs", "ray3d.cli"), ("ray3d.viz", "ray3d.jobs"),
 ])
 def test_rooms_do_not_import_what_stands_on_them(importer, forbidden):
     offenders = sorted(f"{m} -> {i}" for m, imports in GRAPH.items() if _in_room(m, importer)
@@ -195,3 +199,32 @@ def test_the_top_level_holds_few_loose_modules():
     modules, so a new concept finds its wing instead of a thirteenth."""
     loose = [p.name for p in PACKAGE.glob("*.py") if p.name != "__init__.py"]
     assert len(loose) <= 12, sorted(loose)
+
+
+def _callers(name: str) -> set[str]:
+    return {module for module, path in MODULES.items() if _calls(path, name)}
+
+
+@pytest.mark.parametrize("assembler, own_room", [("make_detector", "ray3d.video"), ("camera_for_video", "ray3d.video"),
+                                                 ("lift_video", "ray3d.video"), ("lift_file", "ray3d.lifting"),
+                                                 ("fuse_worlds", "ray3d.fusion"), ("run_live", "ray3d.live")])
+def test_only_the_jobs_wing_assembles_a_job_or_fuses_worlds(assembler, own_room):
+    """A video job (its camera, detector and lifter), a keypoint job, a live job and the fusion of worlds are put
+    together in ``ray3d.jobs`` only: a second assembler is refused."""
+    assert {m for m in _callers(assembler) if not _in_room(m, own_room)} <= {"ray3d.jobs.run", "ray3d.jobs.live"}
+
+
+def test_one_event_engine_spells_every_event_name():
+    """The site's events come from one engine (``site.events``): no other module spells an event's name, finds a
+    line crossing or a fall for an event, or defines a second monitor."""
+    from ray3d.site.events import EVENT_KINDS
+
+    spellers = {module for module, path in MODULES.items()
+                if any(isinstance(node, ast.Constant) and node.value in EVENT_KINDS
+                       for node in ast.walk(ast.parse(path.read_text())))}
+    assert spellers == {"ray3d.site.events"}
+    assert _callers("line_crossings") == _callers("falls") == {"ray3d.site.events"}
+    monitors = {module for module, path in MODULES.items() for node in ast.walk(ast.parse(path.read_text()))
+                if isinstance(node, ast.ClassDef) and {"update", "ended"} <= {
+                    f.name for f in node.body if isinstance(f, ast.FunctionDef)} and "Event" in path.read_text()}
+    assert monitors == {"ray3d.site.events"}

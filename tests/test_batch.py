@@ -48,7 +48,7 @@ def test_manifest_entries_resolve_paths_and_parse_values(tmp_path):
     first, second = read_manifest(manifest)
     assert first.input == tmp_path / "take0.npz" and first.name == "take0" and first.kind == "keypoints"
     assert first.options == {"camera": str(tmp_path / "cam.json"), "flip_test": True, "fps": 50.0}
-    assert second.name == "second" and second.camera().camera_height == pytest.approx(3.0)
+    assert second.name == "second" and second.job().cameras[0].camera().camera_height == pytest.approx(3.0)
     assert first.fingerprint() != second.fingerprint()
     json_manifest = tmp_path / "m.json"
     json_manifest.write_text(json.dumps({"inputs": [{"input": "take0.npz", "camera": CAMERA, "refine": False}]}))

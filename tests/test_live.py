@@ -14,8 +14,8 @@ import pytest
 from ray3d import InputError, cameras
 from ray3d.demo import demo_clip
 from ray3d.io.world import LiftResult, World, append_world_csv, read_world
-from ray3d.live.source import FrameSource, StreamStalled
-from ray3d.site import CountingLine, Site, Zone, site_events
+from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
+from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
 
 from browser import needs_chromium, screenshot
 
@@ -145,17 +145,19 @@ def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
 
 
 def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, **options):
-    """run_live over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
-    from ray3d.live.runner import LiveOptions, run_live
-
+    """A live job over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import LiveInputs, run_live_job
     from ray3d.lifting.lifter import Lifter
+    from ray3d.live.runner import LiveOptions
 
     lifter = Lifter.load()  # before the stream starts: frames that come while it loads would be dropped
     lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
     detector = _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
-    return run_live(source, CAMERA, tmp_path / "live", detector, lifter, site=site,
-                    options=LiveOptions(**{"page": False, "min_track_s": 0.5, **options})), detector
+    inputs = LiveInputs(SourceGroup([source]), [CAMERA], [detector], lifter)
+    return run_live_job(Job(("scene",), (CameraChoice(made=CAMERA),)), inputs, tmp_path / "live", site,
+                        LiveOptions(**{"page": False, "min_track_s": 0.5, **options})), detector
 
 
 def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_it(tmp_path):
@@ -253,17 +255,21 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     """Two cameras facing each other see the same two people: the events and the page are of two people (each
     crossing counted once), each camera writes its own world file, and the fused world has two tracks, each
     seen by both cameras, near the truth."""
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import LiveInputs, run_live_job
     from ray3d.lifting.lifter import Lifter
-    from ray3d.live.runner import LiveOptions, run_live
+    from ray3d.live.runner import LiveOptions
 
     people = _scene()
     facing = cameras.h36m("S9", "55011271")
     lifter = Lifter.load()
     sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", paced=True)
                for c in (CAMERA, facing)]
-    summary = run_live(sources, [CAMERA, facing], tmp_path / "live",
-                       [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter,
-                       site=Site((ROOM,), (DOOR,)), options=LiveOptions(page=False, min_track_s=0.5))
+    job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)))
+    inputs = LiveInputs(SourceGroup(sources), [CAMERA, facing],
+                        [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter)
+    summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
+                           LiveOptions(page=False, min_track_s=0.5))
     assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == 2 * len(people)
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     started = {e["track"] for e in events if e["event"] == "track started"}
@@ -282,7 +288,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
 
 
 def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camera_sees_at_once():
-    from ray3d.live.fused import LiveFusion
+    from ray3d.fusion.live import LiveFusion
     from ray3d.live.people import PersonNow
 
     facing = cameras.h36m("S9", "55011271")
@@ -319,8 +325,7 @@ def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camer
 
 
 def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions():
-    from ray3d.live.events import LiveSite
-    from ray3d.live.people import PersonNow
+    from ray3d.site import SiteMonitor
 
     people = _scene(60)
     fall = people[:, 1].copy()
@@ -331,16 +336,30 @@ def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions()
     site = Site((ruled,), (DOOR,))
     world = World({t: LiftResult(j, np.zeros(j.shape[:2], bool), FPS, np.arange(len(j))) for t, j in tracks.items()},
                   CAMERA, "test")
-    live = LiveSite(site, FPS)
+    live = SiteMonitor(site, FPS)
     found = []
     for index in range(len(people)):
-        found += live.update(index, [PersonNow(int(t), j[index], np.zeros(2), None) for t, j in tracks.items()])
+        found += live.update(index, {t: j[index] for t, j in tracks.items()})
     for track in tracks:
-        found += live.ended(track, len(people) - 1)
+        found += live.ended(track)
     offline = site_events(world, site)
     key = lambda e: (e["event"], e["track"], round(e["time_s"], 6))  # noqa: E731
     assert sorted(map(key, found)) == sorted(map(key, offline))
     assert any(e["event"] == "fall" for e in found)
+    # The causal engine finds what each whole track holds: its crossings, visits and falls.
+    from ray3d.site.falls import falls
+
+    times = np.arange(len(people)) / FPS
+    for track, joints in tracks.items():
+        mine = [e for e in found if e["track"] == track]
+        crossed = [(round(c["time_s"], 6), c["direction"]) for c in line_crossings(times, joints[:, 0, :2], DOOR)]
+        assert [(round(e["time_s"], 6), e["direction"]) for e in mine if e["event"] == "line crossed"] == crossed
+        visits = zone_visits(times, joints[:, 0, :2], ruled)
+        assert [e["time_s"] for e in mine if e["event"] == "zone entered"] == \
+            [v["entered_s"] for v in visits if v["entered_s"] is not None]
+        assert [e["dwell_s"] for e in mine if e["event"] == "zone left"] == \
+            [round(v["dwell_s"], 3) for v in visits if v["left_s"] is not None]
+        assert [e["time_s"] for e in mine if e["event"] == "fall"] == [f["time_s"] for f in falls(times, joints)]
 
 
 def test_the_page_its_state_and_its_feed_and_a_token_when_asked(tmp_path):

@@ -250,7 +250,7 @@ FPS = 30.0
 @pytest.mark.parametrize("motion, is_fall", [
     ("fall", True), ("bend", False), ("sit", False), ("lie down slowly", False), ("fall and get up", False)])
 def test_falls_are_found_and_sitting_bending_and_lying_down_are_not(motion, is_fall):
-    from ray3d.site import falls
+    from ray3d.site.falls import falls
 
     frames = int(6 * FPS)
     t = np.arange(frames) / FPS
@@ -272,7 +272,7 @@ def test_falls_are_found_and_sitting_bending_and_lying_down_are_not(motion, is_f
 
 
 def test_stature_classes_say_unsure_across_the_threshold():
-    from ray3d.site import stature_class
+    from ray3d.site.analytics import stature_class
 
     assert stature_class(1.72, [1.6, 1.84]) == "adult" and stature_class(1.1, [1.0, 1.2]) == "child"
     assert stature_class(1.3, [1.2, 1.4]) == "unsure" and stature_class(None, None) == "unsure"
@@ -299,7 +299,7 @@ def test_a_zones_rules_fire_when_exceeded():
 
 
 def test_person_frames_speed_heading_posture_zones_occupancy_and_heat():
-    from ray3d.site import heat_map, occupancy, person_frames
+    from ray3d.site.analytics import heat_map, occupancy, person_frames
 
     times, points = _walk(np.linspace(0, 5, 51))  # 1 m/s along +x through the room
     joints = _standing(len(points)) + np.column_stack([points, np.zeros(len(points))])[:, None]
@@ -319,7 +319,7 @@ def test_person_frames_speed_heading_posture_zones_occupancy_and_heat():
 @settings(max_examples=30, deadline=None)
 @given(st.lists(st.floats(0, 2, allow_nan=False), min_size=1, max_size=60), st.integers(2, 12))
 def test_the_window_minimum_ahead_is_the_brute_force_one(values, horizon):
-    from ray3d.site import _window_minimum
+    from ray3d.site.falls import _window_minimum
 
     values = np.array(values)
     brute = [values[t + 1:t + horizon].min() if t + 1 < min(t + horizon, len(values)) else np.inf

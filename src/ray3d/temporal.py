@@ -177,3 +177,18 @@ def smooth(sequence: np.ndarray, method: str | None, fps: float) -> np.ndarray:
     if method == "one-euro":
         return one_euro(sequence, fps)
     raise InputError(f"unknown smoothing {method!r}; one of {', '.join(SMOOTHING_METHODS)}")
+
+
+def velocity(times: np.ndarray, points: np.ndarray, before_s: float, after_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(T,) seconds and (T, D) points -> (T, D) each point's velocity from the point ``before_s`` earlier to the
+    one ``after_s`` later (the farthest within that span and the sequence; 0 where the span holds one point) and
+    (T,) the time that spans. ``after_s = 0``: causal. One way of reading a walk's speed and heading for the site,
+    the fusion's gates and the live hand-over."""
+    times, points = np.asarray(times, dtype=np.float64), np.asarray(points, dtype=np.float64)
+    tolerance = 1e-9  # a span of exactly so many frames includes its last
+    before = np.searchsorted(times, times - before_s - tolerance, side="left")
+    after = np.searchsorted(times, times + after_s + tolerance, side="right") - 1
+    span = times[after] - times[before]
+    moved = (points[after] - points[before]) / np.maximum(span, 1e-9)[:, None]
+    moved[span <= 0] = 0.0
+    return moved, span

@@ -7,8 +7,10 @@ CSV with a header row, or JSON (a list of objects, or ``{"inputs": [...]}``). Co
 - the camera: ``camera`` (a camera file or ``h36m:SUBJECT:CAMERA_ID``), or ``camera_height``, ``pitch``,
   ``roll``, ``hfov`` or ``focal``, and ``image_size`` (``WIDTHxHEIGHT``; a video's own by default);
 - the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``precision``, ``smooth_2d``,
-  ``smooth_3d``, ``flip_test``, ``refine``, ``format``; for keypoints ``layout`` and ``fps``; for videos
-  ``detector``, ``fps``, ``start``, ``frames``, ``max_gap``, ``min_track``.
+  ``smooth_3d``, ``flip_test``, ``refine``, ``floor`` (a floor regions file), ``frame`` (world or camera),
+  ``format``, ``site`` (a site file: its report in ``NAME/site``); for keypoints ``layout``, ``fps``, ``subject``,
+  ``action`` and ``camera_index``; for videos ``detector``, ``fps``, ``start``, ``frames``, ``max_gap``,
+  ``min_track`` and ``overlay`` (false: none drawn).
 
 Everything is checked before any work starts: a manifest that is missing or empty, an unknown column, a value of
 the wrong type, a missing input or camera file, two inputs with one name are refused with one line naming the
@@ -25,15 +27,14 @@ from pathlib import Path
 from typing import Any
 
 from ray3d.errors import InputError, reads_file
-from ray3d.geometry import Camera, parse_image_size
-from ray3d.io.camera_files import camera_from_options, floor_of_camera_file
+from ray3d.geometry import parse_image_size
 from ray3d.io.text_files import read_csv_rows, read_json
-from ray3d.io.world import WRITTEN_FORMATS
-from ray3d.models.precision import PRECISIONS
+from ray3d.io.world import FRAME_AXES, WRITTEN_FORMATS
+from ray3d.jobs import CameraChoice, Job, input_kind
 from ray3d.lifting.options import LiftOptions, VideoOptions
+from ray3d.models.precision import PRECISIONS
 from ray3d.temporal import SMOOTHING_METHODS
 
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")
 SMOOTHERS = (*SMOOTHING_METHODS, "none")
 
 
@@ -85,12 +86,16 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "smooth_2d": (_choice(SMOOTHING_METHODS), _BOTH),
     "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
     "refine": (_flag, _BOTH), "format": (_choice(WRITTEN_FORMATS), _BOTH),
-    "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)),
+    "floor": (_text, _BOTH), "frame": (_choice(tuple(FRAME_AXES)), _BOTH), "site": (_text, _BOTH),
+    "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)), "subject": (_text, ("keypoints",)),
+    "action": (_text, ("keypoints",)), "camera_index": (_count, ("keypoints",)),
     "detector": (_text, ("video",)), "start": (_count, ("video",)), "frames": (_count, ("video",)),
-    "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)),
+    "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)), "overlay": (_flag, ("video",)),
 }
-CAMERA_COLUMNS = ("camera", "camera_height", "pitch", "roll", "hfov", "focal", "image_size")
-LIFT_COLUMNS = ("smooth_2d", "smooth_3d", "flip_test", "refine")
+CAMERA_COLUMNS = {"camera": "file", "camera_height": "camera_height", "pitch": "pitch", "roll": "roll",
+                  "hfov": "hfov", "focal": "focal", "image_size": "image_size"}  # column -> CameraChoice field
+LIFT_COLUMNS = ("smooth_2d", "smooth_3d", "flip_test", "refine", "frame")
+PATH_COLUMNS = ("floor", "site")  # relative to the manifest's folder
 _CHECK_IMAGE_SIZE = (1920, 1080)  # a video's camera is checked with this size before the video's own is read
 VIDEO_COLUMNS = {"fps": "fps", "start": "start", "frames": "frames", "max_gap_s": "max_gap", "min_track_s": "min_track"}
 
@@ -105,19 +110,17 @@ class Entry:
     kind: str                      # "keypoints" or "video"
     options: dict[str, Any]
 
-    def camera(self, image_size: tuple[int, int] | None = None) -> Camera:
-        """The entry's camera; ``image_size`` (a video's) is the default for a camera given by height and pitch."""
-        return camera_from_options(**{c: self.options[c] for c in CAMERA_COLUMNS if c in self.options},
-                                   default_image_size=image_size)
-
-    def lift_options(self) -> LiftOptions:
-        """The entry's lifting options; the floor is the one its camera file declares (z = 0 if none)."""
-        return LiftOptions(**{f: self.options[f] for f in LIFT_COLUMNS if f in self.options},
-                           floor=floor_of_camera_file(self.options.get("camera")))
-
-    def video_options(self) -> VideoOptions:
-        return VideoOptions(**{field: self.options[column] for field, column in VIDEO_COLUMNS.items()
-                               if column in self.options})
+    def job(self) -> Job:
+        """The entry as a ``ray3d.jobs.Job`` of one input (what ``ray3d lift`` / ``ray3d video`` would run)."""
+        o = self.options
+        return Job((self.input,), (CameraChoice(**{field: o[c] for c, field in CAMERA_COLUMNS.items() if c in o}),),
+                   o.get("checkpoint"), o.get("precision", "fp32"),
+                   LiftOptions(**{f: o[f] for f in LIFT_COLUMNS if f in o}), o.get("floor"), layout=o.get("layout"),
+                   fps=o.get("fps") if self.kind == "keypoints" else None,
+                   read_options={k: o[k] for k in ("subject", "action", "camera_index") if k in o},
+                   detector=o.get("detector"), video=VideoOptions(**{field: o[column] for field, column in
+                                                                    VIDEO_COLUMNS.items() if column in o}),
+                   world_format=o.get("format", ".json"), overlay=o.get("overlay", True))
 
     def fingerprint(self) -> str:
         """What the entry's output depends on: its options, its input and camera files (size and time), and
@@ -129,11 +132,13 @@ class Entry:
             return [str(path.resolve()), stat.st_size, stat.st_mtime_ns]
 
         camera = self.options.get("camera")
+        files = [Path(self.options[c]) for c in ("floor", "site") if c in self.options]
         # Without a checkpoint the model follows the input's layout: both candidates count.
         models = [self.options["checkpoint"]] if "checkpoint" in self.options else [H36M_MODEL, DETECTOR_MODEL]
         document = {"kind": self.kind, "options": {k: v for k, v in self.options.items() if k != "name"},
                     "input": stamp(self.input),
                     "camera": stamp(Path(camera)) if camera and Path(camera).exists() else camera,
+                    "files": [stamp(path) for path in files],
                     "model": [_file_hash(resolve(m)) for m in models]}
         return hashlib.sha256(json.dumps(document, sort_keys=True, default=str).encode()).hexdigest()
 
@@ -178,7 +183,7 @@ def read_manifest(path: str | Path) -> list[Entry]:
         source = source if source.is_absolute() else path.parent / source
         if not source.exists():
             raise InputError(f"{where}: column input: {source} does not exist")
-        kind = "video" if source.suffix.lower() in VIDEO_SUFFIXES else "keypoints"
+        kind = input_kind(source)
         options = {}
         for column, value in row.items():
             parse, kinds = COLUMNS[column]
@@ -198,17 +203,28 @@ def read_manifest(path: str | Path) -> list[Entry]:
         checkpoint = Path(options.get("checkpoint", "")).expanduser()
         if checkpoint.suffix == ".safetensors" and not checkpoint.is_absolute():
             options["checkpoint"] = str(path.parent / checkpoint)
-        if "camera" in options and not options["camera"].startswith("h36m:"):
-            camera = Path(options["camera"]).expanduser()
-            options["camera"] = str(camera if camera.is_absolute() else path.parent / camera)
+        for column in ("camera", *PATH_COLUMNS):
+            if column in options and not options[column].startswith("h36m:"):
+                given = Path(options[column]).expanduser()
+                options[column] = str(given if given.is_absolute() else path.parent / given)
+        for column in PATH_COLUMNS:
+            if column in options and not Path(options[column]).is_file():
+                raise InputError(f"{where}: column {column}: {options[column]} does not exist")
         entry = Entry(number, source, name, kind, options)
-        try:  # a video's camera given by height and pitch waits for the video's image size
-            entry.camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
-        except InputError as err:
-            raise InputError(f"{where}: camera: {err.message}") from None
         try:
-            entry.lift_options(), entry.video_options()
+            job = entry.job()
         except InputError as err:
             raise InputError(f"{where}: {err.message}") from None
+        try:  # a video's camera given by height and pitch waits for the video's image size
+            job.cameras[0].camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
+        except InputError as err:
+            raise InputError(f"{where}: camera: {err.message}") from None
+        if "site" in options:
+            from ray3d.io.site_files import read_site
+
+            try:
+                read_site(options["site"])
+            except InputError as err:
+                raise InputError(f"{where}: column site: {err.message}") from None
         entries.append(entry)
     return entries

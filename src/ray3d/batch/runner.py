@@ -62,32 +62,23 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     cannot mend a bad input); any other exception is raised, for Ray to retry."""
     import torch
 
-    from ray3d.lifting.lifter import chosen_lifter, lift_file
+    from ray3d.jobs import run_input
 
     torch.set_num_threads(threads)
     started = time.perf_counter()
     target = out_dir / entry.name
     temporary = Path(tempfile.mkdtemp(prefix=f".{entry.name}.", dir=out_dir))
-    o = entry.options
-    world_file = f"world{o.get('format', '.json')}"
     try:
-        if entry.kind == "keypoints":
-            _, world = lift_file(entry.input, entry.camera(), temporary / world_file,
-                                 chosen_lifter(o.get("checkpoint"), o.get("precision", "fp32"), o.get("layout"),
-                                               entry.input),
-                                 o.get("layout"), o.get("fps"), options=entry.lift_options())
-            frames = len({int(f) for result in world.tracks.values() for f in result.frames})
-        else:
-            from ray3d.video import DEFAULT_DETECTOR, camera_for_video, lift_video, make_detector, read_video_info
+        job = entry.job()
+        out = temporary / f"world{job.world_format}" if job.kind == "keypoints" else temporary
+        result = run_input(job, 0, out, progress=False)
+        world, frames = result.world, result.frames
+        if "site" in entry.options:
+            from ray3d.io.site_files import read_site
+            from ray3d.site.report import analyse_site
 
-            info = read_video_info(entry.input)
-            camera = camera_for_video(entry.camera(info.image_size), info)
-            detector = make_detector(o.get("detector", DEFAULT_DETECTOR), camera)
-            result = lift_video(info, camera, temporary, detector,
-                                chosen_lifter(o.get("checkpoint"), o.get("precision", "fp32"), detector.layout),
-                                entry.lift_options(),
-                                entry.video_options(), world_format=o.get("format", ".json"), progress=False)
-            world, frames = result.world, result.frames
+            analyse_site(world, read_site(entry.options["site"]), temporary / "site",
+                         title=f"{entry.name} on {Path(entry.options['site']).name}")
     except InputError as err:
         shutil.rmtree(temporary, ignore_errors=True)
         return {"status": "failed", "error": err.message, "seconds": time.perf_counter() - started}

@@ -71,15 +71,15 @@ def _on_the_man(frames: np.ndarray, pixels: np.ndarray, truth_pixels: np.ndarray
 def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
                  lifter: Lifter) -> tuple[dict, World | None]:
     """One view's row (see the module's description), and the man as that view lifts him (None if not found)."""
-    from ray3d.video import camera_for_video, make_detector, read_video_info, track_video
+    from ray3d.jobs import CameraChoice, Job, video_input
+    from ray3d.video import track_video
 
-    info = read_video_info(video)
-    camera = camera_for_video(camera, info)
+    info, camera, chosen = video_input(Job((video,), (CameraChoice(made=camera),), detector=detector), 0)
     truth_pixels = camera.project(np.nan_to_num(truth))
     row = {"view": video.stem, "detector": detector, "frames": int(info.frames)}
     started = time.perf_counter()
     try:
-        people = track_video(info, camera, make_detector(detector, camera), VideoOptions(), progress=False)
+        people = track_video(info, camera, chosen, VideoOptions(), progress=False)
     except InputError as err:
         return {**row, "refused": err.message,
                 "ms_per_frame": 1e3 * (time.perf_counter() - started) / info.frames}, None
@@ -122,7 +122,7 @@ def _errors(lifted: LiftResult, truth: np.ndarray) -> dict:
 def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, ...] = VIEWS) -> list[dict]:
     """A row per view and, where two or more views found the man, one for the views fused (``ray3d.fusion``,
     the videos being in step: offsets 0)."""
-    from ray3d.fusion import fuse_worlds
+    from ray3d.jobs import fuse_and_write
 
     data_dir = Path(data_dir)
     for needed in (CALIBRATION, TRUTH):
@@ -133,7 +133,7 @@ def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, .
                              detector, lifter) for view in views]
     rows, worlds = [row for row, _ in measured], [world for _, world in measured if world is not None]
     if len(worlds) >= 2:
-        fusion = fuse_worlds(worlds)
+        fusion = fuse_and_write(worlds)
         fused = max(fusion.world.tracks.values(), key=lambda track: len(track.frames))
         rows.append({"view": f"fused ({len(worlds)} views)", "detector": detector,
                      "tracks_on_the_man": len(fusion.world.tracks), "frames_detected": int(len(fused.frames)),

@@ -337,13 +337,13 @@ def measure_video(video, camera, frames: int = 100) -> dict:
     tracking), of lifting and writing, and end to end."""
     import tempfile
 
+    from ray3d.jobs import CameraChoice, Job, run_input
     from ray3d.lifting.options import VideoOptions
-    from ray3d.video import DEFAULT_DETECTOR, lift_video, make_detector
 
+    job = Job((video,), (CameraChoice(made=camera),), video=VideoOptions(frames=frames))
     with tempfile.TemporaryDirectory() as out:
-        result = lift_video(video, camera, Path(out) / "video", make_detector(DEFAULT_DETECTOR, camera),
-                            video_options=VideoOptions(frames=frames), progress=False)
-    seconds = result.seconds
+        result = run_input(job, 0, Path(out) / "video", progress=False)
+    seconds = result.video.seconds
     return {"video": str(video), "frames": result.frames, "people": len(result.world.tracks),
             "people_frames_per_s": result.frames / seconds["people"],
             "lifting_frames_per_s": result.frames / seconds["lifting"],

@@ -58,8 +58,28 @@ def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTP
                              "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
 
 
-def chosen_lifter(args: argparse.Namespace, layout: str | None = None, keypoints_path=None):
-    """``--checkpoint`` in ``--precision`` (``ray3d.lifting.lifter.chosen_lifter``)."""
-    from ray3d.lifting.lifter import chosen_lifter as chosen
+def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular: str):
+    """The ``ray3d.jobs.Job`` a command's arguments ask for: ``inputs`` (``plural`` / ``singular`` name them in a
+    refusal), each with its ``--camera`` (one each where there are several; a single input may have none: its
+    camera then comes from --camera-height / --pitch), and every lifting, video and output option given."""
+    from ray3d.errors import InputError
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.lifting.options import LiftOptions, VideoOptions
 
-    return chosen(args.checkpoint, args.precision, layout, keypoints_path)
+    given = args.camera or []
+    given = [given] if isinstance(given, str) else given
+    if (len(inputs) > 1 or len(given) > 1) and len(given) != len(inputs):
+        raise InputError(f"--camera: {len(given)} given for {len(inputs)} {plural}; give one per {singular}, in order")
+    cameras = tuple(CameraChoice(file, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
+                                 args.hfov) for file in (given or [None] * len(inputs)))
+    keypoints = not hasattr(args, "detector")
+    video = VideoOptions() if keypoints else VideoOptions(
+        args.fps, getattr(args, "start", 0), getattr(args, "frames", None), args.max_gap, args.min_track)
+    return Job(tuple(inputs), cameras, args.checkpoint, args.precision,
+               LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame),
+               args.floor, layout=getattr(args, "layout", None), fps=args.fps if keypoints else None,
+               read_options={k: getattr(args, k) for k in ("subject", "action", "camera_index")
+                             if getattr(args, k, None) is not None},
+               detector=getattr(args, "detector", None), video=video, world_format=getattr(args, "format", ".json"),
+               overlay=not (getattr(args, "no_overlay", False) or getattr(args, "privacy", False)),
+               find_offsets=getattr(args, "find_offsets", False), overwrite=getattr(args, "force", False))

@@ -61,12 +61,13 @@ def real_video(args: argparse.Namespace) -> int:
         if args.keypoints:
             keypoints, name = read_keypoints(args.keypoints, fps=args.fps), args.keypoints.name
         else:
+            from ray3d.jobs import CameraChoice, Job, video_input
             from ray3d.lifting.options import VideoOptions
-            from ray3d.video import make_detector, track_video
+            from ray3d.video import track_video
 
-            camera = read_camera(args.camera)
-            keypoints = track_video(args.video, camera, make_detector(args.detector, camera),
-                                    VideoOptions(fps=args.fps)).keypoints()
+            job = Job((args.video,), (CameraChoice(str(args.camera)),), detector=args.detector,
+                      video=VideoOptions(fps=args.fps))
+            keypoints = track_video(*video_input(job, 0), job.video).keypoints()
             name = args.video.name
         video_rows = run_video(lifter, keypoints, read_camera(args.camera), args.smooth_3d)
     emulated = run_emulated(lifter, motion_data.load_shipped(args.data_dir, "test"), args.pairs, args.seed,

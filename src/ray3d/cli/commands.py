@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from ray3d.body import PLAUSIBLE_STATURE_M
-from ray3d.cli.arguments import chosen_lifter
+from ray3d.cli.arguments import job_from_args
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -197,37 +197,6 @@ def models(args: argparse.Namespace) -> int:
     return 0
 
 
-def _camera(args: argparse.Namespace, default_image_size: tuple[int, int] | None = None):
-    from ray3d.io.camera_files import camera_from_options
-
-    return camera_from_options(args.camera, args.camera_height, args.pitch, args.image_size, args.roll, args.focal,
-                               args.hfov, default_image_size)
-
-
-def cameras_per_input(args: argparse.Namespace, inputs: list, plural: str, singular: str) -> list[str | None]:
-    """The ``--camera`` of each input, in order: one each where there are several (a single input may have none:
-    its camera then comes from --camera-height / --pitch); refused in one line when the counts differ."""
-    given = args.camera or []
-    if (len(inputs) > 1 or len(given) > 1) and len(given) != len(inputs):
-        from ray3d.errors import InputError
-
-        raise InputError(f"--camera: {len(given)} given for {len(inputs)} {plural}; give one per {singular}, in order")
-    return given or [None]
-
-
-def with_camera(args: argparse.Namespace, camera_file: str | None) -> argparse.Namespace:
-    """``args`` for one of several inputs: its own ``--camera`` (and so its camera file's floor)."""
-    return argparse.Namespace(**{**vars(args), "camera": camera_file})
-
-
-def _lift_options(args: argparse.Namespace):
-    from ray3d.io.camera_files import floor_of_camera_file, read_floor
-    from ray3d.lifting.options import LiftOptions
-
-    floor = read_floor(args.floor) if args.floor else floor_of_camera_file(args.camera)
-    return LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame, floor)
-
-
 def _image_size(args: argparse.Namespace) -> tuple[int, int]:
     from ray3d.geometry import parse_image_size
 
@@ -289,16 +258,11 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
 
 def lift(args: argparse.Namespace) -> int:
     """One keypoint file and its camera (``ray3d.cli.fusion_commands.lift`` hands several on to ``lift_several``)."""
-    from ray3d.io.world import export_paths
-    from ray3d.lifting.lifter import lift_file
+    from ray3d.jobs import run_input
 
     check_output(args.out, (args.camera,))
-    camera = _camera(args)
-    keypoints, world = lift_file(
-        args.keypoints, camera, args.out, chosen_lifter(args, args.layout, args.keypoints), args.layout,
-        args.fps, args.force,
-        dict(subject=args.subject, action=args.action, camera_index=args.camera_index), _lift_options(args),
-        progress=True)
+    lifted = run_input(job_from_args(args, [args.keypoints], "keypoint files", "file"), 0, args.out)
+    keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
@@ -310,9 +274,9 @@ def lift(args: argparse.Namespace) -> int:
               "e.g. AlphaPose --pose_track, to lift everybody)", file=sys.stderr)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
-    written = ", ".join(dict.fromkeys(str(p) for p in export_paths(args.out, world).values()))
+    written = ", ".join(str(p) for p in lifted.files.values())
     print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
-          f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {world.frame} frame)")
+          f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {args.frame} frame)")
     if filled:
         print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
     for track, why in world.unliftable.items():

@@ -11,13 +11,12 @@ from ray3d.io.atomic import check_output, refuse_existing
 def fuse(args: argparse.Namespace) -> int:
     """``ray3d fuse``: several cameras' world files -> one world, one track per person (``ray3d.fusion``)."""
 
-    from ray3d.fusion import fuse_worlds
-    from ray3d.io.world import read_world, write_world
+    from ray3d.io.world import read_world
+    from ray3d.jobs import fuse_and_write
 
-    refuse_existing(check_output(args.out, tuple(args.worlds)), args.force)
-    fusion = fuse_worlds([read_world(path) for path in args.worlds], parse_offsets(args.offsets), args.find_offsets,
-                         args.max_offset, args.handover)
-    write_world(args.out, fusion.world, overwrite=args.force)
+    check_output(args.out, tuple(args.worlds))
+    fusion = fuse_and_write([read_world(path) for path in args.worlds], args.out, parse_offsets(args.offsets),
+                            args.find_offsets, args.max_offset, args.handover, overwrite=args.force)
     print_fusion(fusion, [str(path) for path in args.worlds])
     print(f"{len(fusion.world.tracks)} people from {len(args.worlds)} cameras -> {args.out}")
     return 0
@@ -66,29 +65,20 @@ def lift(args: argparse.Namespace) -> int:
 def lift_several(args: argparse.Namespace) -> int:
     """``ray3d lift`` with several keypoint files, one per camera (``--camera`` once each, in order): each lifted
     as one camera's, then one fused world in --out (.json)."""
-    from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, with_camera
+    from ray3d.cli.arguments import job_from_args
     from ray3d.errors import InputError
-    from ray3d.fusion import fuse_worlds
-    from ray3d.io.keypoints import read_keypoints
-    from ray3d.io.world import write_world
-    from ray3d.lifting.lifter import Lifter
+    from ray3d.jobs import fuse_and_write, run_input
 
-    cameras = cameras_per_input(args, args.keypoints, "keypoint files", "file")
+    job = job_from_args(args, args.keypoints, "keypoint files", "file")
     if args.out.suffix.lower() != ".json":
         raise InputError(f"{args.out}: several cameras' people are fused into a .json world file", ("out",))
-    refuse_existing(check_output(args.out, (*args.keypoints, *cameras)), args.force)
-    lifter = Lifter.load(args.checkpoint, precision=args.precision) if args.checkpoint else None
+    refuse_existing(check_output(args.out, (*args.keypoints, *(c.file for c in job.cameras))), args.force)
     worlds = []
-    for path, camera_file in zip(args.keypoints, cameras):
-        one = with_camera(args, camera_file)
-        keypoints = read_keypoints(path, args.layout, args.fps, subject=args.subject, action=args.action,
-                                   camera_index=args.camera_index)
-        world = (lifter or Lifter.load(layout=keypoints.layout, precision=args.precision)).lift_keypoints(keypoints, _camera(one),
-                                                                                _lift_options(one))
-        print(f"{path}: {len(world.tracks)} track(s) through camera {world.camera.name or camera_file}")
-        worlds.append(world.in_frame("world"))
-    fusion = fuse_worlds(worlds, find_offsets=args.find_offsets)
-    write_world(args.out, fusion.world, overwrite=args.force)
+    for k, path in enumerate(job.inputs):
+        lifted = run_input(job, k, None)
+        print(f"{path}: {len(lifted.world.tracks)} track(s) through camera {lifted.camera.name or job.cameras[k].file}")
+        worlds.append(lifted.world)
+    fusion = fuse_and_write(worlds, args.out, find_offsets=job.find_offsets, overwrite=args.force)
     print_fusion(fusion, [str(path) for path in args.keypoints])
     print(f"{len(fusion.world.tracks)} people from {len(worlds)} cameras -> {args.out}")
     return 0

@@ -1,6 +1,6 @@
-"""``ray3d live``: a camera stream followed as it arrives (``ray3d.live.run_live``): events as JSON lines on
+"""``ray3d live``: a camera stream followed as it arrives (``ray3d.jobs.live``): events as JSON lines on
 stdout and in OUT/events.jsonl, the world file OUT/world.csv growing as people leave, a page on localhost.
-Several streams, one per calibrated camera: one world (``ray3d.live.fused``), each camera's world file in
+Several streams, one per calibrated camera: one world (``ray3d.fusion.live``), each camera's world file in
 OUT/camera<k>_<name>/, fused into OUT/world.json at the end.
 
 Exit codes: 0 the stream ended; 3 it stalled (no frame for --stall-timeout seconds); 4 it broke off; 130 / 143
@@ -19,34 +19,23 @@ EXIT_CODES = {"ended": 0, "stalled": 3, "broke off": 4}
 def live(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ray3d.cli.arguments import chosen_lifter
-    from ray3d.cli.commands import _camera, _lift_options, cameras_per_input, with_camera
+    from ray3d.cli.arguments import job_from_args
     from ray3d.cli.fusion_commands import parse_offsets
     from ray3d.io.site_files import read_site
-    from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
-    from ray3d.live.source import FrameSource, SourceGroup
-    from ray3d.video import VideoInfo, camera_for_video, make_detector
+    from ray3d.jobs.live import open_live, run_live_job
+    from ray3d.live.runner import LiveOptions, stop_on_signals
 
     plan = read_site(args.site) if args.site else None
-    lift_options = _lift_options(args)
-    camera_files = cameras_per_input(args, args.source, "sources", "source")
+    job = job_from_args(args, args.source, "sources", "source")
     offsets = parse_offsets(args.offsets)
-    sources = [FrameSource.open(s, args.fps, False if args.unpaced else None, args.stall_timeout) for s in args.source]
-    cameras = [camera_for_video(_camera(with_camera(args, camera_file), s.image_size),
-                                VideoInfo(s.name, 0, s.fps, s.image_size))
-               for s, camera_file in zip(sources, camera_files)]
-    group = SourceGroup(sources)
+    inputs = open_live(job, False if args.unpaced else None, args.stall_timeout)
     stop = threading.Event()
-    caught = stop_on_signals(stop, group)
-    detectors = [make_detector(args.detector, camera, live=True) for camera in cameras]
-    for detector in detectors:
-        detector.prepare([])
+    caught = stop_on_signals(stop, inputs.group)
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
                           None if args.quiet else sys.stdout, args.min_track, args.max_gap)
-    several = len(sources) > 1
-    summary = run_live(group, cameras if several else cameras[0], args.out, detectors if several else detectors[0],
-                       chosen_lifter(args, detectors[0].layout), plan, options, lift_options, stop,
-                       started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True), offsets_s=offsets)
+    summary = run_live_job(job, inputs, args.out, plan, options, stop,
+                           started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True),
+                           offsets_s=offsets)
     latency = summary.latency_ms
     print(f"{summary.why}: {summary.processed} of {summary.read} frames processed ({summary.dropped} dropped, "
           f"{100 * summary.dropped / max(summary.read, 1):.1f} %; {summary.postponed} people left for the next "

@@ -1,5 +1,5 @@
 """``ray3d site`` (and ``ray3d video --site``): a world's tracks on a site's zones and lines, as a report, tables
-and plots (``ray3d.viz.site_report.analyse_site``)."""
+and plots (``ray3d.site.report.analyse_site``)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from ray3d.io.atomic import check_output, refuse_existing
 
 def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool) -> None:
     """Before any work: no output of the site analysis may be an input or exist (unless ``overwrite``)."""
-    from ray3d.viz.site_report import site_outputs
+    from ray3d.site.report import site_outputs
 
     for path in site_outputs(out_dir):
         refuse_existing(check_output(path, inputs), overwrite)
@@ -19,7 +19,7 @@ def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool) -> None:
 
 def report_site(world, site, out_dir: Path, title: str, overwrite: bool) -> None:
     """Analyse a ``World`` on a ``ray3d.site.Site`` and print the counts per place and the events by kind."""
-    from ray3d.viz.site_report import analyse_site
+    from ray3d.site.report import analyse_site
 
     events, places, paths = analyse_site(world, site, out_dir, title, overwrite)
     for row in places:

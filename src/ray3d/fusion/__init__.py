@@ -26,8 +26,8 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.fusion.clock import find_time_offset
 from ray3d.fusion.tracks import (MIN_SHARED_FRAMES, VELOCITY_GATE_M_S, CameraTrack, floor_covariance, floor_velocity,
-                                 handover_reach_m, joint_covariances, on_clock, pair_distance, root_sd,
-                                 root_spread)
+                                 handover_reach_m, information_weighted, joint_covariances, on_clock, pair_distance,
+                                 root_sd, root_spread)
 from ray3d.io.world import LiftResult, World
 
 NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person
@@ -118,24 +118,23 @@ def fuse(tracks: list[CameraTrack], members: list[int], centers: list[np.ndarray
     where several see them (the information-weighted mean), ``seen_by`` (T, cameras) and the root's sd
     (the fused covariance's largest and smallest horizontal spread)."""
     frames = np.unique(np.concatenate([tracks[i].frames for i in members]))
-    information = np.zeros((len(frames), 17, 3, 3))
-    weighted = np.zeros((len(frames), 17, 3))
+    joints = np.zeros((len(members), len(frames), 17, 3))
+    covariances = np.broadcast_to(np.eye(3), (len(members), len(frames), 17, 3, 3)).copy()
+    seen = np.zeros((len(members), len(frames)), bool)
     seen_by = np.zeros((len(frames), cameras), bool)
     interpolated = np.ones((len(frames), 17), bool)
     statures, weights = [], []
-    for i in members:
+    for m, i in enumerate(members):
         track = tracks[i]
         shared, rows, at = np.intersect1d(track.frames, frames, return_indices=True)
-        inverse = np.linalg.inv(_covariances(track, rows, centers[track.view]))
-        information[at] += inverse
-        weighted[at] += np.einsum("nkij,nkj->nki", inverse, track.joints[rows])
+        joints[m, at], covariances[m, at] = track.joints[rows], _covariances(track, rows, centers[track.view])
+        seen[m, at] = True
         seen_by[at, track.view] = True
         interpolated[at] &= track.interpolated[rows]
         if track.stature_m is not None:
             statures.append(track.stature_m)
             weights.append(len(rows))
-    covariance = np.linalg.inv(information)
-    joints = np.einsum("nkij,nkj->nki", covariance, weighted)
+    joints, covariance = information_weighted(joints, covariances, np.repeat(seen[..., None], 17, axis=-1))
     refinement = {"stature_m": round(float(np.average(statures, weights=weights)), 4)} if statures else None
     return dataclasses.replace(LiftResult(joints, interpolated, fps, frames, refinement=refinement,
                                           position_sd=root_spread(covariance)), seen_by=seen_by)

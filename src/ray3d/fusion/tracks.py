@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 
 from ray3d.io.world import World
+from ray3d.temporal import velocity
 
 POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axis
 GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' places of one person may differ
@@ -77,10 +78,7 @@ def along_ray(points: np.ndarray, centre: np.ndarray, sd: np.ndarray) -> np.ndar
 
 def floor_velocity(track: CameraTrack, rows: np.ndarray, fps: float) -> np.ndarray:
     """(N, 2) the floor velocity at ``rows``, over half a second each side (m/s)."""
-    half = max(1, int(round(fps / 2)))
-    before, after = np.clip(rows - half, 0, len(track.frames) - 1), np.clip(rows + half, 0, len(track.frames) - 1)
-    span = np.maximum(track.frames[after] - track.frames[before], 1) / fps
-    return (track.joints[after, 0, :2] - track.joints[before, 0, :2]) / span[:, None]
+    return velocity(track.frames / fps, track.joints[:, 0, :2], 0.5, 0.5)[0][rows]
 
 
 def pair_distance(a: CameraTrack, b: CameraTrack, fps: float = 10.0) -> tuple[float, float, int]:
@@ -104,6 +102,19 @@ def joint_covariances(joints: np.ndarray, sd: np.ndarray, centre: np.ndarray) ->
     across), plus the pose's own error."""
     along_and_across = np.repeat(np.asarray(sd)[..., None, :], joints.shape[-2], axis=-2)
     return along_ray(joints, centre, along_and_across) + POSE_SD_M ** 2 * np.eye(3)
+
+
+def information_weighted(joints: np.ndarray, covariances: np.ndarray,
+                         seen: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """N cameras' answers (N, ..., 3) with their covariances (N, ..., 3, 3) -> the information-weighted mean
+    (..., 3) and its covariance (..., 3, 3); ``seen`` (N, ...) says which answers there are (all by default). The
+    one fusion of several cameras' joints, offline (``fuse``) and live (``fusion.live``)."""
+    information = np.linalg.inv(covariances)
+    if seen is not None:
+        information = information * seen[..., None, None]
+    covariance = np.linalg.inv(information.sum(axis=0))
+    weighted = np.einsum("n...ij,n...j->...i", information, np.nan_to_num(joints))
+    return np.einsum("...ij,...j->...i", covariance, weighted), covariance
 
 
 def root_spread(covariance: np.ndarray) -> np.ndarray:

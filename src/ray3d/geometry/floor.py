@@ -36,8 +36,18 @@ def polygon_contains(polygon: np.ndarray, xy: np.ndarray) -> np.ndarray:
     return PolygonPath(polygon).contains_points(xy.reshape(-1, 2)).reshape(xy.shape[:-1])
 
 
+class Area:
+    """A place on the floor plan bounded by its ``polygon`` (V, 2), world metres (a floor region, a site's zone)."""
+
+    polygon: np.ndarray
+
+    def contains(self, xy: np.ndarray) -> np.ndarray:
+        """(..., 2) -> (...) whether the points lie inside the polygon."""
+        return polygon_contains(self.polygon, xy)
+
+
 @dataclasses.dataclass(frozen=True)
-class FloorRegion:
+class FloorRegion(Area):
     """A region of floor: ``polygon`` (V, 2) world x, y in metres (V >= 3, no self-check beyond area), at
     ``height_m`` above z = 0 at ``anchor`` (x, y), rising by ``gradient`` (dz/dx, dz/dy) per metre."""
 
@@ -80,9 +90,6 @@ class FloorRegion:
         """(..., 2) -> (...) the height of this region's plane over those floor-plan points."""
         return self.height_m + (np.asarray(xy) - self.anchor) @ np.asarray(self.gradient)
 
-    def contains(self, xy: np.ndarray) -> np.ndarray:
-        """(..., 2) -> (...) whether the points lie inside the polygon."""
-        return polygon_contains(self.polygon, xy)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -63,3 +63,11 @@ def atomic_path(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     finally:
         if os.path.exists(temporary):
             os.unlink(temporary)
+
+
+def write_text(target: str | Path, text: str, overwrite: bool = False) -> Path:
+    """``text`` written to ``target`` atomically (``atomic_path``)."""
+    target = Path(target)
+    with atomic_path(target, overwrite) as temporary:
+        temporary.write_text(text)
+    return target

@@ -1,11 +1,13 @@
 """Site files (the zones and counting lines of ``ray3d.site``) and the tables a site's analysis writes: events
-as JSON lines and CSV, per-track and per-place summaries as CSV, each written atomically."""
+as JSON lines (``EventLines``, the one writer of them, live and offline) and CSV, per-track and per-place summaries
+as CSV, each written atomically."""
 
 from __future__ import annotations
 
 import csv
 import json
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -14,7 +16,7 @@ from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import checked_polygon
 from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
-from ray3d.site import CountingLine, FloorPlan, Site, Zone
+from ray3d.site.places import CountingLine, FloorPlan, Site, Zone
 
 SITE_TABLES = ("events.jsonl", "events.csv", "tracks.csv", "places.csv", "frames.csv", "occupancy.csv")
 
@@ -116,6 +118,30 @@ def read_site(path: str | Path) -> Site:
 
 
 
+class EventLines:
+    """Events as JSON lines in ``path`` (appended, flushed with each write, so nothing written is lost when the
+    process ends) and, if given, on ``echo`` (say stdout)."""
+
+    def __init__(self, path: str | Path, echo: TextIO | None = None):
+        self.path, self.echo = Path(path), echo
+        self._file = self.path.open("a")
+
+    def write(self, events: list[dict]) -> None:
+        if not events:
+            return
+        text = "".join(json.dumps(event) + "\n" for event in events)
+        self._file.write(text)
+        self._file.flush()
+        if self.echo is not None:
+            try:
+                self.echo.write(text)
+                self.echo.flush()
+            except BrokenPipeError:  # a reader of stdout that stopped reading: the file still has every event
+                self.echo = None
+
+    def close(self) -> None:
+        self._file.close()
+
 
 def write_site_tables(out_dir: str | Path, events: list[dict], tracks: list[dict], places: list[dict],
                       frames: list[dict], occupancy: list[dict], overwrite: bool = False) -> list[Path]:
@@ -125,7 +151,9 @@ def write_site_tables(out_dir: str | Path, events: list[dict], tracks: list[dict
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / name for name in SITE_TABLES]
     with atomic_path(paths[0], overwrite) as temporary:
-        temporary.write_text("".join(json.dumps(event) + "\n" for event in events))
+        lines = EventLines(temporary)
+        lines.write(events)
+        lines.close()
     for path, rows in zip(paths[1:], (events, tracks, places, frames, occupancy)):
         columns = list(dict.fromkeys(key for row in rows for key in row))
         with atomic_path(path, overwrite) as temporary, temporary.open("w", newline="") as handle:

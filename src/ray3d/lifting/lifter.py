@@ -286,7 +286,7 @@ def chosen_lifter(checkpoint: str | None = None, precision: str = "fp32", layout
     return Lifter.load(checkpoint, layout=layout or "h36m17", precision=precision)
 
 
-def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifter: Lifter | None = None,
+def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path | None, lifter: Lifter | None = None,
               layout: str | None = None, fps: float | None = None, overwrite: bool = False,
               read_options: dict | None = None, options: LiftOptions = LiftOptions(),
               progress: bool = False) -> tuple[Keypoints, World]:
@@ -295,15 +295,16 @@ def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path, lifte
     ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
     (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), ``options`` for the lifting (the output
     smoothed by Savitzky-Golay and written in the world frame unless they say otherwise). Returns what was read
-    and what was written."""
+    and what was written (``out`` None: lifted, not written)."""
     from ray3d.io.atomic import check_output, refuse_existing
-    from ray3d.io.keypoints import read_keypoints
     from ray3d.io.world import check_world_output, write_world
 
-    check_output(out, (keypoints_path,))
-    check_world_output(out, options.frame)
-    refuse_existing(out, overwrite)
+    if out is not None:
+        check_output(out, (keypoints_path,))
+        check_world_output(out, options.frame)
+        refuse_existing(out, overwrite)
     keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
     world = (lifter or Lifter.load(layout=keypoints.layout)).lift_keypoints(keypoints, camera, options, progress)
-    write_world(out, world, overwrite=overwrite)
+    if out is not None:
+        write_world(out, world, overwrite=overwrite)
     return keypoints, world

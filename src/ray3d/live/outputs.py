@@ -1,6 +1,6 @@
-"""Where live events go besides the page: a JSON-lines file (flushed event by event, so nothing written is lost
-when the process ends) and a webhook (HTTP POST of each event as JSON, retried, from a bounded queue on a thread
-of its own, so a receiver that refuses or hangs never slows the stream: what it cannot take is counted)."""
+"""Where live events go besides the page and their JSON-lines file (``io.site_files.EventLines``): a webhook
+(HTTP POST of each event as JSON, retried, from a bounded queue on a thread of its own, so a receiver that refuses
+or hangs never slows the stream: what it cannot take is counted)."""
 
 from __future__ import annotations
 
@@ -12,32 +12,6 @@ import time
 import urllib.error
 import urllib.request
 from collections.abc import Callable
-from pathlib import Path
-from typing import TextIO
-
-
-class EventLog:
-    """Events as JSON lines in ``path`` (appended) and, if given, on ``echo`` (say stdout)."""
-
-    def __init__(self, path: str | Path, echo: TextIO | None = None):
-        self.path, self.echo = Path(path), echo
-        self._file = self.path.open("a")
-
-    def write(self, events: list[dict]) -> None:
-        if not events:
-            return
-        text = "".join(json.dumps(event) + "\n" for event in events)
-        self._file.write(text)
-        self._file.flush()
-        if self.echo is not None:
-            try:
-                self.echo.write(text)
-                self.echo.flush()
-            except BrokenPipeError:  # a reader of stdout that stopped reading: the file still has every event
-                self.echo = None
-
-    def close(self) -> None:
-        self._file.close()
 
 
 class Webhook:
@@ -66,11 +40,16 @@ class Webhook:
                     self._queue.put_nowait(event)
                     break
                 except queue.Full:
-                    try:
-                        self._queue.get_nowait()
-                        self.dropped += 1
-                    except queue.Empty:
-                        pass
+                    self._drop_oldest()
+
+    def _drop_oldest(self) -> bool:
+        """Drop the oldest waiting event (counted); False when none was waiting."""
+        try:
+            self._queue.get_nowait()
+        except queue.Empty:
+            return False
+        self.dropped += 1
+        return True
 
     def _send_all(self) -> None:
         while not (self._stop.is_set() and self._queue.empty()):
@@ -121,9 +100,5 @@ class Webhook:
             if self._sending:  # one still on its way to a receiver that hangs: given up
                 self._sending = False
                 self.dropped += 1
-        while True:
-            try:
-                self._queue.get_nowait()
-                self.dropped += 1
-            except queue.Empty:
-                break
+        while self._drop_oldest():
+            pass

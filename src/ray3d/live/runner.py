@@ -1,11 +1,12 @@
 """``run_live``: a stream of frames in; people, events, the page and the world file out, as the frames arrive.
 
 Each frame taken from the source (the newest; those that came while the last was processed are dropped and
-counted) goes through detection, tracking and causal lifting (``LivePeople``), the site's events (``LiveSite``),
-the event log, the webhook and the page. A person who leaves is lifted again offline, on a thread of its own, as
+counted) goes through detection, tracking and causal lifting (``LivePeople``), the site's events
+(``ray3d.site.SiteMonitor``), the event log, the webhook and the page. A person who leaves is lifted again offline, on a thread of its own, as
 ``ray3d video`` lifts them, and appended to the world file (``append_world_csv``): the file holds every finished
 person and can be read at any moment. When the stream ends, stalls or is stopped, everybody still in view is
-finished the same way, every output is closed, and with a site the report of ``ray3d site`` is written."""
+finished the same way and every output is closed (a live job then fuses several cameras' world files and writes
+the site's report: ``ray3d.jobs.live``)."""
 
 from __future__ import annotations
 
@@ -22,16 +23,17 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.io.world import World, append_world_csv, read_world
+from ray3d.io.world import World, append_world_csv
 from ray3d.lifting.lifter import Lifter
-from ray3d.live.events import LiveSite
-from ray3d.live.outputs import EventLog, Webhook
+from ray3d.io.site_files import EventLines
+from ray3d.live.outputs import Webhook
 from ray3d.live.people import LivePeople, PersonNow, below_the_stream
 from ray3d.live.server import LiveBoard, LiveServer
-from ray3d.live.fused import LiveFusion
+from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.lifting.options import LiftOptions
-from ray3d.site import Site
+from ray3d.site.events import SiteMonitor
+from ray3d.site.places import Site
 from ray3d.video.tracking import Track
 
 ENDINGS = ("ended", "stalled", "broke off", "stopped")
@@ -119,7 +121,7 @@ class _Finisher:
         self._thread.join()
 
 
-def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: LiveSite,
+def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
               latest: deque, stats: dict) -> dict:
     occupancy = {zone.name: int(sum(bool(zone.contains(p.joints[0, :2])) for p in people))
                  for zone in monitor.site.zones}
@@ -129,6 +131,12 @@ def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dic
                         "stature_m": p.stature_m} for p in people],
             "trails": {str(t): [list(xy) for xy in trail] for t, trail in trails.items()},
             "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats}
+
+
+def _monitored(monitor: SiteMonitor, settled: tuple[int, list[PersonNow]]) -> list[dict]:
+    """The site's events of a settled frame (its index and its people)."""
+    index, people = settled
+    return monitor.update(index, {str(person.track): person.joints for person in people})
 
 
 @contextlib.contextmanager
@@ -170,8 +178,7 @@ def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) ->
 
 class _Views:
     """The cameras followed: per camera its people (``LivePeople``) and its finisher writing its world file;
-    with several, their people joined into world people (``LiveFusion``) on the first camera's clock, and at the
-    end their world files fused (``ray3d.fusion``) into one."""
+    with several, their people joined into world people (``LiveFusion``) on the first camera's clock."""
 
     def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter, out_dir: Path,
                  options: LiveOptions, lift_options: LiftOptions, offsets_s: list[float] | None):
@@ -183,8 +190,7 @@ class _Views:
         self.world_paths = [out_dir / "world.csv"] if not self.several else \
             [out_dir / f"camera{k + 1}_{_file_name(c.name or source.name)}" / "world.csv"
              for k, (c, source) in enumerate(zip(cameras, group.sources))]
-        self.fused_path = out_dir / "world.json" if self.several else None
-        for path in self.world_paths + ([self.fused_path] if self.several else []):
+        for path in self.world_paths:
             if path.exists():
                 raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -233,21 +239,6 @@ class _Views:
             leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self.fusion.ended(np.inf, seen=True)]
         return self._pending, leaving
 
-    def world_file(self) -> Path | None:
-        """The world file of everybody (with several cameras, their world files fused into one)."""
-        if not self.several:
-            return self.world_paths[0] if self.world_paths[0].exists() else None
-        from ray3d.fusion import fuse_worlds
-        from ray3d.io.world import write_world
-
-        worlds = [(read_world(path), k) for k, path in enumerate(self.world_paths) if path.exists()]
-        if not worlds:
-            return None
-        world = worlds[0][0] if len(worlds) == 1 else \
-            fuse_worlds([w for w, _ in worlds], [self.offsets_s[k] - self.offsets_s[worlds[0][1]] for _, k in worlds]).world
-        write_world(self.fused_path, world)
-        return self.fused_path
-
     @property
     def written(self) -> int:
         return sum(finisher.written for finisher in self.finishers)
@@ -272,12 +263,12 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
              lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
              started=lambda url: None, offsets_s: list[float] | None = None) -> LiveSummary:
     """Follow ``source`` until it ends, stalls, breaks off or ``stop`` is set; write ``out_dir``/events.jsonl
-    and world.csv (and site/ with a site). ``started(url)`` is called once the page listens.
+    and world.csv. ``started(url)`` is called once the page listens.
 
     Several cameras: ``source``, ``camera`` and ``detector`` are lists, one each per camera (``offsets_s``: how
     far each camera's clock is ahead of the first's, 0 by default); each camera's people are written to
-    ``out_dir``/camera<k>_<name>/world.csv, the events and the page are of the world's people (``LiveFusion``),
-    and at the end the cameras' world files are fused into ``out_dir``/world.json (``ray3d.fusion``)."""
+    ``out_dir``/camera<k>_<name>/world.csv, the events and the page are of the world's people (``LiveFusion``);
+    ``ray3d.jobs.live.run_live_job`` fuses those files at the end."""
     sources = source.sources if isinstance(source, SourceGroup) else _several(source)
     cameras, detectors = _several(camera), _several(detector)
     if not len(sources) == len(cameras) == len(detectors):
@@ -294,12 +285,12 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     site = site or Site()
     group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
     views = _Views(group, cameras, detectors, lifter, out_dir, options, lift_options, offsets_s)
-    monitor = LiveSite(site, views.fps)
+    monitor = SiteMonitor(site, views.fps)
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
                                  for l in site.lines]})
     server = LiveServer(board, options.host, options.port, options.token) if options.page else None
-    log = EventLog(events_path, options.echo)
+    log = EventLines(events_path, options.echo)
     webhook = Webhook(options.webhook, token=options.token) if options.webhook else None
     trails: dict[int, deque] = {}
     latest: deque = deque(maxlen=LATEST_EVENTS)
@@ -335,10 +326,10 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
                     break
                 view, frame = taken
                 settled, persons, leaving = views.update(view, frame)
-                events = monitor.update(*settled) if settled is not None and settled[0] > last_index else []
+                events = _monitored(monitor, settled) if settled is not None and settled[0] > last_index else []
                 last_index = max(last_index, settled[0] if settled is not None else last_index)
                 for person in leaving:
-                    events += monitor.ended(person, last_index)
+                    events += monitor.ended(str(person))
                     trails.pop(person, None)
                 emit(events)
                 for person in persons:
@@ -359,20 +350,15 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
         group.close()
         settled, leaving = views.finish()
         if settled is not None and settled[0] > last_index:
-            emit(monitor.update(*settled))
-        for person, index in leaving:
-            emit(monitor.ended(person, index))
+            emit(_monitored(monitor, settled))
+        for person, _ in leaving:
+            emit(monitor.ended(str(person)))
         log.close()
         if webhook:
             webhook.close()
         if server:
             server.stop()
-    files = {"events": events_path, "world": views.world_file() or views.world_paths[0]}
-    if (site.zones or site.lines) and files["world"].exists():
-        from ray3d.viz.site_report import analyse_site
-
-        analyse_site(read_world(files["world"]), site, out_dir / "site", title=f"ray3d live: {group.name}")
-        files["site"] = out_dir / "site"
+    files = {"events": events_path, "world": views.world_paths[0], "worlds": views.world_paths}
     return LiveSummary(ending, why, group.read, processed, group.dropped,
                        sum(getattr(d, "postponed", 0) for d in detectors), np.array(latencies), events_count,
                        views.written, views.left_out,

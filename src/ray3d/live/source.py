@@ -65,6 +65,21 @@ def _frames_of(capture: cv2.VideoCapture, first: np.ndarray) -> Iterator[np.ndar
         capture.release()
 
 
+def _close_and_wake(waited_on) -> None:
+    """Mark a source or a group closed and wake whoever waits on it."""
+    with waited_on._changed:
+        waited_on._closed = True
+        waited_on._changed.notify_all()
+
+
+def _wait_while_open(waited_on, ready) -> bool:
+    """Wait, holding a source's or a group's lock, until ``ready()`` or it is closed (``StreamStalled`` after its
+    stall timeout); whether it is still open."""
+    if not waited_on._changed.wait_for(lambda: waited_on._closed or ready(), timeout=waited_on.stall_s):
+        raise StreamStalled(waited_on.name, waited_on.stall_s)
+    return not waited_on._closed
+
+
 class FrameSource:
     """``next()`` gives the oldest of the (at most ``keep``) newest frames not taken yet (waiting for one), None
     once the stream has ended, and raises ``StreamStalled`` when none has come for ``stall_s`` seconds. ``paced``
@@ -136,10 +151,7 @@ class FrameSource:
     def next(self) -> LiveFrame | None:
         """The newest frame not taken yet; None once the stream has ended or ``close`` was called."""
         with self._changed:
-            if not self._changed.wait_for(lambda: self._waiting or self._ended or self._closed,
-                                          timeout=self.stall_s):
-                raise StreamStalled(self.name, self.stall_s)
-            if self._closed:
+            if not _wait_while_open(self, lambda: self._waiting or self._ended):
                 return None
             frame = self._waiting.popleft() if self._waiting else None
         if frame is None and self._failure is not None:
@@ -148,9 +160,7 @@ class FrameSource:
 
     def close(self) -> None:
         """Stop reading (the reader thread ends with its next frame)."""
-        with self._changed:
-            self._closed = True
-            self._changed.notify_all()
+        _close_and_wake(self)
         self._tell()
 
 
@@ -177,10 +187,7 @@ class SourceGroup:
     def next(self) -> tuple[int, LiveFrame] | None:
         while True:
             with self._changed:
-                if not self._changed.wait_for(lambda: self._closed or any(self.sources[v].ready() for v in self._open),
-                                              timeout=self.stall_s):
-                    raise StreamStalled(self.name, self.stall_s)
-                if self._closed:
+                if not _wait_while_open(self, lambda: any(self.sources[v].ready() for v in self._open)):
                     return None
                 view = min((v for v in self._open if self.sources[v].ready()),
                            key=lambda v: self.sources[v].oldest_arrival())
@@ -200,8 +207,6 @@ class SourceGroup:
         return sum(source.dropped for source in self.sources)
 
     def close(self) -> None:
-        with self._changed:
-            self._closed = True
-            self._changed.notify_all()
+        _close_and_wake(self)
         for source in self.sources:
             source.close()

@@ -73,6 +73,17 @@ def fold_batch_norms(module: nn.Module) -> None:
             sequential.add_module(str(i), layer)
 
 
+class InferenceOnly(nn.Module):
+    """A module that only infers: ``train()`` is refused with ``cannot_train``, ``eval()`` kept."""
+
+    cannot_train = "this network cannot be trained"
+
+    def train(self, mode: bool = True):
+        if mode:
+            raise ValueError(self.cannot_train)
+        return super().train(False)
+
+
 class StackedLinear(nn.Module):
     """G linear maps at once: (G, N, in) -> (G, N, out), ``bias + x @ weight`` per group."""
 
@@ -113,8 +124,10 @@ def _padded_columns(kernel: int, width: int, padded_width: int, joints_width: in
     return torch.cat([f * padded_width + frame for f in range(kernel)])
 
 
-class StackedRIEBranch(nn.Module):
+class StackedRIEBranch(InferenceOnly):
     """An ``RIEBranch`` in inference form: its groups' layers stacked, batch norms folded."""
+
+    cannot_train = "the inference form of a network (batch norms folded) cannot be trained"
 
     def __init__(self, branch: RIEBranch):
         super().__init__()
@@ -161,10 +174,6 @@ class StackedRIEBranch(nn.Module):
         else:
             self.head = branch.head
 
-    def train(self, mode: bool = True):
-        if mode:
-            raise ValueError("the inference form of a network (batch norms folded) cannot be trained")
-        return super().train(False)
 
     def forward(self, x: torch.Tensor, extra: torch.Tensor | None, camera: torch.Tensor | None) -> torch.Tensor:
         if x.shape[0] >= self.batch_per_group:

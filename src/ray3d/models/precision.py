@@ -29,7 +29,8 @@ from torch import nn
 
 from ray3d.errors import InputError
 from ray3d.models.blocks import FrameGroupLinear, stack_frames
-from ray3d.models.inference import BATCH_PER_GROUP, StackedLinear, StackedRIEBranch, inference_network
+from ray3d.models.inference import (BATCH_PER_GROUP, InferenceOnly, StackedLinear, StackedRIEBranch,
+                                    inference_network)
 from ray3d.models.network import predict_with_flip
 from ray3d.models.tensor_batch import TensorBatch
 
@@ -123,9 +124,11 @@ def _replace(network: nn.Module, name: str, layer: nn.Module) -> None:
     setattr(network.get_submodule(parent) if parent else network, child, layer)
 
 
-class ReducedPrecisionNetwork(nn.Module):
+class ReducedPrecisionNetwork(InferenceOnly):
     """A ``LiftingNetwork`` in its inference form, run in ``precision`` ("bf16" or "int8"); the same interface
     (``config``, ``receptive_field``, ``predict``, ``to_world``, ...) as the float32 network."""
+
+    cannot_train = "a reduced-precision network cannot be trained"
 
     def __init__(self, model: nn.Module, precision: str):
         super().__init__()
@@ -161,11 +164,6 @@ class ReducedPrecisionNetwork(nn.Module):
 
     def to_world(self, points, cameras, camera_params):
         return self.network.to_world(points, cameras, camera_params)
-
-    def train(self, mode: bool = True):
-        if mode:
-            raise ValueError("a reduced-precision network cannot be trained")
-        return super().train(False)
 
 
 def with_precision(model: nn.Module, precision: str = "fp32") -> nn.Module:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.io.atomic import atomic_path
+from ray3d.io.atomic import write_text
 from ray3d.io.world import LiftResult
 from ray3d.viz.animation import PALETTE, as_track, frustum_lines
 from ray3d.skeleton import H36M17
@@ -258,8 +258,4 @@ def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult]
             "width": int(camera.image_size[0]), "height": int(camera.image_size[1]),
             "centre": np.asarray(camera.center).round(4).tolist()},
     }
-    html = _TEMPLATE.replace("__TITLE__", title).replace("__DATA__", json.dumps(data))
-    path = Path(path)
-    with atomic_path(path, overwrite) as temporary:
-        temporary.write_text(html)
-    return path
+    return write_text(path, _TEMPLATE.replace("__TITLE__", title).replace("__DATA__", json.dumps(data)), overwrite)

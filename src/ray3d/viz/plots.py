@@ -27,11 +27,7 @@ def plot_sweep_panels(x: list[float], panels: dict[str, dict[str, list[float]]],
         axis.legend(fontsize=7)
     fig.suptitle(title)
     fig.tight_layout()
-    path = Path(path)
-    with atomic_path(path, overwrite=True) as temporary:
-        fig.savefig(temporary, format="png")
-    plt.close(fig)
-    return path
+    return _save(fig, path, overwrite=True)
 
 
 def plot_sweep(x: list[float], curves: dict[str, list[float]], xlabel: str, ylabel: str, title: str,

@@ -1,6 +1,7 @@
-"""A site's HTML report, self-contained and offline: the floor plan (paths, time spent, zones, lines), the
-counts per place, zone occupancy, a timeline of every event, and the events' table, each event linking to the 3D
-viewer (written beside it) opened at its moment and following its person."""
+"""A site's HTML page, self-contained and offline (``ray3d.site.report`` writes it with the tables and plots):
+the floor plan (paths, time spent, zones, lines), the counts per place, zone occupancy, a timeline of every event,
+and the events' table, each event linking to the 3D viewer (written beside it) opened at its moment and following
+its person."""
 
 from __future__ import annotations
 
@@ -9,11 +10,9 @@ import html
 import json
 from pathlib import Path
 
-from ray3d.io.atomic import atomic_path
+from ray3d.io.atomic import write_text
+from ray3d.site.events import EVENT_KINDS
 
-EVENT_COLOURS = {"line crossed": "#d62f2f", "zone entered": "#1f77b4", "zone left": "#7fb2e5", "fall": "#000000",
-                 "occupancy above limit": "#ff7f0e", "dwell above limit": "#9467bd", "track started": "#2ca02c",
-                 "track ended": "#98df8a"}
 
 _TEMPLATE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
@@ -86,50 +85,7 @@ def write_site_report(path: str | Path, events: list[dict], places: list[dict], 
 
     page = (_TEMPLATE.replace("__TITLE__", html.escape(title)).replace("__NOTE__", html.escape(note))
             .replace("__PLAN__", embedded(plan_png)).replace("__OCCUPANCY__", embedded(occupancy_png))
-            .replace("__PLACES__", _table(places)).replace("__COLOURS__", json.dumps(EVENT_COLOURS))
+            .replace("__PLACES__", _table(places))
+            .replace("__COLOURS__", json.dumps({kind.name: kind.colour for kind in EVENT_KINDS.values()}))
             .replace("__FPS__", json.dumps(float(fps))).replace("__EVENTS__", json.dumps(events).replace("</", "<\\/")))
-    path = Path(path)
-    with atomic_path(path, overwrite) as temporary:
-        temporary.write_text(page)
-    return path
-
-
-PLOTS = ("floor-plan.png", "occupancy.png")
-PAGES = ("report.html", "viewer.html")
-PRIVACY = ("Written from the world file's skeletons and tracks only: no image, crop or overlay of the video is in "
-           "this report.")
-CELL_M = 0.5  # the heat map's squares
-
-
-def site_outputs(out_dir: str | Path) -> list[Path]:
-    """Every file ``analyse_site`` writes in ``out_dir``."""
-    from ray3d.io.site_files import SITE_TABLES
-
-    return [Path(out_dir) / name for name in (*PAGES, *SITE_TABLES, *PLOTS)]
-
-
-def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site report",
-                 overwrite: bool = False) -> tuple[list[dict], list[dict], list[Path]]:
-    """A ``World``'s tracks on a ``ray3d.site.Site``: the events, the per-place summaries and the files written in
-    ``out_dir`` (``site_outputs``: the report, the viewer, every table and both plots)."""
-    from ray3d.io.site_files import write_site_tables
-    from ray3d.site import heat_map, occupancy, person_frames, site_events, track_summaries, zone_summaries
-    from ray3d.viz.html_viewer import write_viewer
-    from ray3d.viz.plots import plot_floor_plan, plot_occupancy
-
-    out_dir = Path(out_dir)
-    world = world.in_frame("world")
-    events, frames = site_events(world, site), person_frames(world, site)
-    places = zone_summaries(events, site)
-    times, counts = occupancy(frames, site, world.fps)
-    series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
-              for k, t in enumerate(times)]
-    tables = write_site_tables(out_dir, events, track_summaries(world, site), places, frames, series, overwrite)
-    heat, corner = heat_map(frames, world.fps, CELL_M)
-    floor_plan = plot_floor_plan(site, frames, heat, corner, CELL_M, out_dir / PLOTS[0], overwrite)
-    people = plot_occupancy(times, counts, out_dir / PLOTS[1], overwrite)
-    viewer = write_viewer(out_dir / PAGES[1], world.tracks, world.fps, world.camera, title=f"{title}: every track",
-                          overwrite=overwrite, more_cameras=world.cameras[1:])
-    report = write_site_report(out_dir / PAGES[0], events, places, floor_plan, people, world.fps, title=title,
-                               note=PRIVACY, overwrite=overwrite)
-    return events, places, [report, viewer, *tables, floor_plan, people]
+    return write_text(path, page, overwrite)

@@ -18,9 +18,11 @@ from collections import deque
 
 import numpy as np
 
-from ray3d.fusion.tracks import GATE_FLOOR_M, gate_m, handover_reach_m, joint_covariances, root_spread
+from ray3d.fusion.tracks import (GATE_FLOOR_M, gate_m, handover_reach_m, information_weighted, joint_covariances,
+                                 root_spread)
 from ray3d.geometry import Camera
 from ray3d.live.people import PersonNow
+from ray3d.temporal import velocity
 
 
 WALK_S = 0.5  # a velocity is taken over the last half second of places, once they span half of it
@@ -44,8 +46,8 @@ class _Path:
 
     def velocity(self) -> np.ndarray | None:
         """(2,) m/s, or None while the places span too little time to tell."""
-        (start, first), (end, last) = self.places[0], self.places[-1]
-        return (last - first) / (end - start) if end - start >= WALK_S / 2 else None
+        moved, span = velocity([t for t, _ in self.places], np.stack([p for _, p in self.places]), WALK_S, 0.0)
+        return moved[-1] if span[-1] >= WALK_S / 2 else None
 
 
 @dataclasses.dataclass
@@ -163,11 +165,9 @@ class LiveFusion:
                    if time_s - self._tracks[view, track].seen_s <= self.recent_s]
         if not current:
             return None
-        information = np.linalg.inv(np.stack([joint_covariances(t.now.joints, t.now.position_sd, self.centres[view])
-                                              for view, t in current]))
-        covariance = np.linalg.inv(information.sum(axis=0))
-        joints = np.einsum("kij,kj->ki", covariance,
-                           np.einsum("nkij,nkj->ki", information, np.stack([t.now.joints for _, t in current])))
+        joints, covariance = information_weighted(
+            np.stack([t.now.joints for _, t in current]),
+            np.stack([joint_covariances(t.now.joints, t.now.position_sd, self.centres[view]) for view, t in current]))
         person.seen_s = max(t.seen_s for _, t in current)
         person.path.add(person.seen_s, joints[0, :2])  # when the newest of its answers was seen
         statures = [t.now.stature_m for _, t in current if t.now.stature_m is not None]

@@ -1,0 +1,111 @@
+"""What a site's events and tracks add up to: per track (time seen, distance, speed, time in each zone, stature
+class), per place (entries, exits, dwell, crossings), per person-frame (place, speed, heading, posture, zones),
+zone occupancy over time and a heat map of time spent."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ray3d.body import POSTURES, postures
+from ray3d.io.world import World
+from ray3d.site.events import LINE_CROSSED, ZONE_ENTERED, ZONE_LEFT
+from ray3d.site.places import Site, zone_visits
+from ray3d.temporal import velocity
+
+CHILD_STATURE_M = 1.30  # a person shorter than this is a child
+
+
+def track_summaries(world: World, site: Site) -> list[dict]:
+    """Per track: when it was seen (first and last time, seconds), the distance walked on the floor plan (metres,
+    between consecutive frames), the mean speed, the time spent in each zone, and the stature with its 95 %
+    interval where the refinement ran and its class (``stature_class``)."""
+    rows = []
+    for track, result in world.in_frame("world").tracks.items():
+        times, points = result.frames / result.fps, result.root[:, :2]
+        walked = float(np.linalg.norm(np.diff(points, axis=0), axis=-1).sum())
+        duration = float(times[-1] - times[0])
+        refinement = result.refinement or {}
+        row = {"track": track, "first_s": round(float(times[0]), 3), "last_s": round(float(times[-1]), 3),
+               "distance_m": round(walked, 3), "mean_speed_m_s": round(walked / duration, 3) if duration > 0 else None,
+               "stature_m": refinement.get("stature_m"),
+               "stature_interval_m": refinement.get("stature_interval_m"),
+               "stature_class": stature_class(refinement.get("stature_m"), refinement.get("stature_interval_m"))}
+        for zone in site.zones:
+            row[f"time_in_{zone.name}_s"] = round(sum(v["dwell_s"] for v in zone_visits(times, points, zone)), 3)
+        rows.append(row)
+    return rows
+
+
+def zone_summaries(events: list[dict], site: Site) -> list[dict]:
+    """Per zone: entries, exits and the visits' dwell (mean and longest, of the visits that left); per line:
+    crossings each way."""
+    rows = []
+    for zone in site.zones:
+        mine = [e for e in events if e.get("zone") == zone.name]
+        dwell = [e["dwell_s"] for e in mine if e["event"] == ZONE_LEFT.name]
+        rows.append({"place": zone.name, "kind": "zone", "entries": sum(e["event"] == ZONE_ENTERED.name for e in mine),
+                     "exits": len(dwell), "mean_dwell_s": round(float(np.mean(dwell)), 3) if dwell else None,
+                     "longest_dwell_s": round(float(np.max(dwell)), 3) if dwell else None})
+    for line in site.lines:
+        mine = [e for e in events if e["event"] == LINE_CROSSED.name and e["line"] == line.name]
+        rows.append({"place": line.name, "kind": "line", "forward": sum(e["direction"] == "forward" for e in mine),
+                     "back": sum(e["direction"] == "back" for e in mine)})
+    return rows
+
+
+def stature_class(stature_m: float | None, interval_m: list | None) -> str:
+    """"adult", "child" (under ``CHILD_STATURE_M``), or "unsure" where the stature's interval straddles it (or
+    no stature was estimated)."""
+    if stature_m is None or interval_m is None:
+        return "unsure"
+    low, high = interval_m
+    return "adult" if low >= CHILD_STATURE_M else "child" if high < CHILD_STATURE_M else "unsure"
+
+
+SPEED_WINDOW_S = 0.5  # speeds and headings over this span, so that a detector's jitter does not read as motion
+
+
+def person_frames(world: World, site: Site) -> list[dict]:
+    """Per person-frame: the track, frame, time, floor point (x, y, metres), speed (m/s) and heading (degrees from
+    +x towards +y) over ``SPEED_WINDOW_S`` around it (None where the person is slower than 0.2 m/s: no heading),
+    posture (``ray3d.body.postures``) and the zones the point is in."""
+    rows = []
+    for track, result in world.in_frame("world").tracks.items():
+        times, points = result.frames / result.fps, result.root[:, :2]
+        moved, _ = velocity(times, points, SPEED_WINDOW_S / 2, SPEED_WINDOW_S / 2)
+        speed = np.linalg.norm(moved, axis=-1)
+        heading = np.degrees(np.arctan2(moved[:, 1], moved[:, 0]))
+        classes = postures(result.joints)
+        inside = {zone.name: zone.contains(points) for zone in site.zones}
+        for k in range(len(times)):
+            rows.append({"track": track, "frame": int(result.frames[k]), "time_s": round(float(times[k]), 4),
+                         "x_m": round(float(points[k, 0]), 3), "y_m": round(float(points[k, 1]), 3),
+                         "speed_m_s": round(float(speed[k]), 3),
+                         "heading_deg": round(float(heading[k]), 1) if speed[k] >= 0.2 else None,
+                         "posture": POSTURES[classes[k]],
+                         "zones": [name for name, flags in inside.items() if flags[k]]})
+    return rows
+
+
+def occupancy(rows: list[dict], site: Site, fps: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """From ``person_frames`` rows: the frames' times (F,) and, per zone, how many people were in it at each."""
+    frames = np.unique([row["frame"] for row in rows]) if rows else np.zeros(0, dtype=int)
+    counts = {zone.name: np.zeros(len(frames), dtype=int) for zone in site.zones}
+    for row in rows:
+        at = np.searchsorted(frames, row["frame"])
+        for name in row["zones"]:
+            counts[name][at] += 1
+    return frames / fps, counts
+
+
+def heat_map(rows: list[dict], fps: float, cell_m: float = 0.5) -> tuple[np.ndarray, tuple[float, float]]:
+    """Seconds spent per ``cell_m`` square of the floor plan by everybody (from ``person_frames`` rows): (H, W)
+    and the (x, y) of the grid's lower-left corner."""
+    xy = np.array([[row["x_m"], row["y_m"]] for row in rows]).reshape(-1, 2)
+    if not len(xy):
+        return np.zeros((0, 0)), (0.0, 0.0)
+    low = np.floor(xy.min(axis=0) / cell_m) * cell_m
+    cells = np.floor((xy - low) / cell_m).astype(int)
+    grid = np.zeros((cells[:, 1].max() + 1, cells[:, 0].max() + 1))
+    np.add.at(grid, (cells[:, 1], cells[:, 0]), 1.0 / fps)
+    return grid, (float(low[0]), float(low[1]))

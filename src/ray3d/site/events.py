@@ -1,0 +1,205 @@
+"""A site's events, on both clocks from one engine: ``SiteMonitor`` follows each person causally, frame by frame
+(what ``ray3d live`` runs as frames arrive), and ``site_events`` replays a finished world through it (what
+``ray3d site`` and ``ray3d video --site`` report), so the live and offline events are equal by construction.
+
+Every kind of event is one row of ``EVENT_KINDS`` (its name, its colour in the report and the fields it carries
+beside ``event``, ``track`` and ``time_s``) and one method of ``SiteMonitor`` that finds it. An event is an
+``Event``: a dict, written as one JSON line as it is.
+
+The rules: a line crossed (``line_crossings`` on the step just taken); a zone entered or left (a visit under way
+when a track starts is no entry, one under way when it ends no exit); a zone's occupancy above its limit (counted
+from who is in it, those there when their track started too, when an
+entry makes it too many); a visit's dwell above its limit (when it reaches it); a fall
+(``falls`` on the person's last seconds, once they have lain still long enough for it to count); a track started
+and ended.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import deque
+
+import numpy as np
+
+from ray3d.io.world import World
+from ray3d.site.falls import FALL_STILL_S, FALL_WINDOW_S, falls
+from ray3d.site.places import Site, line_crossings
+
+
+@dataclasses.dataclass(frozen=True)
+class EventKind:
+    """A kind of event: its ``name`` (the ``event`` field), its ``colour`` in reports and the ``fields`` it carries
+    beside ``event``, ``track`` and ``time_s``."""
+
+    name: str
+    colour: str
+    fields: tuple[str, ...]
+
+
+LINE_CROSSED = EventKind("line crossed", "#d62f2f", ("line", "direction", "place_m", "sides_m", "frames"))
+ZONE_ENTERED = EventKind("zone entered", "#1f77b4", ("zone", "place_m", "frames"))
+ZONE_LEFT = EventKind("zone left", "#7fb2e5", ("zone", "place_m", "dwell_s", "frames"))
+OCCUPANCY_ABOVE_LIMIT = EventKind("occupancy above limit", "#ff7f0e", ("zone", "occupancy", "limit", "people"))
+DWELL_ABOVE_LIMIT = EventKind("dwell above limit", "#9467bd", ("zone", "dwell_s", "limit_s"))
+FALL = EventKind("fall", "#000000", ("place_m", "head_drop_m", "drop_s", "lying_from_s", "still_m"))
+TRACK_STARTED = EventKind("track started", "#2ca02c", ("place_m", "frames"))
+TRACK_ENDED = EventKind("track ended", "#98df8a", ("place_m", "frames"))
+EVENT_KINDS = {kind.name: kind for kind in (LINE_CROSSED, ZONE_ENTERED, ZONE_LEFT, FALL, OCCUPANCY_ABOVE_LIMIT,
+                                             DWELL_ABOVE_LIMIT, TRACK_STARTED, TRACK_ENDED)}
+
+
+class Event(dict):
+    """One event: ``{"event": kind name, "track", "time_s", **the kind's fields}``; refused (``ValueError``) when
+    the fields are not its kind's."""
+
+    def __init__(self, kind: EventKind, track: str, time_s: float, **fields):
+        if set(fields) != set(kind.fields):
+            raise ValueError(f"a {kind.name!r} event carries {', '.join(kind.fields)}; got {', '.join(fields)}")
+        super().__init__(event=kind.name, track=str(track), time_s=float(time_s),
+                         **{name: fields[name] for name in kind.fields})
+
+    def __reduce__(self):  # sent between processes (a webhook thread, Ray) as what it is
+        return _event_from_dict, (dict(self),)
+
+
+def _event_from_dict(document: dict) -> Event:
+    fields = {k: v for k, v in document.items() if k not in ("event", "track", "time_s")}
+    return Event(EVENT_KINDS[document["event"]], document["track"], document["time_s"], **fields)
+
+
+def _place(point: np.ndarray) -> list:
+    return np.asarray(point).round(3).tolist()
+
+
+FALL_CHECK_S = 0.5  # how often each person's last seconds are searched for a fall
+
+
+class _Person:
+    def __init__(self, frames: int):
+        self.frame = -1
+        self.place: np.ndarray | None = None
+        self.inside: dict[str, float] = {}   # zone -> when this visit began (its entry time)
+        self.recent: deque = deque(maxlen=frames)  # (time, joints) over the longest a fall takes to show
+        self.falls_reported_until = -np.inf
+        self.dwell_reported: set[str] = set()
+        self.next_fall_check = 0.0
+
+
+class SiteMonitor:
+    """``update(frame index, {track: world joints (17, 3)})`` -> the events of that frame; ``ended(track)`` -> a
+    track's last events; ``counts`` holds the entries / exits per zone and the crossings per line and direction so
+    far, ``occupants`` who is in each zone now. Track ids are strings."""
+
+    def __init__(self, site: Site, fps: float):
+        self.site, self.fps = site, fps
+        self._people: dict[str, _Person] = {}
+        self.occupants: dict[str, set[str]] = {zone.name: set() for zone in site.zones}
+        self.counts = {**{zone.name: {"entered": 0, "left": 0} for zone in site.zones},
+                       **{line.name: {"forward": 0, "back": 0} for line in site.lines}}
+
+    def update(self, frame_index: int, people: dict[str, np.ndarray]) -> list[Event]:
+        now, events = frame_index / self.fps, []
+        for track, joints in people.items():
+            place = joints[0, :2]
+            state = self._people.get(track)
+            if state is None:
+                state = self._people[track] = _Person(int(round(FALL_WINDOW_S * self.fps)))
+                events.append(Event(TRACK_STARTED, track, now, place_m=_place(place), frames=[frame_index]))
+                state.inside = {zone.name: now for zone in self.site.zones if zone.contains(place)}
+                for zone in state.inside:
+                    self.occupants[zone].add(track)
+            else:
+                events += self._lines(track, state, frame_index, place)
+                events += self._zones(track, state, frame_index, place)
+            state.frame, state.place = frame_index, place
+            state.recent.append((now, joints))
+            events += self._dwell(track, state, now)
+            if now >= state.next_fall_check:
+                events += self._falls(track, state)
+                state.next_fall_check = now + FALL_CHECK_S
+        return sorted(events, key=lambda e: (e["time_s"], e["track"]))
+
+    def ended(self, track: str) -> list[Event]:
+        """The track's end (its last frame): a fall still to be found in its last seconds, then "track ended"; a
+        visit under way ends with it, unreported."""
+        state = self._people.pop(track, None)
+        if state is None:
+            return []
+        for zone in state.inside:
+            self.occupants[zone].discard(track)
+        return self._falls(track, state) + [Event(TRACK_ENDED, track, state.frame / self.fps,
+                                                  place_m=_place(state.place), frames=[state.frame])]
+
+    def _lines(self, track: str, state: _Person, frame_index: int, place: np.ndarray) -> list[Event]:
+        events = []
+        times, points = np.array([state.frame, frame_index]) / self.fps, np.stack([state.place, place])
+        for line in self.site.lines:
+            for crossing in line_crossings(times, points, line):
+                self.counts[line.name][crossing["direction"]] += 1
+                events.append(Event(LINE_CROSSED, track, crossing["time_s"], line=line.name,
+                                    direction=crossing["direction"], place_m=crossing["place_m"],
+                                    sides_m=crossing["sides_m"], frames=[state.frame, frame_index]))
+        return events
+
+    def _zones(self, track: str, state: _Person, frame_index: int, place: np.ndarray) -> list[Event]:
+        events, now = [], frame_index / self.fps
+        for zone in self.site.zones:
+            was, is_now = zone.name in state.inside, bool(zone.contains(place))
+            occupants = self.occupants[zone.name]
+            if is_now and not was:
+                state.inside[zone.name] = now
+                occupants.add(track)
+                self.counts[zone.name]["entered"] += 1
+                events.append(Event(ZONE_ENTERED, track, now, zone=zone.name, place_m=_place(place),
+                                    frames=[state.frame, frame_index]))
+                if zone.max_occupancy is not None and len(occupants) > zone.max_occupancy:
+                    events.append(Event(OCCUPANCY_ABOVE_LIMIT, track, now, zone=zone.name, occupancy=len(occupants),
+                                        limit=zone.max_occupancy, people=sorted(occupants)))
+            elif was and not is_now:
+                dwell = now - state.inside.pop(zone.name)
+                occupants.discard(track)
+                state.dwell_reported.discard(zone.name)
+                self.counts[zone.name]["left"] += 1
+                events.append(Event(ZONE_LEFT, track, now, zone=zone.name, place_m=_place(place),
+                                    dwell_s=round(dwell, 3), frames=[state.frame, frame_index]))
+        return events
+
+    def _dwell(self, track: str, state: _Person, now: float) -> list[Event]:
+        events = []
+        for zone in self.site.zones:
+            entered = state.inside.get(zone.name)
+            if zone.max_dwell_s is None or entered is None or zone.name in state.dwell_reported:
+                continue
+            if now - entered > zone.max_dwell_s:
+                state.dwell_reported.add(zone.name)
+                events.append(Event(DWELL_ABOVE_LIMIT, track, round(entered + zone.max_dwell_s, 3), zone=zone.name,
+                                    dwell_s=round(now - entered, 3), limit_s=zone.max_dwell_s))
+        return events
+
+    def _falls(self, track: str, state: _Person) -> list[Event]:
+        if len(state.recent) < 2:
+            return []
+        times = np.array([t for t, _ in state.recent])
+        found = [fall for fall in falls(times, np.stack([j for _, j in state.recent]))
+                 if fall["time_s"] > state.falls_reported_until]
+        if found:
+            state.falls_reported_until = max(fall["lying_from_s"] + FALL_STILL_S for fall in found)
+        return [Event(FALL, track, **fall) for fall in found]
+
+
+def site_events(world: World, site: Site) -> list[Event]:
+    """Every event the world's tracks make on the site, in time order: the finished world replayed frame by frame
+    through a ``SiteMonitor``, as ``ray3d live`` would have found them."""
+    world = world.in_frame("world")
+    present: dict[int, dict[str, np.ndarray]] = {}
+    last: dict[int, list[str]] = {}
+    for track, result in world.tracks.items():
+        for row, frame in enumerate(result.frames.tolist()):
+            present.setdefault(int(frame), {})[str(track)] = result.joints[row]
+        last.setdefault(int(result.frames[-1]), []).append(str(track))
+    monitor, events = SiteMonitor(site, world.fps), []
+    for frame in sorted(present):
+        events += monitor.update(frame, present[frame])
+        for track in last.get(frame, ()):
+            events += monitor.ended(track)
+    return sorted(events, key=lambda e: (e["time_s"], e["track"]))

@@ -1,0 +1,49 @@
+"""A world's tracks on a site, written out: the events (``ray3d.site.events``), the tables of
+``ray3d.site.analytics``, the floor plan and occupancy plots, the 3D viewer and the HTML report, in one folder.
+What ``ray3d site``, ``ray3d video --site``, ``ray3d live`` with a site and batch inputs with a site write."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+PLOTS = ("floor-plan.png", "occupancy.png")
+PAGES = ("report.html", "viewer.html")
+PRIVACY = ("Written from the world file's skeletons and tracks only: no image, crop or overlay of the video is in "
+           "this report.")
+CELL_M = 0.5  # the heat map's squares
+
+
+def site_outputs(out_dir: str | Path) -> list[Path]:
+    """Every file ``analyse_site`` writes in ``out_dir``."""
+    from ray3d.io.site_files import SITE_TABLES
+
+    return [Path(out_dir) / name for name in (*PAGES, *SITE_TABLES, *PLOTS)]
+
+
+def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site report",
+                 overwrite: bool = False) -> tuple[list[dict], list[dict], list[Path]]:
+    """A ``World``'s tracks on a ``Site``: the events, the per-place summaries and the files written in
+    ``out_dir`` (``site_outputs``: the report, the viewer, every table and both plots)."""
+    from ray3d.io.site_files import write_site_tables
+    from ray3d.site.analytics import heat_map, occupancy, person_frames, track_summaries, zone_summaries
+    from ray3d.site.events import site_events
+    from ray3d.viz.html_viewer import write_viewer
+    from ray3d.viz.plots import plot_floor_plan, plot_occupancy
+    from ray3d.viz.site_report import write_site_report
+
+    out_dir = Path(out_dir)
+    world = world.in_frame("world")
+    events, frames = site_events(world, site), person_frames(world, site)
+    places = zone_summaries(events, site)
+    times, counts = occupancy(frames, site, world.fps)
+    series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
+              for k, t in enumerate(times)]
+    tables = write_site_tables(out_dir, events, track_summaries(world, site), places, frames, series, overwrite)
+    heat, corner = heat_map(frames, world.fps, CELL_M)
+    floor_plan = plot_floor_plan(site, frames, heat, corner, CELL_M, out_dir / PLOTS[0], overwrite)
+    people = plot_occupancy(times, counts, out_dir / PLOTS[1], overwrite)
+    viewer = write_viewer(out_dir / PAGES[1], world.tracks, world.fps, world.camera, title=f"{title}: every track",
+                          overwrite=overwrite, more_cameras=world.cameras[1:])
+    report = write_site_report(out_dir / PAGES[0], events, places, floor_plan, people, world.fps, title=title,
+                               note=PRIVACY, overwrite=overwrite)
+    return events, places, [report, viewer, *tables, floor_plan, people]

@@ -1,0 +1,114 @@
+"""Jobs assembled once (``ray3d.jobs``): a job's checks, its inputs lifted as the commands lift them, a batch row
+with every option the command line has (a site and a floor too), the one fusion of several answers and the one
+way a walk's velocity is read."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ray3d import InputError, cameras
+from ray3d.batch import read_manifest
+from ray3d.batch.runner import process_entry
+from ray3d.demo import demo_clip
+from ray3d.fusion.tracks import information_weighted
+from ray3d.io.world import read_world
+from ray3d.jobs import CameraChoice, Job, fuse_and_write, run_input
+from ray3d.temporal import velocity
+
+CAMERA = cameras.h36m("S9", "54138969")
+
+
+def _keypoints(path, start: int = 0):
+    np.savez(path, keypoints=CAMERA.project(demo_clip()[start:start + 40]), fps=50.0)
+    return path
+
+
+def test_a_job_refuses_a_camera_count_that_does_not_match_its_inputs_and_an_unknown_format(tmp_path):
+    with pytest.raises(InputError, match="1 given for 2 inputs"):
+        Job((tmp_path / "a.npz", tmp_path / "b.npz"), (CameraChoice("h36m:S9:54138969"),))
+    with pytest.raises(InputError, match="format"):
+        Job((tmp_path / "a.npz",), (CameraChoice("h36m:S9:54138969"),), world_format=".xyz")
+    with pytest.raises(InputError, match="precision"):
+        Job((tmp_path / "a.npz",), (CameraChoice("h36m:S9:54138969"),), precision="fp8")
+
+
+def test_an_input_lifted_in_memory_is_the_one_written_and_two_cameras_fuse_into_one_person(tmp_path):
+    path = _keypoints(tmp_path / "take.npz")
+    job = Job((path,), (CameraChoice(made=CAMERA),))
+    kept = run_input(job, 0, None, progress=False)
+    written = run_input(job, 0, tmp_path / "world.json", progress=False)
+    assert not kept.files and written.files == {"world": tmp_path / "world.json"} and kept.frames == 40
+    on_disk = read_world(tmp_path / "world.json")
+    for track, result in kept.world.tracks.items():
+        np.testing.assert_allclose(on_disk.tracks[track].joints, result.joints, atol=1e-5)  # 5 decimals
+    other = cameras.h36m("S9", "55011271")
+    walk = demo_clip()[:200]  # long enough for the two cameras' answers to walk alike
+    np.savez(tmp_path / "one.npz", keypoints=CAMERA.project(walk), fps=50.0)
+    np.savez(tmp_path / "other.npz", keypoints=other.project(walk), fps=50.0)
+    two = Job((tmp_path / "one.npz", tmp_path / "other.npz"), (CameraChoice(made=CAMERA), CameraChoice(made=other)))
+    worlds = [run_input(two, k, None, progress=False).world for k in range(2)]
+    fusion = fuse_and_write(worlds, tmp_path / "fused.json", viewer_path=tmp_path / "viewer.html")
+    assert len(fusion.world.tracks) == 1 and (tmp_path / "viewer.html").exists()
+    assert len(read_world(tmp_path / "fused.json").cameras) == 2
+    with pytest.raises(InputError, match="exists"):  # never over an output
+        fuse_and_write(worlds, tmp_path / "fused.json")
+
+
+def test_a_batch_row_takes_every_option_of_the_command_line_and_writes_its_site_report(tmp_path):
+    _keypoints(tmp_path / "take.npz")
+    (tmp_path / "site.json").write_text(json.dumps({"lines": [{"name": "door", "start": [-5, 0], "end": [5, 0]}]}))
+    (tmp_path / "floor.json").write_text(json.dumps({"floor_regions": [
+        {"name": "stage", "polygon": [[50, 50], [51, 50], [51, 51]], "height_m": 0.2}]}))
+    manifest = tmp_path / "m.json"
+    manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "site": "site.json",
+                                     "floor": "floor.json", "frame": "camera", "smooth_3d": "none"}]))
+    (entry,) = read_manifest(manifest)
+    job = entry.job()
+    assert job.floor_file == str(tmp_path / "floor.json") and job.lift.frame == "camera"
+    assert job.lift_options(0).floor.regions[0].name == "stage" and job.lift.smooth_3d is None
+    out = tmp_path / "out"
+    out.mkdir()
+    assert process_entry(entry, out, "x")["status"] == "done"
+    assert read_world(out / "take" / "world.json").frame == "camera"
+    assert (out / "take" / "site" / "report.html").exists() and (out / "take" / "site" / "events.jsonl").exists()
+    manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "site": "nowhere.json"}]))
+    with pytest.raises(InputError, match="row 1: column site: .*nowhere.json does not exist"):
+        read_manifest(manifest)
+    manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "overlay": False}]))
+    with pytest.raises(InputError, match="overlay applies to video inputs"):
+        read_manifest(manifest)
+
+
+def test_the_one_fusion_weighs_by_information_and_ignores_what_was_not_seen():
+    rng = np.random.default_rng(0)
+    answers = rng.normal(size=(3, 5, 3))
+    same = np.broadcast_to(np.eye(3) * 0.04, (3, 5, 3, 3))
+    mean, covariance = information_weighted(answers, same)
+    np.testing.assert_allclose(mean, answers.mean(axis=0), atol=1e-12)
+    np.testing.assert_allclose(covariance, np.broadcast_to(np.eye(3) * 0.04 / 3, (5, 3, 3)), atol=1e-12)
+    seen = np.array([True, False, False])[:, None].repeat(5, axis=1)
+    alone, _ = information_weighted(answers, same, seen)
+    np.testing.assert_allclose(alone, answers[0], atol=1e-12)
+    sure = same.copy()
+    sure[1] *= 1e-6  # one far surer camera decides
+    np.testing.assert_allclose(information_weighted(answers, sure)[0], answers[1], atol=1e-5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-3, 3), st.floats(-3, 3), st.sampled_from([5.0, 10.0, 25.0, 30.0]), st.integers(3, 60),
+       st.floats(0.1, 1.0))
+def test_a_straight_walk_reads_its_own_velocity_centred_and_causal(vx, vy, fps, frames, window_s):
+    times = np.arange(frames) / fps
+    points = np.column_stack([vx * times, vy * times]) + [1.0, -2.0]
+    for before, after in ((window_s, window_s), (window_s, 0.0)):
+        moved, span = velocity(times, points, before, after)
+        moving = span > 0
+        np.testing.assert_allclose(moved[moving], np.broadcast_to([vx, vy], moved[moving].shape), atol=1e-9)
+        assert np.all(moved[~moving] == 0) and np.all(span <= before + after + 1e-9)
+    _, causal_span = velocity(times, points, window_s, 0.0)
+    assert causal_span[0] == 0 and np.all(np.diff(causal_span) >= -1e-12)  # a causal window only grows, then holds
