@@ -321,7 +321,7 @@ def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camer
     later = []
     for k in range(1000, 1005):  # somebody new, long after: a new id, never one of those gone
         later += [now.track for now in fusion.update(0, k / 10, [at(9, 0.0, 0.0)])]
-    assert set(later) == {max(seen) + 1}
+    assert set(later) == {str(max(map(int, seen)) + 1)}
 
 
 def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions():

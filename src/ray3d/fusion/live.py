@@ -56,8 +56,8 @@ class _CameraTrack:
     seen_s: float
     first_s: float
     updates: int = 0
-    agreeing: tuple[int | None, int] = (None, 0)  # (world person, updates in a row it stayed within the gate)
-    person: int | None = None
+    agreeing: tuple[str | None, int] = (None, 0)  # (world person, updates in a row it stayed within the gate)
+    person: str | None = None
     finished: bool = False
 
 
@@ -77,8 +77,8 @@ class LiveFusion:
         self.centres = [camera.center for camera in cameras]
         self.handover_s, self.decide_updates = handover_s, max(3, int(round(decide_s / frame_period_s)))
         self.recent_s = 1.5 * frame_period_s  # seen now: every camera's latest frame, whatever their phases
-        self._tracks: dict[tuple[int, int], _CameraTrack] = {}
-        self._people: dict[int, _WorldPerson] = {}  # the world people not gone for good
+        self._tracks: dict[tuple[int, str], _CameraTrack] = {}
+        self._people: dict[str, _WorldPerson] = {}  # the world people not gone for good
         self._next_person = 0
 
     def update(self, view: int, time_s: float, people: list[PersonNow]) -> list[PersonNow]:
@@ -91,7 +91,7 @@ class LiveFusion:
                 self._decide(key, track, time_s)
         return [p for n, person in self._people.items() if (p := self._fused(n, person, time_s)) is not None]
 
-    def finished(self, view: int, track: int) -> None:
+    def finished(self, view: int, track: str) -> None:
         if (view, track) in self._tracks:
             self._tracks[view, track].finished = True
             if self._tracks[view, track].person is None:  # never long enough to be anybody
@@ -106,7 +106,7 @@ class LiveFusion:
                 self._tracks.pop(key, None)
         return gone if seen else [n for n, _ in gone]
 
-    def _decide(self, key: tuple[int, int], track: _CameraTrack, time_s: float) -> None:
+    def _decide(self, key: tuple[int, str], track: _CameraTrack, time_s: float) -> None:
         """Join the track to the world person (or the other camera's undecided track, making one new person
         of both) it has agreed with for ``decide_updates`` updates running; a new person when it agrees with
         nobody then. While two are as near (people crossing) it waits, ``WAIT_S`` at most."""
@@ -124,12 +124,12 @@ class LiveFusion:
         if track.person is not None:
             self._people[track.person].members.add(key)
 
-    def _new_person(self) -> int:
-        number, self._next_person = self._next_person, self._next_person + 1
-        self._people[number] = _WorldPerson()
-        return number
+    def _new_person(self) -> str:
+        person, self._next_person = str(self._next_person), self._next_person + 1
+        self._people[person] = _WorldPerson()
+        return person
 
-    def _nearest(self, key: tuple[int, int], track: _CameraTrack, time_s: float):
+    def _nearest(self, key: tuple[int, str], track: _CameraTrack, time_s: float):
         """The world person (their id), or another camera's undecided track (its key), that this track's
         latest place agrees with best, if any may be them."""
         place, sd = track.now.joints[0, :2], float(np.max(track.now.position_sd))
@@ -153,13 +153,13 @@ class LiveFusion:
                 options.append((float(np.linalg.norm(place - other.now.joints[0, :2])),
                                 gate_m(sd, float(np.max(other.now.position_sd))), other_key))
         # World people first; another camera's undecided track only where no world person may be them.
-        people = sorted((miss, what) for miss, allowed, what in options if miss <= allowed and isinstance(what, int))
+        people = sorted((miss, what) for miss, allowed, what in options if miss <= allowed and isinstance(what, str))
         if len(people) > 1 and people[1][0] - people[0][0] < GATE_FLOOR_M:
             return AMBIGUOUS
         tracks = sorted((miss, what) for miss, allowed, what in options if miss <= allowed and isinstance(what, tuple))
         return people[0][1] if people else tracks[0][1] if tracks else None
 
-    def _fused(self, n: int, person: _WorldPerson, time_s: float) -> PersonNow | None:
+    def _fused(self, n: str, person: _WorldPerson, time_s: float) -> PersonNow | None:
         """The person's joints from their tracks seen now (None when none was)."""
         current = [(view, self._tracks[view, track]) for view, track in sorted(person.members)
                    if time_s - self._tracks[view, track].seen_s <= self.recent_s]

@@ -39,7 +39,7 @@ class PersonNow:
     """One person in the frame just processed: their track id, world joints (17, 3), the root's standard
     deviation along and across its ray (2,) and their stature so far (None before the first refinement)."""
 
-    track: int
+    track: str
     joints: np.ndarray
     position_sd: np.ndarray
     stature_m: float | None

@@ -102,16 +102,16 @@ class _Finisher:
     def _finish(self, track: Track) -> None:
         seconds = track.seconds(self.fps)
         if seconds < self.min_track_s:
-            self.left_out[str(track.id)] = f"seen for {seconds:.2f} s (under {self.min_track_s:.2f} s)"
+            self.left_out[track.id] = f"seen for {seconds:.2f} s (under {self.min_track_s:.2f} s)"
             return
         try:
-            lifted = self.lifter.lift_tracks({str(track.id): track.as_detections()}, self.camera, self.layout,
+            lifted = self.lifter.lift_tracks({track.id: track.as_detections()}, self.camera, self.layout,
                                              self.fps, **self.lift_options.lift_arguments())
         except InputError as err:
-            self.left_out[str(track.id)] = err.message
+            self.left_out[track.id] = err.message
             return
         except Exception as err:  # one person's failure must not stop the others being written
-            self.left_out[str(track.id)] = f"could not be lifted ({type(err).__name__}: {err})"
+            self.left_out[track.id] = f"could not be lifted ({type(err).__name__}: {err})"
             return
         append_world_csv(self.path, World(lifted, self.camera, self.lifter.name).in_frame("world"))
         self.written += 1
@@ -129,14 +129,14 @@ def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dic
             "people": [{"track": p.track, "x": round(float(p.joints[0, 0]), 3), "y": round(float(p.joints[0, 1]), 3),
                         "joints": np.round(p.joints, 3).tolist(), "position_sd_m": np.round(p.position_sd, 3).tolist(),
                         "stature_m": p.stature_m} for p in people],
-            "trails": {str(t): [list(xy) for xy in trail] for t, trail in trails.items()},
+            "trails": {t: [list(xy) for xy in trail] for t, trail in trails.items()},
             "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats}
 
 
 def _monitored(monitor: SiteMonitor, settled: tuple[int, list[PersonNow]]) -> list[dict]:
     """The site's events of a settled frame (its index and its people)."""
     index, people = settled
-    return monitor.update(index, {str(person.track): person.joints for person in people})
+    return monitor.update(index, {person.track: person.joints for person in people})
 
 
 @contextlib.contextmanager
@@ -292,7 +292,7 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     server = LiveServer(board, options.host, options.port, options.token) if options.page else None
     log = EventLines(events_path, options.echo)
     webhook = Webhook(options.webhook, token=options.token) if options.webhook else None
-    trails: dict[int, deque] = {}
+    trails: dict[str, deque] = {}
     latest: deque = deque(maxlen=LATEST_EVENTS)
     latencies, recent_latency, recent_times = [], deque(maxlen=100), deque(maxlen=30)
     processed = events_count = 0
@@ -329,7 +329,7 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
                 events = _monitored(monitor, settled) if settled is not None and settled[0] > last_index else []
                 last_index = max(last_index, settled[0] if settled is not None else last_index)
                 for person in leaving:
-                    events += monitor.ended(str(person))
+                    events += monitor.ended(person)
                     trails.pop(person, None)
                 emit(events)
                 for person in persons:
@@ -352,7 +352,7 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
         if settled is not None and settled[0] > last_index:
             emit(_monitored(monitor, settled))
         for person, _ in leaving:
-            emit(monitor.ended(str(person)))
+            emit(monitor.ended(person))
         log.close()
         if webhook:
             webhook.close()

@@ -39,7 +39,7 @@ _SAME_BOX = 0.5
 class Track:
     """One person: the frame indices they were detected in and their detections there."""
 
-    id: int
+    id: str  # the one type of a track id, from here to the world file and the events
     frames: list[int] = dataclasses.field(default_factory=list)
     detections: list[Detection] = dataclasses.field(default_factory=list)
 
@@ -202,7 +202,7 @@ class FloorTracker:
             return
         person.waiting.append((frame_index, detection))
         if person.hits >= self.confirm_hits:
-            person.track = Track(self._confirmed, [f for f, _ in person.waiting], [d for _, d in person.waiting])
+            person.track = Track(str(self._confirmed), [f for f, _ in person.waiting], [d for _, d in person.waiting])
             self._confirmed += 1
             self._tracks.append(person.track)
 
