@@ -14,6 +14,7 @@ import pytest
 from ray3d import InputError, cameras
 from ray3d.demo import demo_clip
 from ray3d.io.world import LiftResult, World, append_world_csv, read_world
+from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
 
@@ -147,7 +148,7 @@ def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
 def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, **options):
     """A live job over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
     from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import LiveInputs, run_live_job
+    from ray3d.jobs.live import local_inputs, run_live_job
     from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
 
@@ -155,9 +156,11 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
     lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
     detector = _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
-    inputs = LiveInputs(SourceGroup([source]), [CAMERA], [detector], lifter)
-    return run_live_job(Job(("scene",), (CameraChoice(made=CAMERA),)), inputs, tmp_path / "live", site,
-                        LiveOptions(**{"page": False, "min_track_s": 0.5, **options})), detector
+    live_options = LiveOptions(**{"page": False, "min_track_s": 0.5, **options})
+    job = Job(("scene",), (CameraChoice(made=CAMERA),),
+              video=VideoOptions(max_gap_s=live_options.max_gap_s, min_track_s=live_options.min_track_s))
+    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector], lifter)
+    return run_live_job(job, inputs, tmp_path / "live", site, live_options), detector
 
 
 def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_it(tmp_path):
@@ -256,7 +259,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     crossing counted once), each camera writes its own world file, and the fused world has two tracks, each
     seen by both cameras, near the truth."""
     from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import LiveInputs, run_live_job
+    from ray3d.jobs.live import local_inputs, run_live_job
     from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
 
@@ -265,9 +268,10 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     lifter = Lifter.load()
     sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", paced=True)
                for c in (CAMERA, facing)]
-    job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)))
-    inputs = LiveInputs(SourceGroup(sources), [CAMERA, facing],
-                        [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter)
+    job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)),
+              video=VideoOptions(min_track_s=0.5))
+    inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
+                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter)
     summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
                            LiveOptions(page=False, min_track_s=0.5))
     assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == 2 * len(people)

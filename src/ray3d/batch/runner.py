@@ -15,7 +15,6 @@ import csv
 import dataclasses
 import io
 import json
-import logging
 import os
 import shutil
 import tempfile
@@ -27,6 +26,7 @@ from tqdm import tqdm
 from ray3d.batch.manifest import Entry, read_manifest
 from ray3d.errors import InputError
 from ray3d.io.atomic import atomic_path
+from ray3d.jobs.cluster import start_ray
 
 SUMMARY_FILE = "summary.csv"
 DONE_FILE = "done.json"  # written last into an input's output folder: its fingerprint and summary
@@ -112,21 +112,6 @@ def _up_to_date(target: Path, fingerprint: str) -> dict | None:
     return done if done.get("fingerprint") == fingerprint and done.get("status") == "done" else None
 
 
-def _start_ray(address: str | None, workers: int | None):
-    try:
-        import ray
-    except ImportError:
-        raise InputError("batch jobs run on Ray: pip install 'ray3d[cluster]'") from None
-    if ray.is_initialized():
-        return ray, False
-    if address:
-        ray.init(address=address, log_to_driver=False, logging_level=logging.WARNING)
-    else:
-        ray.init(num_cpus=workers or os.cpu_count(), include_dashboard=False, log_to_driver=False,
-                 logging_level=logging.WARNING)
-    return ray, True
-
-
 def _error_line(err: BaseException) -> str:
     cause = getattr(err, "cause", None) or err
     lines = [line for line in str(cause).strip().splitlines() if line.strip()]
@@ -166,7 +151,7 @@ def run(manifest: str | Path, out: str | Path, address: str | None = None, worke
         else:
             todo.append(entry)
     if todo:
-        ray, started = _start_ray(address, workers)
+        ray, started = start_ray(address, workers)
         try:
             task = ray.remote(num_cpus=cpus_per_task, num_gpus=gpus_per_task, max_retries=retries,
                               retry_exceptions=True)(process_entry)

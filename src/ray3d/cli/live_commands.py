@@ -1,7 +1,8 @@
 """``ray3d live``: a camera stream followed as it arrives (``ray3d.jobs.live``): events as JSON lines on
 stdout and in OUT/events.jsonl, the world file OUT/world.csv growing as people leave, a page on localhost.
 Several streams, one per calibrated camera: one world (``ray3d.fusion.live``), each camera's world file in
-OUT/camera<k>_<name>/, fused into OUT/world.json at the end.
+OUT/camera<k>_<name>/, fused into OUT/world.json at the end. With --address, each camera runs in a Ray actor
+(``ray3d.live.cluster``); the outputs are the same.
 
 Exit codes: 0 the stream ended; 3 it stalled (no frame for --stall-timeout seconds); 4 it broke off; 130 / 143
 stopped by SIGINT (Ctrl-C) / SIGTERM; 2 bad input (not a video, a bad camera or site file). Every output is
@@ -28,9 +29,12 @@ def live(args: argparse.Namespace) -> int:
     plan = read_site(args.site) if args.site else None
     job = job_from_args(args, args.source, "sources", "source")
     offsets = parse_offsets(args.offsets)
-    inputs = open_live(job, False if args.unpaced else None, args.stall_timeout)
+    inputs = open_live(job, False if args.unpaced else None, args.stall_timeout, args.address, args.workers)
+    if inputs.on_ray:
+        print(f"on Ray ({args.address}): {len(job.inputs)} camera actor(s), each reading and decoding its stream, "
+              "finding and lifting its people", file=sys.stderr, flush=True)
     stop = threading.Event()
-    caught = stop_on_signals(stop, inputs.group)
+    caught = stop_on_signals(stop, inputs.followed)
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
                           None if args.quiet else sys.stdout, args.min_track, args.max_gap)
     summary = run_live_job(job, inputs, args.out, plan, options, stop,

@@ -1,10 +1,12 @@
-"""A live job: its streams opened, each with its camera and detector (``open_live``), followed as they arrive
-(``ray3d.live.run_live``), and at the end the same tail as an offline job: several cameras' world files fused
-into one (``jobs.run.fuse_and_write``) and, with a site, its report (``ray3d.site.report``)."""
+"""A live job: its streams opened, each with its camera, detector and lifter (``open_live``: in this process, or
+with ``address`` each camera in a Ray actor, ``live.cluster``), followed as they arrive (``live.runner.follow``),
+and at the end the same tail as an offline job: several cameras' world files fused into one
+(``jobs.run.fuse_and_write``) and, with a site, its report (``ray3d.site.report``)."""
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import threading
 from pathlib import Path
 
@@ -14,56 +16,103 @@ from ray3d.jobs.run import fuse_and_write
 
 @dataclasses.dataclass
 class LiveInputs:
-    """A live job's streams made ready: their ``SourceGroup``, and per stream its camera and detector; the
-    ``lifter`` (None: the shipped model for the detectors' layout)."""
+    """A live job's cameras following their streams (``live.cameras.LocalCameras`` or ``live.cluster.RayCameras``:
+    ``followed``), and the Ray this job started, to stop at its end (None: none started)."""
 
-    group: object
-    cameras: list
-    detectors: list
-    lifter: object
+    followed: object
+    ray: object = None
+
+    @property
+    def on_ray(self) -> bool:
+        return type(self.followed).__name__ == "RayCameras"
 
 
-def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0) -> LiveInputs:
-    """Open every input of ``job`` as a stream (a file, a device number, a URL; ``paced``: played at its own rate,
-    the default for files), its camera for the stream's image size and a detector that keeps up."""
-    from ray3d.live.source import FrameSource, SourceGroup
+def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None) -> LiveInputs:
+    """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process."""
+    from ray3d.lifting.lifter import Lifter
+    from ray3d.live.cameras import LocalCameras
+
+    lifter = lifter or Lifter.load(layout=detectors[0].layout)
+    lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source is running)
+    return LiveInputs(LocalCameras(group, cameras, detectors, lifter, job.lift_options(0), job.video.max_gap_s,
+                                   job.video.min_track_s))
+
+
+def open_stream(job: Job, k: int, paced: bool | None = None, stall_timeout_s: float = 10.0, first_index: int = 0):
+    """Input ``k`` of ``job`` opened as a stream (from frame ``first_index`` on, where it is a file), with its camera
+    for the stream's image size and a detector that keeps up: (``FrameSource``, ``Camera``, detector). The one
+    place a live camera is put together, in this process or in a Ray actor."""
+    from ray3d.live.source import FrameSource
     from ray3d.video import DEFAULT_DETECTOR, VideoInfo, camera_for_video, make_detector
 
-    sources = [FrameSource.open(source, job.video.fps, paced, stall_timeout_s) for source in job.inputs]
-    cameras = [camera_for_video(choice.camera(s.image_size), VideoInfo(s.name, 0, s.fps, s.image_size))
-               for s, choice in zip(sources, job.cameras)]
-    detectors = [make_detector(job.detector or DEFAULT_DETECTOR, camera, live=True) for camera in cameras]
-    for detector in detectors:
-        detector.prepare([])
-    return LiveInputs(SourceGroup(sources), cameras, detectors, job.lifter(detectors[0].layout))
+    source = FrameSource.open(job.inputs[k], job.video.fps, paced, stall_timeout_s, first_index=first_index)
+    camera = camera_for_video(job.cameras[k].camera(source.image_size),
+                              VideoInfo(source.name, 0, source.fps, source.image_size))
+    detector = job.detector(camera) if callable(job.detector) else \
+        make_detector(job.detector or DEFAULT_DETECTOR, camera, live=True)
+    detector.prepare([])
+    return source, camera, detector
+
+
+def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0, address: str | None = None,
+              workers: int | None = None, cpus_per_camera: float = 1.0) -> LiveInputs:
+    """Open every input of ``job`` as a stream (``open_stream``: a file, a device number, a URL; ``paced``: played
+    at its own rate, the default for files). With ``address`` (``"local"``: a local Ray with ``workers`` CPUs
+    started for the job; ``"auto"``, ``"ray://HOST:PORT"``: a running cluster) each stream is opened, and its
+    people found, in a Ray actor reserving ``cpus_per_camera``."""
+    if address:
+        from ray3d.jobs.cluster import start_ray
+        from ray3d.live.cluster import RayCameras
+
+        ray, started = start_ray(address, workers, "live jobs on a cluster")
+        arguments = [dict(opened=functools.partial(open_stream, job, k, paced, stall_timeout_s),
+                          lifter=job.lifter, lift_options=job.lift_options(k),
+                          max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s)
+                     for k in range(len(job.inputs))]
+        played = [paced is not False for _ in job.inputs]  # a file read as fast as it decodes waits for its reader
+        try:
+            return LiveInputs(RayCameras(ray, arguments, [str(s) for s in job.inputs], played, cpus_per_camera),
+                              ray if started else None)
+        except BaseException:
+            if started:
+                ray.shutdown()
+            raise
+    from ray3d.live.source import SourceGroup
+
+    opened = [open_stream(job, k, paced, stall_timeout_s) for k in range(len(job.inputs))]
+    detectors = [detector for _, _, detector in opened]
+    return local_inputs(job, SourceGroup([source for source, _, _ in opened]), [camera for _, camera, _ in opened],
+                        detectors, job.lifter(detectors[0].layout))
 
 
 def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, options=None,
                  stop: threading.Event | None = None, started=lambda url: None,
                  offsets_s: list[float] | None = None):
-    """Follow ``inputs`` (``open_live``) until they end, stall, break off or ``stop`` is set (``live.run_live``);
+    """Follow ``inputs`` (``open_live``) until they end, stall, break off or ``stop`` is set (``live.runner.follow``);
     then fuse several cameras' world files into ``out_dir``/world.json and write the site's report in
     ``out_dir``/site. Returns the ``LiveSummary``, its ``files`` naming every output."""
-    from ray3d.io.world import read_world
-    from ray3d.live.runner import LiveOptions, run_live
+    from ray3d.io.world import read_world, write_world
+    from ray3d.live.runner import LiveOptions, follow
 
     out_dir = Path(out_dir)
-    several = len(inputs.cameras) > 1
+    several = len(inputs.followed.cameras) > 1
     fused_path = out_dir / "world.json"
-    if several and fused_path.exists():  # refused before the stream, not after it
-        from ray3d.errors import InputError
+    try:
+        if several and fused_path.exists():  # refused before the stream, not after it
+            from ray3d.errors import InputError
 
-        raise InputError(f"{fused_path}: exists; ray3d live never writes over an output", ("out",))
-    summary = run_live(inputs.group, inputs.cameras if several else inputs.cameras[0], out_dir,
-                       inputs.detectors if several else inputs.detectors[0], inputs.lifter, site,
-                       options or LiveOptions(), job.lift_options(0), stop, started, offsets_s)
+            inputs.followed.close()
+            inputs.followed.finish()
+            raise InputError(f"{fused_path}: exists; ray3d live never writes over an output", ("out",))
+        summary = follow(inputs.followed, out_dir, site, options or LiveOptions(), stop, started, offsets_s)
+    finally:
+        if inputs.ray is not None:
+            inputs.ray.shutdown()
     written = [(path, k) for k, path in enumerate(summary.files["worlds"]) if path.exists()]
     if several and written:
-        offsets = offsets_s or [0.0] * len(inputs.cameras)
+        offsets = offsets_s or [0.0] * len(inputs.followed.cameras)
         worlds = [read_world(path) for path, _ in written]
         if len(worlds) == 1:
-            from ray3d.io.world import write_world
-
             write_world(fused_path, worlds[0])
         else:
             fuse_and_write(worlds, fused_path, [offsets[k] - offsets[written[0][1]] for _, k in written])
@@ -72,6 +121,6 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
         from ray3d.site.report import analyse_site
 
         analyse_site(read_world(summary.files["world"]), site, out_dir / "site",
-                     title=f"ray3d live: {inputs.group.name}")
+                     title=f"ray3d live: {inputs.followed.name}")
         summary.files["site"] = out_dir / "site"
     return summary

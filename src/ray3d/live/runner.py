@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import queue
 import threading
 import time
 from collections import deque
@@ -22,19 +21,18 @@ from typing import TextIO
 import numpy as np
 
 from ray3d.errors import InputError
-from ray3d.geometry import Camera
-from ray3d.io.world import World, append_world_csv
+from ray3d.io.world import append_world_csv
 from ray3d.lifting.lifter import Lifter
 from ray3d.io.site_files import EventLines
 from ray3d.live.outputs import Webhook
-from ray3d.live.people import LivePeople, PersonNow, below_the_stream
+from ray3d.live.cameras import FrameResult, LocalCameras
+from ray3d.live.people import PersonNow
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.lifting.options import LiftOptions
 from ray3d.site.events import SiteMonitor
 from ray3d.site.places import Site
-from ray3d.video.tracking import Track
 
 ENDINGS = ("ended", "stalled", "broke off", "stopped")
 LATEST_EVENTS = 20  # events the page shows
@@ -76,49 +74,6 @@ class LiveSummary:
     left_out: dict
     webhook: dict
     files: dict
-
-
-class _Finisher:
-    """Finished tracks lifted offline and appended to the world file, on a thread of its own (a bounded queue:
-    the stream waits rather than lose a track)."""
-
-    def __init__(self, lifter: Lifter, camera: Camera, layout: str, fps: float, path: Path,
-                 lift_options: LiftOptions, min_track_s: float):
-        self.lifter, self.camera, self.layout, self.fps, self.path = lifter, camera, layout, fps, path
-        self.lift_options, self.min_track_s = lift_options, min_track_s
-        self.written, self.left_out = 0, {}
-        self._queue: queue.Queue = queue.Queue(maxsize=64)
-        self._thread = threading.Thread(target=self._run, name="finisher", daemon=True)
-        self._thread.start()
-
-    def put(self, track: Track) -> None:
-        self._queue.put(track)
-
-    def _run(self) -> None:
-        below_the_stream()
-        while (track := self._queue.get()) is not None:
-            self._finish(track)
-
-    def _finish(self, track: Track) -> None:
-        seconds = track.seconds(self.fps)
-        if seconds < self.min_track_s:
-            self.left_out[track.id] = f"seen for {seconds:.2f} s (under {self.min_track_s:.2f} s)"
-            return
-        try:
-            lifted = self.lifter.lift_tracks({track.id: track.as_detections()}, self.camera, self.layout,
-                                             self.fps, **self.lift_options.lift_arguments())
-        except InputError as err:
-            self.left_out[track.id] = err.message
-            return
-        except Exception as err:  # one person's failure must not stop the others being written
-            self.left_out[track.id] = f"could not be lifted ({type(err).__name__}: {err})"
-            return
-        append_world_csv(self.path, World(lifted, self.camera, self.lifter.name).in_frame("world"))
-        self.written += 1
-
-    def close(self) -> None:
-        self._queue.put(None)
-        self._thread.join()
 
 
 def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
@@ -177,43 +132,37 @@ def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) ->
 
 
 class _Views:
-    """The cameras followed: per camera its people (``LivePeople``) and its finisher writing its world file;
-    with several, their people joined into world people (``LiveFusion``) on the first camera's clock."""
+    """What the cameras give, brought together: each camera's finished people appended to its world file; with
+    several, their people joined into world people (``LiveFusion``) on the first camera's clock."""
 
-    def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter, out_dir: Path,
-                 options: LiveOptions, lift_options: LiftOptions, offsets_s: list[float] | None):
-        self.group, self.cameras, self.several = group, cameras, len(cameras) > 1
-        self.fps = group.sources[0].fps
-        self.offsets_s = list(offsets_s) if offsets_s is not None else [0.0] * len(cameras)
-        if len(self.offsets_s) != len(cameras):
-            raise InputError(f"offsets: {len(self.offsets_s)} given for {len(cameras)} cameras", ("offsets",))
+    def __init__(self, cameras, out_dir: Path, offsets_s: list[float] | None):
+        self.cameras, self.several = cameras, len(cameras.cameras) > 1
+        self.fps = cameras.fps[0]
+        count = len(cameras.cameras)
+        self.offsets_s = list(offsets_s) if offsets_s is not None else [0.0] * count
+        if len(self.offsets_s) != count:
+            raise InputError(f"offsets: {len(self.offsets_s)} given for {count} cameras", ("offsets",))
         self.world_paths = [out_dir / "world.csv"] if not self.several else \
-            [out_dir / f"camera{k + 1}_{_file_name(c.name or source.name)}" / "world.csv"
-             for k, (c, source) in enumerate(zip(cameras, group.sources))]
+            [out_dir / f"camera{k + 1}_{_file_name(name)}" / "world.csv" for k, name in enumerate(cameras.names)]
         for path in self.world_paths:
             if path.exists():
                 raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
             path.parent.mkdir(parents=True, exist_ok=True)
-        self.people = [LivePeople(c, d, lifter, source.fps, lift_options.floor, options.max_gap_s,
-                                  deadline_frames=source.keep) for c, d, source in zip(cameras, detectors, group.sources)]
-        self.finishers = [_Finisher(lifter, c, d.layout, source.fps, path, lift_options, options.min_track_s)
-                          for c, d, source, path in zip(cameras, detectors, group.sources, self.world_paths)]
-        self.fusion = LiveFusion(cameras, 1.0 / min(s.fps for s in group.sources)) if self.several else None
+        self.fusion = LiveFusion(cameras.cameras, 1.0 / min(cameras.fps)) if self.several else None
+        self.written, self.left_out = 0, {}
         self._pending: tuple | None = None  # several cameras: the frame whose views are still coming in
 
-    def update(self, view: int, frame) -> tuple[tuple | None, list[PersonNow], list[int]]:
-        """This camera's frame -> a frame settled for the site's events (its number on the first camera's clock
-        and its people; None while it is not), the people now and those who left. With several cameras a frame
-        is settled when the next begins: by then every camera's view of it is in."""
-        persons, finished = self.people[view].update(frame)
-        for track in finished:
-            self.finishers[view].put(track)
+    def take(self, view: int, result: FrameResult) -> tuple[tuple | None, list[PersonNow], list[str]]:
+        """This camera's processed frame -> a frame settled for the site's events (its number on the first
+        camera's clock and its people; None while it is not), the people now and those who left. With several
+        cameras a frame is settled when the next begins: by then every camera's view of it is in."""
+        self._write(view, result.done)
         if not self.several:
-            return (frame.index, persons), persons, [track.id for track in finished]
-        time_s = frame.index / self.group.sources[view].fps - self.offsets_s[view]
-        for track in finished:
-            self.fusion.finished(view, track.id)
-        persons = self.fusion.update(view, time_s, persons)
+            return (result.index, result.persons), result.persons, result.ended
+        time_s = result.index / self.cameras.fps[view] - self.offsets_s[view]
+        for track in result.ended:
+            self.fusion.finished(view, track)
+        persons = self.fusion.update(view, time_s, result.persons)
         index, settled = int(round(time_s * self.fps)), None
         if self._pending is None or index > self._pending[0]:
             settled, self._pending = self._pending, (index, persons)
@@ -221,32 +170,28 @@ class _Views:
             self._pending = (self._pending[0], persons)
         return settled, persons, self.fusion.ended(time_s)
 
-    def finish(self) -> tuple[tuple | None, list[tuple[int, int]]]:
+    def finish(self) -> tuple[tuple | None, list[tuple[str, int]]]:
         """Everybody still in view handed over: the last frame not settled yet (None if none) and who leaves
         (person, the first camera's frame they were last seen in)."""
         leaving = []
-        for view, people in enumerate(self.people):
-            people.close()
-            for track in people.in_view():
-                self.finishers[view].put(track)
+        for view, (in_view, done) in enumerate(self.cameras.finish()):
+            self._write(view, done)
+            for track, last_frame in in_view:
                 if self.several:
-                    self.fusion.finished(view, track.id)
+                    self.fusion.finished(view, track)
                 else:
-                    leaving.append((track.id, track.frames[-1]))
-        for finisher in self.finishers:
-            finisher.close()
+                    leaving.append((track, last_frame))
         if self.several:
             leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self.fusion.ended(np.inf, seen=True)]
         return self._pending, leaving
 
-    @property
-    def written(self) -> int:
-        return sum(finisher.written for finisher in self.finishers)
-
-    @property
-    def left_out(self) -> dict:
-        return {(f"{k + 1}:{track}" if self.several else track): why
-                for k, finisher in enumerate(self.finishers) for track, why in finisher.left_out.items()}
+    def _write(self, view: int, done: list) -> None:
+        for finished in done:
+            if finished.world is None:
+                self.left_out[f"{view + 1}:{finished.track}" if self.several else finished.track] = finished.why
+            else:
+                append_world_csv(self.world_paths[view], finished.world)
+                self.written += 1
 
 
 def _file_name(name: str) -> str:
@@ -274,17 +219,34 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     if not len(sources) == len(cameras) == len(detectors):
         raise InputError(f"cameras: {len(cameras)} cameras and {len(detectors)} detectors for {len(sources)} "
                          "streams; give one each per stream", ("camera",))
+    lifter = lifter or Lifter.load(layout=detectors[0].layout)
+    lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
+    group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
+    followed = LocalCameras(group, cameras, detectors, lifter, lift_options, options.max_gap_s, options.min_track_s)
+    return follow(followed, out_dir, site, options, stop, started, offsets_s)
+
+
+def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),
+           stop: threading.Event | None = None, started=lambda url: None,
+           offsets_s: list[float] | None = None) -> LiveSummary:
+    """The loop of ``run_live`` over cameras already following their streams (``live.cameras.LocalCameras`` in
+    this process, ``live.cluster.RayCameras`` on Ray): their people joined, the site's events, the event log,
+    the webhook, the page and each camera's world file."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     events_path = out_dir / "events.jsonl"
     if events_path.exists():
+        cameras.close()
+        cameras.finish()
         raise InputError(f"{events_path}: exists; ray3d live never writes over an output", ("out",))
     stop = stop or threading.Event()
-    lifter = lifter or Lifter.load(layout=detectors[0].layout)
-    lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
     site = site or Site()
-    group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
-    views = _Views(group, cameras, detectors, lifter, out_dir, options, lift_options, offsets_s)
+    try:
+        views = _Views(cameras, out_dir, offsets_s)
+    except InputError:
+        cameras.close()
+        cameras.finish()
+        raise
     monitor = SiteMonitor(site, views.fps)
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
@@ -297,7 +259,7 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     latencies, recent_latency, recent_times = [], deque(maxlen=100), deque(maxlen=30)
     processed = events_count = 0
     last_index = -1
-    ending, why = "stopped", f"{group.name}: stopped"
+    ending, why = "stopped", f"{cameras.name}: stopped"
 
     def emit(events: list[dict]) -> None:
         nonlocal events_count
@@ -313,7 +275,7 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
         with _one_thread_for_numerics():
             while not stop.is_set():
                 try:
-                    taken = group.next()
+                    taken = cameras.next()
                 except StreamStalled as err:
                     ending, why = "stalled", err.message
                     break
@@ -322,10 +284,10 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
                     break
                 if taken is None:
                     if not stop.is_set():
-                        ending, why = "ended", f"{group.name}: the stream ended"
+                        ending, why = "ended", f"{cameras.name}: the stream ended"
                     break
-                view, frame = taken
-                settled, persons, leaving = views.update(view, frame)
+                view, result = taken
+                settled, persons, leaving = views.take(view, result)
                 events = _monitored(monitor, settled) if settled is not None and settled[0] > last_index else []
                 last_index = max(last_index, settled[0] if settled is not None else last_index)
                 for person in leaving:
@@ -338,16 +300,16 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
                 processed += 1
                 now = time.monotonic()
                 recent_times.append(now)
-                latency = 1000.0 * (now - frame.arrived)
+                latency = 1000.0 * (now - result.arrived)
                 latencies.append(latency)
                 recent_latency.append(latency)
                 rate = (len(recent_times) - 1) / (recent_times[-1] - recent_times[0]) if len(recent_times) > 1 else 0.0
                 board.publish(_snapshot(last_index, views.fps, persons, trails, monitor, latest, {
                     "fps": rate, "latency_median_ms": float(np.median(recent_latency)),
-                    "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": group.dropped,
-                    "read": group.read}))
+                    "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": cameras.dropped,
+                    "read": cameras.read}))
     finally:
-        group.close()
+        cameras.close()
         settled, leaving = views.finish()
         if settled is not None and settled[0] > last_index:
             emit(_monitored(monitor, settled))
@@ -359,8 +321,8 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
         if server:
             server.stop()
     files = {"events": events_path, "world": views.world_paths[0], "worlds": views.world_paths}
-    return LiveSummary(ending, why, group.read, processed, group.dropped,
-                       sum(getattr(d, "postponed", 0) for d in detectors), np.array(latencies), events_count,
+    return LiveSummary(ending, why, cameras.read, processed, cameras.dropped, cameras.postponed,
+                       np.array(latencies), events_count,
                        views.written, views.left_out,
                        {} if not webhook else {"delivered": webhook.delivered, "failed": webhook.failed,
                                                "dropped": webhook.dropped}, files)

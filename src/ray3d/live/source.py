@@ -41,12 +41,15 @@ def _device_or_location(source: str) -> int | str:
     return int(source) if source.isdigit() else source
 
 
-def _opened(source: str) -> tuple[cv2.VideoCapture, np.ndarray, float]:
-    """The capture, its first frame (BGR) and its frame rate (0 when it does not say)."""
+def _opened(source: str, skip: int = 0) -> tuple[cv2.VideoCapture, np.ndarray, float]:
+    """The capture, its first frame (BGR; ``skip`` frames on) and its frame rate (0 when it does not say)."""
     capture = cv2.VideoCapture(_device_or_location(source))
     if not capture.isOpened():
         capture.release()
         raise InputError(f"{source}: cannot be opened as a video file, camera device or stream", ("source",))
+    for _ in range(skip):  # frame by frame: seeking a compressed file lands on key frames only
+        if not capture.grab():
+            break
     ok, first = capture.read()
     if not ok:
         capture.release()
@@ -88,11 +91,12 @@ class FrameSource:
     ``keep`` frame periods of its arrival pushes none out."""
 
     def __init__(self, frames: Iterator[np.ndarray], fps: float, name: str, paced: bool = False,
-                 stall_s: float = 5.0, image_size: tuple[int, int] | None = None, keep: int = 2):
+                 stall_s: float = 5.0, image_size: tuple[int, int] | None = None, keep: int = 2,
+                 first_index: int = 0):
         if not fps > 0:
             raise InputError(f"{name}: the stream reports no frame rate; give it", ("fps",))
         self.fps, self.name, self.stall_s, self.image_size = float(fps), name, float(stall_s), image_size
-        self.keep = max(1, int(keep))
+        self.keep, self.first_index = max(1, int(keep)), int(first_index)
         self.read = self.dropped = 0
         self._frames, self._paced = frames, paced
         self._waiting: collections.deque = collections.deque(maxlen=self.keep)
@@ -105,20 +109,22 @@ class FrameSource:
 
     @classmethod
     def open(cls, source: str | Path, fps: float | None = None, paced: bool | None = None,
-             stall_s: float = 5.0, keep: int = 2) -> FrameSource:
+             stall_s: float = 5.0, keep: int = 2, first_index: int = 0) -> FrameSource:
         """A video file (played at its own rate unless ``paced`` is False), a camera device number or a stream
-        URL; ``fps`` where the source does not say its rate."""
+        URL; ``fps`` where the source does not say its rate. ``first_index``: the number of its first frame (a
+        file is read from that frame on: a stream taken up again where it was left)."""
         source = str(source)
-        capture, first, reported = _opened(source)
-        return cls(_frames_of(capture, first), fps or reported, source,
-                   Path(source).is_file() if paced is None else paced, stall_s, (first.shape[1], first.shape[0]), keep)
+        is_file = Path(source).is_file()
+        capture, first, reported = _opened(source, first_index if is_file else 0)
+        return cls(_frames_of(capture, first), fps or reported, source, is_file if paced is None else paced, stall_s,
+                   (first.shape[1], first.shape[0]), keep, first_index)
 
     def _read(self) -> None:
         start = time.monotonic()
         try:
-            for index, image in enumerate(self._frames):
+            for index, image in enumerate(self._frames, start=self.first_index):
                 if self._paced:
-                    time.sleep(max(0.0, start + index / self.fps - time.monotonic()))
+                    time.sleep(max(0.0, start + (index - self.first_index) / self.fps - time.monotonic()))
                 with self._changed:
                     if self._closed:
                         return

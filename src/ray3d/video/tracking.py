@@ -109,16 +109,18 @@ class FloorTracker:
         max_gap_s: the longest time a person may go undetected and keep their track.
         confirm_hits: detections before a new track counts (one-off false detections never become tracks).
         acceleration: how hard people change speed, m/s^2 (standard deviation).
+        id_prefix: written before each track's number (a stream taken up again keeps apart from its old ids).
     """
 
     def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5, confirm_hits: int = 3,
-                 acceleration: float = 2.0):
+                 acceleration: float = 2.0, id_prefix: str = ""):
         self.camera, self.layout, self.confirm_hits, self.acceleration = camera, layout, confirm_hits, acceleration
         self.person_height = PersonScale(camera)
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
         self._confirmed = 0  # tracks confirmed so far (their ids), including those handed over by ``finished``
+        self.id_prefix = id_prefix
         self._last_frame: int | None = None
         self.frames_with_people = 0  # frames in which the detector found anybody
 
@@ -202,7 +204,8 @@ class FloorTracker:
             return
         person.waiting.append((frame_index, detection))
         if person.hits >= self.confirm_hits:
-            person.track = Track(str(self._confirmed), [f for f, _ in person.waiting], [d for _, d in person.waiting])
+            person.track = Track(f"{self.id_prefix}{self._confirmed}", [f for f, _ in person.waiting],
+                                 [d for _, d in person.waiting])
             self._confirmed += 1
             self._tracks.append(person.track)
 

@@ -1,0 +1,155 @@
+"""The cameras a live run follows, each as who is in its frames: a camera's stream read, its people detected,
+tracked and lifted frame by frame (``CameraPeople``), and the tracks it lets go lifted again offline on a thread
+of their own (``Finisher``), as ``ray3d video`` lifts them. ``LocalCameras`` runs every camera in this process
+(the frames of all taken in the order they arrived); ``ray3d.live.cluster.RayCameras`` runs each in a Ray actor.
+Both give the run the same thing: ``next()`` -> (view, ``FrameResult``), and ``finish()`` at the end."""
+
+from __future__ import annotations
+
+import dataclasses
+import queue
+import threading
+
+from ray3d.errors import InputError
+from ray3d.geometry import Camera
+from ray3d.io.world import World
+from ray3d.lifting.lifter import Lifter
+from ray3d.lifting.options import LiftOptions
+from ray3d.live.people import LivePeople, PersonNow, below_the_stream
+from ray3d.live.source import LiveFrame, SourceGroup
+from ray3d.video.tracking import Track
+
+
+@dataclasses.dataclass
+class Finished:
+    """A track a camera let go, lifted offline: its ``world`` (one track, world frame), or None and ``why`` it
+    was left out."""
+
+    track: str
+    world: World | None
+    why: str = ""
+
+
+@dataclasses.dataclass
+class FrameResult:
+    """One processed frame of one camera: its ``index``, when it ``arrived`` (this process's monotonic clock),
+    the people in it, the tracks let go with it (``ended``), the tracks lifted offline since the last result
+    (``done``) and, from a camera in another process, its frames read, dropped and people postponed so far."""
+
+    index: int
+    arrived: float
+    persons: list[PersonNow]
+    ended: list[str]
+    done: list[Finished]
+    counts: tuple[int, int, int] | None = None
+
+
+class Finisher:
+    """Lifts the tracks a camera lets go, one by one on a thread of its own (a track shorter than
+    ``min_track_s`` is left out); ``take()`` hands over what is done so far."""
+
+    def __init__(self, lifter: Lifter, camera: Camera, layout: str, fps: float, lift_options: LiftOptions,
+                 min_track_s: float):
+        self.lifter, self.camera, self.layout, self.fps = lifter, camera, layout, fps
+        self.lift_options, self.min_track_s = lift_options, min_track_s
+        self._done: list[Finished] = []
+        self._lock = threading.Lock()
+        self._queue: queue.Queue = queue.Queue(maxsize=64)
+        self._thread = threading.Thread(target=self._run, name="finisher", daemon=True)
+        self._thread.start()
+
+    def put(self, track: Track) -> None:
+        self._queue.put(track)
+
+    def take(self) -> list[Finished]:
+        with self._lock:
+            done, self._done = self._done, []
+        return done
+
+    def close(self) -> list[Finished]:
+        """Waits for every track put; what is not taken yet."""
+        self._queue.put(None)
+        self._thread.join()
+        return self.take()
+
+    def _run(self) -> None:
+        below_the_stream()
+        while (track := self._queue.get()) is not None:
+            finished = self._finish(track)
+            with self._lock:
+                self._done.append(finished)
+
+    def _finish(self, track: Track) -> Finished:
+        seconds = track.seconds(self.fps)
+        if seconds < self.min_track_s:
+            return Finished(track.id, None, f"seen for {seconds:.2f} s (under {self.min_track_s:.2f} s)")
+        try:
+            lifted = self.lifter.lift_tracks({track.id: track.as_detections()}, self.camera, self.layout,
+                                             self.fps, **self.lift_options.lift_arguments())
+        except InputError as err:
+            return Finished(track.id, None, err.message)
+        except Exception as err:  # one person's failure must not stop the others being written
+            return Finished(track.id, None, f"could not be lifted ({type(err).__name__}: {err})")
+        return Finished(track.id, World(lifted, self.camera, self.lifter.name).in_frame("world"))
+
+
+class CameraPeople:
+    """One camera: its frames -> its people (``LivePeople``), the tracks it lets go lifted (``Finisher``)."""
+
+    def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int, lift_options: LiftOptions,
+                 max_gap_s: float, min_track_s: float, id_prefix: str = ""):
+        self.people = LivePeople(camera, detector, lifter, fps, lift_options.floor, max_gap_s, deadline_frames=keep,
+                                 id_prefix=id_prefix)
+        self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s)
+        self.postponed = lambda: getattr(detector, "postponed", 0)
+
+    def process(self, frame: LiveFrame) -> FrameResult:
+        persons, finished = self.people.update(frame)
+        for track in finished:
+            self.finisher.put(track)
+        return FrameResult(frame.index, frame.arrived, persons, [t.id for t in finished], self.finisher.take())
+
+    def finish(self) -> tuple[list[tuple[str, int]], list[Finished]]:
+        """Everybody still in view let go: (track, last frame) of each, and every track lifted not yet taken."""
+        self.people.close()
+        in_view = self.people.in_view()
+        for track in in_view:
+            self.finisher.put(track)
+        return [(t.id, t.frames[-1]) for t in in_view], self.finisher.close()
+
+
+class LocalCameras:
+    """Every camera in this process: the frames of all taken from one ``SourceGroup`` in the order they arrived."""
+
+    def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter,
+                 lift_options: LiftOptions, max_gap_s: float, min_track_s: float):
+        self.group, self.cameras, self.name = group, cameras, group.name
+        self.fps = [source.fps for source in group.sources]
+        self.names = [camera.name or source.name for camera, source in zip(cameras, group.sources)]
+        self.views = [CameraPeople(c, d, lifter, source.fps, source.keep, lift_options, max_gap_s, min_track_s)
+                      for c, d, source in zip(cameras, detectors, group.sources)]
+
+    def next(self) -> tuple[int, FrameResult] | None:
+        taken = self.group.next()
+        if taken is None:
+            return None
+        view, frame = taken
+        return view, self.views[view].process(frame)
+
+    def finish(self) -> list[tuple[list[tuple[str, int]], list[Finished]]]:
+        return [view.finish() for view in self.views]
+
+    @property
+    def read(self) -> int:
+        return self.group.read
+
+    @property
+    def dropped(self) -> int:
+        return self.group.dropped
+
+    @property
+    def postponed(self) -> int:
+        return sum(view.postponed() for view in self.views)
+
+    def close(self) -> None:
+        self.group.close()

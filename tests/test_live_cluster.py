@@ -1,0 +1,181 @@
+"""Live on Ray (``ray3d.live.cluster``): each camera in a Ray actor on a local 2-CPU Ray gives the world the
+in-process run gives; a camera actor killed mid-stream is started again and its stream goes on, the events before
+and after written; SIGTERM during a Ray run ends it with every output complete and no Ray process left."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ray")
+
+import ray  # noqa: E402
+import ray.cloudpickle  # noqa: E402
+
+import test_live  # noqa: E402
+from test_live import _ScriptedDetector  # noqa: E402
+from ray3d.io.world import read_world  # noqa: E402
+from ray3d.jobs import CameraChoice, Job  # noqa: E402
+from ray3d.jobs.live import local_inputs, open_live, run_live_job  # noqa: E402
+from ray3d.lifting.options import VideoOptions  # noqa: E402
+from ray3d.live.runner import LiveOptions  # noqa: E402
+from ray3d.live.source import FrameSource, SourceGroup  # noqa: E402
+
+# The scripted detector and the scene travel to the actors by value (they are test code, not importable there).
+ray.cloudpickle.register_pickle_by_value(test_live)
+ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+CAMERA, FPS = test_live.CAMERA, test_live.FPS
+
+
+class ScriptedDetectors:
+    """Makes, in the actor, a detector that finds the scene's people where its camera sees them."""
+
+    def __init__(self, people: np.ndarray):
+        self.people = people
+
+    def __call__(self, camera):
+        return _ScriptedDetector(self.people, camera)
+
+
+def _video(path: Path, people: np.ndarray) -> Path:
+    """The scene as a lossless video (FFV1): each frame carries its number in its first pixel."""
+    import cv2
+
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), FPS, tuple(CAMERA.image_size))
+    for image in test_live._frames(len(people), people=people):
+        writer.write(np.ascontiguousarray(image[..., ::-1]))  # RGB -> BGR
+    writer.release()
+    return path
+
+
+def _job(video: Path, people: np.ndarray) -> Job:
+    return Job((video,), (CameraChoice(made=CAMERA),), detector=ScriptedDetectors(people),
+               video=VideoOptions(min_track_s=0.5))
+
+
+OPTIONS = LiveOptions(page=False, min_track_s=0.5)
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    people = test_live._scene(60)
+    return people, _video(tmp_path_factory.mktemp("scene") / "scene.avi", people)
+
+
+def test_each_camera_in_a_ray_actor_gives_the_world_of_the_run_in_this_process(tmp_path, scene):
+    people, video = scene
+    job = _job(video, people)
+    source = FrameSource.open(video, paced=True)
+    local = run_live_job(job, local_inputs(job, SourceGroup([source]), [CAMERA],
+                                           [_ScriptedDetector(people)]), tmp_path / "local", options=OPTIONS)
+    inputs = open_live(job, paced=True, address="local", workers=2)
+    assert inputs.on_ray and inputs.ray is not None
+    on_ray = run_live_job(job, inputs, tmp_path / "ray", options=OPTIONS)
+    assert not ray.is_initialized()  # the local Ray started for the run is stopped with it
+    assert local.ending == on_ray.ending == "ended" and on_ray.processed + on_ray.dropped == on_ray.read == 60
+    mine, theirs = read_world(local.files["world"]), read_world(on_ray.files["world"])
+    assert len(mine.tracks) == len(theirs.tracks) == 2
+    for result in mine.tracks.values():  # every track matched, near
+        distances = []
+        for other in theirs.tracks.values():
+            shared, a, b = np.intersect1d(result.frames, other.frames, return_indices=True)
+            if len(shared):
+                distances.append(np.median(np.linalg.norm(result.root[a, :2] - other.root[b, :2], axis=-1)))
+        assert min(distances) <= 0.15
+    events = [json.loads(line) for line in (tmp_path / "ray" / "events.jsonl").read_text().splitlines()]
+    assert sum(e["event"] == "track started" for e in events) == sum(e["event"] == "track ended" for e in events) == 2
+
+
+def test_a_camera_actor_killed_mid_stream_is_started_again_and_its_stream_goes_on(tmp_path, scene):
+    people, video = scene
+    job = _job(video, people)
+    inputs = open_live(job, paced=True, address="local", workers=2)
+    followed = inputs.followed
+    out: dict = {}
+    runner = threading.Thread(target=lambda: out.update(summary=run_live_job(
+        job, inputs, tmp_path / "live", test_live.Site((test_live.ROOM,), (test_live.DOOR,)), OPTIONS)))
+    runner.start()
+    deadline = time.monotonic() + 60
+    while followed.workers[0].last_index < 15 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    killed_after = followed.workers[0].last_index
+    ray.kill(followed.workers[0].actor)
+    runner.join(timeout=120)
+    summary = out["summary"]
+    assert summary.ending == "ended" and followed.workers[0].restarts == 1
+    assert len(followed.dropped_stretches) == 1 and "started again" in followed.dropped_stretches[0]
+    events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
+    before = [e for e in events if not e["track"].startswith("r1-")]
+    after = [e for e in events if e["track"].startswith("r1-")]
+    assert {e["event"] for e in before} >= {"track started", "track ended"}  # those followed when it died end
+    assert {e["event"] for e in after} >= {"track started", "track ended"} and after[0]["time_s"] > killed_after / FPS
+    assert len(events) == summary.events
+    assert read_world(summary.files["world"]).tracks  # the people followed after the restart are written
+
+
+SIGTERM_SCRIPT = """
+import sys, threading
+sys.path.insert(0, {tests!r})
+import ray.cloudpickle, test_live, test_live_cluster
+ray.cloudpickle.register_pickle_by_value(test_live)
+ray.cloudpickle.register_pickle_by_value(test_live_cluster)
+from pathlib import Path
+from ray3d.jobs.live import open_live, run_live_job
+from ray3d.live.runner import stop_on_signals
+people = test_live._scene(400)
+video = test_live_cluster._video(Path({out!r}).parent / "long.avi", people)
+job = test_live_cluster._job(video, people)
+inputs = open_live(job, paced=True, address="local", workers=2)
+stop = threading.Event()
+caught = stop_on_signals(stop, inputs.followed)
+print("started", flush=True)
+summary = run_live_job(job, inputs, {out!r}, options=test_live_cluster.OPTIONS, stop=stop)
+print(summary.ending, summary.processed, flush=True)
+sys.exit(128 + caught[0] if caught else 0)
+"""
+
+
+def _ray_processes() -> list[str]:
+    found = subprocess.run(["pgrep", "-f", "raylet|gcs_server|ray::"], capture_output=True, text=True).stdout
+    return found.split()
+
+
+def test_sigterm_during_a_ray_run_ends_it_with_every_output_complete_and_no_ray_left(tmp_path):
+    import signal
+
+    if ray.is_initialized():
+        ray.shutdown()
+    already = set(_ray_processes())
+    script = tmp_path / "run.py"
+    script.write_text(SIGTERM_SCRIPT.format(tests=str(Path(__file__).parent), out=str(tmp_path / "out")))
+    process = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    assert process.stdout.readline().strip() == "started"
+    deadline = time.monotonic() + 60
+    events = tmp_path / "out" / "events.jsonl"
+    while (not events.exists() or events.stat().st_size == 0) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)
+    process.send_signal(signal.SIGTERM)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 143, err
+    assert out.split()[0] == "stopped"
+    lines = events.read_text().splitlines()
+    assert lines and all(json.loads(line)["event"] for line in lines)  # every line whole
+    started = {json.loads(line)["track"] for line in lines if json.loads(line)["event"] == "track started"}
+    ended = {json.loads(line)["track"] for line in lines if json.loads(line)["event"] == "track ended"}
+    assert started == ended  # everybody followed was let go and said so
+    assert read_world(tmp_path / "out" / "world.csv").tracks
+    for _ in range(50):  # Ray's processes go within seconds of the run's end
+        if not set(_ray_processes()) - already:
+            break
+        time.sleep(0.2)
+    assert not set(_ray_processes()) - already
