@@ -197,7 +197,8 @@ def build_parser() -> argparse.ArgumentParser:
     live.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
     live.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     live.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")
-    live.add_argument("--unpaced", action="store_true", help="read a file as fast as it decodes, not at its rate")
+    live.add_argument("--unpaced", action="store_true", help="read a file as fast as it is processed, every frame, not at its "
+                      "rate")
     live.add_argument("--stall-timeout", type=float, default=5.0,
                       help="seconds without a frame before the stream counts as stalled (default 5; exit code 3)")
     live.add_argument("--max-gap", type=float, default=0.5,

@@ -114,8 +114,10 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
         worlds = [read_world(path) for path, _ in written]
         if len(worlds) == 1:
             write_world(fused_path, worlds[0])
+            summary.tracks = len(worlds[0].tracks)
         else:
-            fuse_and_write(worlds, fused_path, [offsets[k] - offsets[written[0][1]] for _, k in written])
+            fusion = fuse_and_write(worlds, fused_path, [offsets[k] - offsets[written[0][1]] for _, k in written])
+            summary.tracks = len(fusion.world.tracks)  # the world's people, not each camera's tracks
         summary.files["world"] = fused_path
     if site is not None and (site.zones or site.lines) and summary.files["world"].exists():
         from ray3d.site.report import analyse_site

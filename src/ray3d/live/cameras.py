@@ -96,8 +96,9 @@ class Finisher:
 class CameraPeople:
     """One camera: its frames -> its people (``LivePeople``), the tracks it lets go lifted (``Finisher``)."""
 
-    def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int, lift_options: LiftOptions,
-                 max_gap_s: float, min_track_s: float, id_prefix: str = ""):
+    def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int | None,
+                 lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = ""):
+        """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it."""
         self.people = LivePeople(camera, detector, lifter, fps, lift_options.floor, max_gap_s, deadline_frames=keep,
                                  id_prefix=id_prefix)
         self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s)
@@ -126,7 +127,8 @@ class LocalCameras:
         self.group, self.cameras, self.name = group, cameras, group.name
         self.fps = [source.fps for source in group.sources]
         self.names = [camera.name or source.name for camera, source in zip(cameras, group.sources)]
-        self.views = [CameraPeople(c, d, lifter, source.fps, source.keep, lift_options, max_gap_s, min_track_s)
+        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, lift_options, max_gap_s,
+                                   min_track_s)
                       for c, d, source in zip(cameras, detectors, group.sources)]
 
     def next(self) -> tuple[int, FrameResult] | None:

@@ -41,8 +41,8 @@ class CameraWorker:
         self.source, self.camera, detector = opened(first_index=first_index)
         chosen = lifter(detector.layout) or Lifter.load(layout=detector.layout)
         chosen.prepare_small_batches()
-        self.people = CameraPeople(self.camera, detector, chosen, self.source.fps, self.source.keep, lift_options,
-                                   max_gap_s, min_track_s, id_prefix)
+        self.people = CameraPeople(self.camera, detector, chosen, self.source.fps, self.source.deadline_frames,
+                                   lift_options, max_gap_s, min_track_s, id_prefix)
 
     def describe(self) -> tuple:
         return self.camera, self.source.fps, self.source.name

@@ -62,14 +62,15 @@ class LivePeople:
 
     The detector is given the time left until ``deadline_frames`` frame periods after the frame's arrival (the
     source's buffer: finished by then, the frame pushes none out), less what the rest of a frame takes (as
-    measured): a detector that can leaves some people for the next frame rather than fall behind. A person the
+    measured): a detector that can leaves some people for the next frame rather than fall behind (no deadline,
+    ``deadline_frames`` None, for a stream that waits for its reader). A person the
     detector did not see in this frame but did in the one processed before is given at their place of the frame before
     (the page and the zones' counts do not flicker); their world track has only the frames they were seen in."""
 
     def __init__(self, camera: Camera, detector: PoseDetector, lifter: Lifter, fps: float,
                  floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 3.0,
-                 refine_window_s: float = 20.0, deadline_frames: float = 2.0, id_prefix: str = ""):
-        self.deadline_s = deadline_frames / fps
+                 refine_window_s: float = 20.0, deadline_frames: float | None = 2.0, id_prefix: str = ""):
+        self.deadline_s = None if deadline_frames is None else deadline_frames / fps
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
         self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES, id_prefix=id_prefix)
         self.config = RefineConfig.for_model(lifter.document, detector.layout)
@@ -86,8 +87,8 @@ class LivePeople:
         finished since the last call."""
         if detections is None:
             reserve = self._after_detection_s + RUNNER_SHARE / self.fps
-            detections = self.detector(frame.image,
-                                       time_left_s=frame.arrived + self.deadline_s - reserve - time.monotonic())
+            detections = self.detector(frame.image, time_left_s=None if self.deadline_s is None else
+                                       frame.arrived + self.deadline_s - reserve - time.monotonic())
         detected = time.monotonic()
         self.tracker.update(frame.index, detections, frame.image)
         waiting: list[tuple[int, _Following]] = []

@@ -88,17 +88,18 @@ class FrameSource:
     once the stream has ended, and raises ``StreamStalled`` when none has come for ``stall_s`` seconds. ``paced``
     plays the frames at ``fps`` (a file at its own rate); a camera or a stream paces itself. ``read`` counts the
     frames read, ``dropped`` those pushed out by newer ones before they were taken; a frame taken within
-    ``keep`` frame periods of its arrival pushes none out."""
+    ``keep`` frame periods of its arrival pushes none out. ``waits``: the reader waits for room instead (a file
+    read as fast as it is processed: every frame taken, none dropped)."""
 
     def __init__(self, frames: Iterator[np.ndarray], fps: float, name: str, paced: bool = False,
                  stall_s: float = 5.0, image_size: tuple[int, int] | None = None, keep: int = 2,
-                 first_index: int = 0):
+                 first_index: int = 0, waits: bool = False):
         if not fps > 0:
             raise InputError(f"{name}: the stream reports no frame rate; give it", ("fps",))
         self.fps, self.name, self.stall_s, self.image_size = float(fps), name, float(stall_s), image_size
         self.keep, self.first_index = max(1, int(keep)), int(first_index)
         self.read = self.dropped = 0
-        self._frames, self._paced = frames, paced
+        self._frames, self._paced, self._waits = frames, paced, waits
         self._waiting: collections.deque = collections.deque(maxlen=self.keep)
         self._ended = self._closed = False
         self._failure: BaseException | None = None
@@ -110,14 +111,20 @@ class FrameSource:
     @classmethod
     def open(cls, source: str | Path, fps: float | None = None, paced: bool | None = None,
              stall_s: float = 5.0, keep: int = 2, first_index: int = 0) -> FrameSource:
-        """A video file (played at its own rate unless ``paced`` is False), a camera device number or a stream
-        URL; ``fps`` where the source does not say its rate. ``first_index``: the number of its first frame (a
+        """A video file (played at its own rate unless ``paced`` is False: then every frame as fast as it is
+        taken), a camera device number or a stream URL; ``fps`` where the source does not say its rate. ``first_index``: the number of its first frame (a
         file is read from that frame on: a stream taken up again where it was left)."""
         source = str(source)
         is_file = Path(source).is_file()
         capture, first, reported = _opened(source, first_index if is_file else 0)
         return cls(_frames_of(capture, first), fps or reported, source, is_file if paced is None else paced, stall_s,
-                   (first.shape[1], first.shape[0]), keep, first_index)
+                   (first.shape[1], first.shape[0]), keep, first_index, waits=is_file and paced is False)
+
+    @property
+    def deadline_frames(self) -> int | None:
+        """How many frame periods a frame may wait before a newer one pushes it out (None: it waits for its
+        reader)."""
+        return None if self._waits else self.keep
 
     def _read(self) -> None:
         start = time.monotonic()
@@ -126,6 +133,8 @@ class FrameSource:
                 if self._paced:
                     time.sleep(max(0.0, start + (index - self.first_index) / self.fps - time.monotonic()))
                 with self._changed:
+                    if self._waits:
+                        self._changed.wait_for(lambda: self._closed or len(self._waiting) < self._waiting.maxlen)
                     if self._closed:
                         return
                     self.dropped += len(self._waiting) == self._waiting.maxlen  # the oldest is pushed out
@@ -160,6 +169,7 @@ class FrameSource:
             if not _wait_while_open(self, lambda: self._waiting or self._ended):
                 return None
             frame = self._waiting.popleft() if self._waiting else None
+            self._changed.notify_all()  # a reader waiting for room
         if frame is None and self._failure is not None:
             raise InputError(f"{self.name}: the stream broke off: {self._failure}", ("source",))
         return frame

@@ -50,7 +50,10 @@ def falls(times: np.ndarray, joints: np.ndarray) -> list[dict]:
 
 
 def _window_minimum(values: np.ndarray, first_horizon: int) -> np.ndarray:
-    """For evenly spaced frames: the minimum of the ``first_horizon - 1`` values after each (inf at the end)."""
-    size = max(first_horizon - 1, 1)
+    """For evenly spaced frames: the minimum of the ``first_horizon - 1`` values after each (inf at the end, and
+    everywhere when the horizon holds no later frame: frames further apart than it)."""
+    size = first_horizon - 1
+    if size < 1:
+        return np.full(len(values), np.inf)
     after = np.append(values[1:], np.full(size, np.inf))
     return np.lib.stride_tricks.sliding_window_view(after, size).min(axis=1)[:len(values)]
