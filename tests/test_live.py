@@ -156,9 +156,8 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
     lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
     detector = _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
-    live_options = LiveOptions(**{"page": False, "min_track_s": 0.5, **options})
-    job = Job(("scene",), (CameraChoice(made=CAMERA),),
-              video=VideoOptions(max_gap_s=live_options.max_gap_s, min_track_s=live_options.min_track_s))
+    live_options = LiveOptions(**{"page": False, **options})
+    job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
     inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector], lifter)
     return run_live_job(job, inputs, tmp_path / "live", site, live_options), detector
 
@@ -273,7 +272,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
                           [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter)
     summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
-                           LiveOptions(page=False, min_track_s=0.5))
+                           LiveOptions(page=False))
     assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == 2 * len(people)
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     started = {e["track"] for e in events if e["event"] == "track started"}
@@ -448,6 +447,7 @@ SIGNAL_SCRIPT = """
 import sys, threading, numpy as np
 sys.path.insert(0, {tests!r})
 from test_live import _scene, _ScriptedDetector, _frames, CAMERA
+from ray3d.lifting.options import VideoOptions
 from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
 from ray3d.live.source import FrameSource
 people = _scene(400)
@@ -455,7 +455,8 @@ source = FrameSource(_frames(400, people=people), 10.0, "scene", paced=True)
 stop = threading.Event()
 caught = stop_on_signals(stop, source)
 print("started", flush=True)
-summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), options=LiveOptions(page=False, min_track_s=0.5), stop=stop)
+summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), options=LiveOptions(page=False), stop=stop,
+                   video_options=VideoOptions(min_track_s=0.5))
 print(summary.ending, summary.processed, flush=True)
 sys.exit(128 + caught[0] if caught else 0)
 """
@@ -501,7 +502,8 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
 
     runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people)),
                               kwargs={"site": Site((ROOM,), (DOOR,)), "started": started, "stop": stop,
-                                      "options": LiveOptions(port=0, min_track_s=0.5)})
+                                      "options": LiveOptions(port=0),
+                                                         "video_options": VideoOptions(min_track_s=0.5)})
     runner.start()
     assert listening.wait(30)
     for _ in range(100):  # people on the page's feed (the stream has begun)
@@ -544,7 +546,7 @@ def test_a_stream_that_stalls_ends_the_run_with_its_outputs_complete(tmp_path):
     source = FrameSource(_frames(60, people=people, stall_after=40, stall_s=3.0), 20.0, "camera 3", paced=True,
                          stall_s=0.5)
     summary = run_live(source, CAMERA, tmp_path / "live", _ScriptedDetector(people), lifter,
-                       options=LiveOptions(page=False, min_track_s=0.5))
+                       options=LiveOptions(page=False), video_options=VideoOptions(min_track_s=0.5))
     assert summary.ending == "stalled" and summary.why == "camera 3: no frame for 0.5 s: the stream stalled"
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     assert sum(e["event"] == "track ended" for e in events) == 2

@@ -61,7 +61,7 @@ def _job(video: Path, people: np.ndarray) -> Job:
                video=VideoOptions(min_track_s=0.5))
 
 
-OPTIONS = LiveOptions(page=False, min_track_s=0.5)
+OPTIONS = LiveOptions(page=False)
 
 
 @pytest.fixture(scope="module")

@@ -133,13 +133,25 @@ def test_every_person_is_tracked_and_lifted_into_one_world_frame(scene, tmp_path
     assert overlay.frames == FRAMES and overlay.image_size == SIZE
 
 
+def track_name(world) -> str:
+    return next(iter(world.tracks))
+
+
 def test_a_gap_longer_than_max_gap_splits_the_track_and_nothing_is_drawn_where_nobody_was(tmp_path):
     person = _walker((6.0, -1.5), (0.0, 1.0))
     pixels = [CAMERA.project(person)]
     hidden = {(0, t) for t in list(range(0, 5)) + list(range(16, 30))}  # 0.7 s unseen in the middle
     path = _render(tmp_path / "gap.mp4", pixels, hidden)
+    # Taken up again after the gap (the default: where the walk led, within 3 s): one person, the gap unseen.
+    joined = lift_video(path, CAMERA, tmp_path / "joined", StubDetector(pixels, hidden), Lifter.load(),
+                        video_options=VideoOptions(min_track_s=0.2), overlay=False, progress=False)
+    (track,) = joined.world.tracks.values()
+    assert (int(track.frames[0]), int(track.frames[-1])) == (5, FRAMES - 1)
+    unseen = track.interpolated.all(axis=1)
+    assert np.array_equal(np.flatnonzero(unseen), np.arange(16, 30) - 5)
+    assert [r["gap_s"] for r in joined.world.rejoined[track_name(joined.world)]] == [pytest.approx(15 / FPS)]
     result = lift_video(path, CAMERA, tmp_path / "out", StubDetector(pixels, hidden), Lifter.load(),
-                        video_options=VideoOptions(min_track_s=0.2), progress=False)
+                        video_options=VideoOptions(min_track_s=0.2, rejoin_s=0), progress=False)
     spans = sorted((int(t.frames[0]), int(t.frames[-1])) for t in result.world.tracks.values())
     assert spans == [(5, 15), (30, FRAMES - 1)]
     assert not any(t.interpolated.any() for t in result.world.tracks.values())

@@ -36,7 +36,7 @@ def live(args: argparse.Namespace) -> int:
     stop = threading.Event()
     caught = stop_on_signals(stop, inputs.followed)
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
-                          None if args.quiet else sys.stdout, args.min_track, args.max_gap)
+                          None if args.quiet else sys.stdout)
     summary = run_live_job(job, inputs, args.out, plan, options, stop,
                            started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True),
                            offsets_s=offsets)

@@ -25,7 +25,9 @@ def report_site(world, site, out_dir: Path, title: str, overwrite: bool) -> None
     for row in places:
         tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
                  else f"{row['forward']} forward, {row['back']} back")
-        print(f"{row['kind']} {row['place']}: {tally}")
+        joined = f" ({row['by_rejoined_tracks']} by people taken up again after a gap)" if row["by_rejoined_tracks"] \
+            else ""
+        print(f"{row['kind']} {row['place']}: {tally}{joined}")
     kinds: dict[str, int] = {}
     for event in events:
         kinds[event["event"]] = kinds.get(event["event"], 0) + 1

@@ -83,6 +83,7 @@ class World:
     path: Path | None = None  # the file it was read from
     unliftable: dict[str, str] = dataclasses.field(default_factory=dict)
     cameras: tuple[Camera, ...] = ()  # every camera, the first being ``camera``, when several saw the people
+    rejoined: dict[str, list] = dataclasses.field(default_factory=dict)  # track -> the re-joins it holds (.json)
 
     def __post_init__(self) -> None:
         if not self.tracks:
@@ -197,7 +198,8 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                                                **({} if r.seen_by is None else
                                                   {"seen_by": [np.flatnonzero(row).tolist() for row in r.seen_by]})}
                                            for t, r in world.tracks.items()},
-                        **({"cameras": [c.to_dict() for c in world.cameras]} if len(world.cameras) > 1 else {})}
+                        **({"cameras": [c.to_dict() for c in world.cameras]} if len(world.cameras) > 1 else {}),
+                        **({"rejoined": world.rejoined} if world.rejoined else {})}
             temporary.write_text(json.dumps(document))
         elif suffix == ".trc":
             temporary.write_text(_trc_text(world, path.name))
@@ -388,7 +390,8 @@ def read_world(path: str | Path) -> World:
                                          e.get("refinement"), _optional_array(e.get("position_sd_m")), seen_by(e))
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
-                         str(document["units"]), _frame_described(str(document["axes"])), path, cameras=cameras)
+                         str(document["units"]), _frame_described(str(document["axes"])), path, cameras=cameras,
+                         rejoined=document.get("rejoined", {}))
         return _read_csv(path)
     except InputError:
         raise

@@ -52,17 +52,19 @@ class LiftOptions:
 @dataclasses.dataclass(frozen=True)
 class VideoOptions:
     """Which part of a video, and how people are followed: ``fps`` overrides the rate the video reports,
-    ``start`` / ``frames`` select frames, a person unseen for longer than ``max_gap_s`` starts a new track and
-    tracks shorter than ``min_track_s`` are dropped."""
+    ``start`` / ``frames`` select frames, a person unseen for longer than ``max_gap_s`` starts a new track, which
+    continues theirs when it starts within ``rejoin_s`` where their walk led in the same clothes
+    (``video.identities``; 0: never), and tracks shorter than ``min_track_s`` are dropped."""
 
     fps: float | None = None
     start: int = 0
     frames: int | None = None
     max_gap_s: float = 0.5
     min_track_s: float = 1.0
+    rejoin_s: float = 3.0
 
     def __post_init__(self) -> None:
-        for name in ("max_gap_s", "min_track_s"):
+        for name in ("max_gap_s", "min_track_s", "rejoin_s"):
             value = getattr(self, name)
             if not np.isfinite(value) or value < 0:
                 raise InputError(f"{name} must be a duration in seconds, 0 or more; got {value}", arguments=(name,))

@@ -30,7 +30,7 @@ from ray3d.live.people import PersonNow
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
-from ray3d.lifting.options import LiftOptions
+from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.site.events import SiteMonitor
 from ray3d.site.places import Site
 
@@ -41,8 +41,8 @@ LATEST_EVENTS = 20  # events the page shows
 @dataclasses.dataclass(frozen=True)
 class LiveOptions:
     """How the stream is served and followed: the page (``page``, ``host``, ``port``, ``token``), the
-    ``webhook`` URL, ``echo`` events on a text stream (stdout), a track shorter than ``min_track_s`` is left out
-    of the world file, a person unseen for ``max_gap_s`` has left, ``trail_s`` of each path on the page."""
+    ``webhook`` URL, ``echo`` events on a text stream (stdout), ``trail_s`` of each path on the page. (Who is
+    followed how, a person's longest gap and the shortest track written, is the job's ``VideoOptions``.)"""
 
     page: bool = True
     host: str = "127.0.0.1"
@@ -50,8 +50,6 @@ class LiveOptions:
     token: str | None = None
     webhook: str | None = None
     echo: TextIO | None = None
-    min_track_s: float = 1.0
-    max_gap_s: float = 0.5
     trail_s: float = 10.0
 
 
@@ -206,7 +204,8 @@ def _several(value) -> list:
 def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | None = None,
              site: Site | None = None, options: LiveOptions = LiveOptions(),
              lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
-             started=lambda url: None, offsets_s: list[float] | None = None) -> LiveSummary:
+             started=lambda url: None, offsets_s: list[float] | None = None,
+             video_options: VideoOptions = VideoOptions()) -> LiveSummary:
     """Follow ``source`` until it ends, stalls, breaks off or ``stop`` is set; write ``out_dir``/events.jsonl
     and world.csv. ``started(url)`` is called once the page listens.
 
@@ -222,7 +221,8 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     lifter = lifter or Lifter.load(layout=detectors[0].layout)
     lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
     group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
-    followed = LocalCameras(group, cameras, detectors, lifter, lift_options, options.max_gap_s, options.min_track_s)
+    followed = LocalCameras(group, cameras, detectors, lifter, lift_options, video_options.max_gap_s,
+                            video_options.min_track_s)
     return follow(followed, out_dir, site, options, stop, started, offsets_s)
 
 

@@ -36,20 +36,26 @@ def track_summaries(world: World, site: Site) -> list[dict]:
     return rows
 
 
-def zone_summaries(events: list[dict], site: Site) -> list[dict]:
+def zone_summaries(events: list[dict], site: Site, rejoined: dict | None = None) -> list[dict]:
     """Per zone: entries, exits and the visits' dwell (mean and longest, of the visits that left); per line:
-    crossings each way."""
+    crossings each way. Each counts a person once per crossing, also where their track was taken up again after a
+    gap (``rejoined``: the world's {track: its re-joins}); ``by_rejoined_tracks`` says how many of a place's
+    entries or crossings such tracks made."""
+    joined = set(rejoined or {})
     rows = []
     for zone in site.zones:
         mine = [e for e in events if e.get("zone") == zone.name]
+        entered = [e for e in mine if e["event"] == ZONE_ENTERED.name]
         dwell = [e["dwell_s"] for e in mine if e["event"] == ZONE_LEFT.name]
-        rows.append({"place": zone.name, "kind": "zone", "entries": sum(e["event"] == ZONE_ENTERED.name for e in mine),
+        rows.append({"place": zone.name, "kind": "zone", "entries": len(entered),
                      "exits": len(dwell), "mean_dwell_s": round(float(np.mean(dwell)), 3) if dwell else None,
-                     "longest_dwell_s": round(float(np.max(dwell)), 3) if dwell else None})
+                     "longest_dwell_s": round(float(np.max(dwell)), 3) if dwell else None,
+                     "by_rejoined_tracks": sum(e["track"] in joined for e in entered)})
     for line in site.lines:
         mine = [e for e in events if e["event"] == LINE_CROSSED.name and e["line"] == line.name]
         rows.append({"place": line.name, "kind": "line", "forward": sum(e["direction"] == "forward" for e in mine),
-                     "back": sum(e["direction"] == "back" for e in mine)})
+                     "back": sum(e["direction"] == "back" for e in mine),
+                     "by_rejoined_tracks": sum(e["track"] in joined for e in mine)})
     return rows
 
 

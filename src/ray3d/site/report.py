@@ -34,7 +34,7 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     out_dir = Path(out_dir)
     world = world.in_frame("world")
     events, frames = site_events(world, site), person_frames(world, site)
-    places = zone_summaries(events, site)
+    places = zone_summaries(events, site, world.rejoined)
     times, counts = occupancy(frames, site, world.fps)
     series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
               for k, t in enumerate(times)]

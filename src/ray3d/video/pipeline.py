@@ -22,6 +22,7 @@ from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.temporal import check_frame_rate
 from ray3d.video.detectors import PoseDetector
+from ray3d.video.identities import rejoin_tracks
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
 from ray3d.video.overlay import write_overlay
 from ray3d.video.tracking import FloorTracker
@@ -34,15 +35,24 @@ CONFIRM_FRAMES = 3       # detections in a row before a person counts (one-off f
 class TrackedPeople:
     """Everybody detected and followed in a video: {track id: detections at the video's frame index} of the
     tracks kept, in the detector's layout, at ``fps``; the frames read; {track id: why} of those dropped; the
-    video and which detector found them."""
+    video and which detector found them; the re-joins made (``video.identities``)."""
 
-    tracks: dict[int, TrackDetections]
+    tracks: dict[str, TrackDetections]
     layout: str
     fps: float
     frames_read: int
-    dropped: dict[int, str]
+    dropped: dict[str, str]
     video: Path
     detector: str = ""
+    rejoins: list = dataclasses.field(default_factory=list)
+
+    def rejoined(self) -> dict[str, list[dict]]:
+        """{track kept: its re-joins} (what the world file records)."""
+        found: dict[str, list[dict]] = {}
+        for rejoin in self.rejoins:
+            if rejoin.identity in self.tracks:
+                found.setdefault(rejoin.identity, []).append(rejoin.to_dict())
+        return found
 
     def keypoints(self) -> Keypoints:
         """The kept tracks' detections as one keypoint record (what ``keypoints.json`` holds)."""
@@ -102,8 +112,9 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
         raise InputError(f"{info.path}: no frames could be read")
     # A short clip keeps a person seen for half of it: one seen in every frame of a 1.7 s clip is a track.
     shortest = min(options.min_track_s, SHORT_CLIP_SHARE * read / fps)
+    identities, rejoins = rejoin_tracks(tracker.tracks(), fps, options.rejoin_s)
     kept, dropped, seen_for = {}, {}, {}
-    for track in tracker.tracks():
+    for track in identities:
         seen_for[track.id] = seconds = track.seconds(fps)
         if seconds < shortest:
             dropped[track.id] = f"seen for {seconds:.2f} s (under {shortest:.2f} s)"
@@ -112,7 +123,7 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
     if not kept:
         raise InputError(_nobody_followed(info.path, read, fps, shortest, seen_for, tracker.frames_with_people,
                                           detector_name), arguments=("min_track_s",) if seen_for else ("detector",))
-    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path, detector_name)
+    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path, detector_name, rejoins)
 
 
 def _nobody_followed(path: Path, read: int, fps: float, shortest: float, seen_for: dict[int, float],
@@ -173,7 +184,7 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
     except InputError as err:
         raise InputError(f"{info.path}: {err.message}") from None
     dropped = {**people.dropped, **lifted.unliftable}
-    world = World(lifted, camera, lifter.name, unliftable=lifted.unliftable)
+    world = World(lifted, camera, lifter.name, unliftable=lifted.unliftable, rejoined=people.rejoined())
     keypoints = people.keypoints()
     clock.append(time.perf_counter())
     Path(out_dir).mkdir(parents=True, exist_ok=True)

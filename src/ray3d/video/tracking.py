@@ -27,7 +27,7 @@ _ANKLES = [H36M17.joint_names.index("l_ankle"), H36M17.joint_names.index("r_ankl
 _TORSO = [H36M17.joint_names.index(j) for j in ("l_shoulder", "r_shoulder", "l_hip", "r_hip")]
 _GATE = 13.8  # chi-square, 2 degrees of freedom, 99.9 %: beyond it a detection cannot be that person
 _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared standard deviations of position
-_COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two detections are different people
+COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two detections are different people
 # A detection whose image box overlaps this much (intersection over union) the box of a person seen in the last
 # frame is still them when their floor point jumps beyond the gate: a near person lifting or swinging a leg moves
 # the point between their ankles by more than a stride. (Not for a person missed: at a crossing the one in front
@@ -37,11 +37,14 @@ _SAME_BOX = 0.5
 
 @dataclasses.dataclass
 class Track:
-    """One person: the frame indices they were detected in and their detections there."""
+    """One person: the frame indices they were detected in, their detections there, where each put them on the
+    floor (x, y metres; NaN where the camera could not) and their clothes' colours (a hue-saturation histogram)."""
 
     id: str  # the one type of a track id, from here to the world file and the events
     frames: list[int] = dataclasses.field(default_factory=list)
     detections: list[Detection] = dataclasses.field(default_factory=list)
+    floor: list[np.ndarray] = dataclasses.field(default_factory=list)
+    colour: np.ndarray | None = None
 
     def seconds(self, fps: float) -> float:
         """How long the person was followed, first to last frame."""
@@ -68,7 +71,7 @@ class _Person:
         self.colour, self.hits, self.missed = colour, 1, 0
         self.box: np.ndarray | None = None  # (4,) the image box of their last detection
         self.track: Track | None = None
-        self.waiting: list[tuple[int, Detection]] = []  # detections before the track is confirmed
+        self.waiting: list[tuple] = []  # (frame, detection, floor point) before the track is confirmed
 
     def predict(self, frames: int = 1) -> None:
         """The state ``frames`` frames on from the last (more than one where frames were skipped or dropped)."""
@@ -152,8 +155,8 @@ class FloorTracker:
                     floor, noise, colour = measured[i]
                     person = self._active[r]
                     d2 = person.distance(floor, noise)
-                    unlike = _colour_distance(person.colour, colour[0])
-                    if unlike >= _COLOUR_GATE:
+                    unlike = colour_distance(person.colour, colour[0])
+                    if unlike >= COLOUR_GATE:
                         continue
                     if d2 < _GATE:
                         cost[a, b] = d2 + _APPEARANCE_WEIGHT * unlike
@@ -167,7 +170,7 @@ class FloorTracker:
                     matched_detections.add(i)
                     floor, noise, (colour, alone) = measured[i]
                     self._active[r].correct(floor, noise, colour if alone else None)
-                    self._record(self._active[r], frame_index, detections[i])
+                    self._record(self._active[r], frame_index, detections[i], floor)
         for r, person in enumerate(self._active):
             if r not in matched_people:
                 person.coast(elapsed)
@@ -181,7 +184,7 @@ class FloorTracker:
                 floor, noise, (colour, _) = measured[i]
                 person = _Person(floor, noise, colour, self.dt, self.acceleration)
                 survivors.append(person)
-                self._record(person, frame_index, detections[i])
+                self._record(person, frame_index, detections[i], floor)
         self._active = survivors
 
     def tracks(self) -> list[Track]:
@@ -196,16 +199,19 @@ class FloorTracker:
         self._tracks = [track for track in self._tracks if id(track) in following]
         return done
 
-    def _record(self, person: _Person, frame_index: int, detection: Detection) -> None:
+    def _record(self, person: _Person, frame_index: int, detection: Detection, floor: np.ndarray) -> None:
         person.box = detection.box
         if person.track is not None:
             person.track.frames.append(frame_index)
             person.track.detections.append(detection)
+            person.track.floor.append(floor)
+            person.track.colour = person.colour
             return
-        person.waiting.append((frame_index, detection))
+        person.waiting.append((frame_index, detection, floor))
         if person.hits >= self.confirm_hits:
-            person.track = Track(f"{self.id_prefix}{self._confirmed}", [f for f, _ in person.waiting],
-                                 [d for _, d in person.waiting])
+            person.track = Track(f"{self.id_prefix}{self._confirmed}", [f for f, _, _ in person.waiting],
+                                 [d for _, d, _ in person.waiting], [p for _, _, p in person.waiting],
+                                 person.colour)
             self._confirmed += 1
             self._tracks.append(person.track)
 
@@ -278,6 +284,6 @@ def _clothes_colour(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
     return histogram / max(float(histogram.sum()), 1e-9)
 
 
-def _colour_distance(a: np.ndarray, b: np.ndarray) -> float:
+def colour_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Bhattacharyya distance of two normalised histograms: 0 the same, 1 nothing in common."""
     return float(np.sqrt(max(0.0, 1.0 - np.sum(np.sqrt(a * b)))))
