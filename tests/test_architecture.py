@@ -214,6 +214,13 @@ def test_only_the_jobs_wing_assembles_a_job_or_fuses_worlds(assembler, own_room)
     assert {m for m in _callers(assembler) if not _in_room(m, own_room)} <= {"ray3d.jobs.run", "ray3d.jobs.live"}
 
 
+def test_a_video_or_stream_camera_and_detector_are_put_together_in_one_function():
+    functions = {(module, node.name) for module, path in MODULES.items() if _in_room(module, "ray3d.jobs")
+                 for node in ast.walk(ast.parse(path.read_text())) if isinstance(node, ast.FunctionDef)
+                 and (_calls_in(node, "make_detector") or _calls_in(node, "camera_for_video"))}
+    assert functions == {("ray3d.jobs.run", "camera_and_detector")}
+
+
 def test_one_event_engine_spells_every_event_name():
     """The site's events come from one engine (``site.events``): no other module spells an event's name, finds a
     line crossing or a fall for an event, or defines a second monitor."""

@@ -66,7 +66,8 @@ def test_a_batch_row_takes_every_option_of_the_command_line_and_writes_its_site_
         {"name": "stage", "polygon": [[50, 50], [51, 50], [51, 51]], "height_m": 0.2}]}))
     manifest = tmp_path / "m.json"
     manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "site": "site.json",
-                                     "floor": "floor.json", "frame": "camera", "smooth_3d": "none"}]))
+                                     "floor": "floor.json", "frame": "camera", "smooth_3d": "none", "every": "0.5s",
+                                     "start_time": "2026-12-05T08:00:00"}]))
     (entry,) = read_manifest(manifest)
     job = entry.job()
     assert job.floor_file == str(tmp_path / "floor.json") and job.lift.frame == "camera"
@@ -76,8 +77,12 @@ def test_a_batch_row_takes_every_option_of_the_command_line_and_writes_its_site_
     assert process_entry(entry, out, "x")["status"] == "done"
     assert read_world(out / "take" / "world.json").frame == "camera"
     assert (out / "take" / "site" / "report.html").exists() and (out / "take" / "site" / "events.jsonl").exists()
+    assert "2026-12-05T08:00:00.500000" in (out / "take" / "site" / "by-time.csv").read_text()
     manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "site": "nowhere.json"}]))
     with pytest.raises(InputError, match="row 1: column site: .*nowhere.json does not exist"):
+        read_manifest(manifest)
+    manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "every": "soon"}]))
+    with pytest.raises(InputError, match="row 1: column every: 'soon': 'soon' is not a duration"):
         read_manifest(manifest)
     manifest.write_text(json.dumps([{"input": "take.npz", "camera": "h36m:S9:54138969", "overlay": False}]))
     with pytest.raises(InputError, match="overlay applies to video inputs"):

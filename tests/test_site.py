@@ -383,3 +383,62 @@ def test_a_reader_that_stops_reading_is_not_an_internal_error(tmp_path, monkeypa
     monkeypatch.setattr(site_commands, "site", closed_pipe)
     assert main(["site", "w.json", "--site", "s.json", "--out", str(tmp_path)]) == 141
     assert "internal error" not in capsys.readouterr().err
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 120), st.integers(5, 80), st.floats(-2, 2), st.floats(-1.5, 1.5)),
+                min_size=1, max_size=5), st.sampled_from([0.7, 1.0, 2.5, 30.0]))
+def test_time_buckets_add_up_to_the_whole_runs_counts(walkers, every_s):
+    from ray3d.site.analytics import by_time, occupancy, person_frames, zone_summaries
+
+    tracks = {}
+    for k, (start, length, x0, speed) in enumerate(walkers):
+        frames = np.arange(start, start + length)
+        joints = np.zeros((length, 17, 3))
+        joints[:, :, 0] = (x0 + speed * (frames - start) / 10.0)[:, None] + 2.0
+        joints[:, :, 1] = 0.5
+        tracks[str(k)] = LiftResult(joints, np.zeros((length, 17), bool), 10.0, frames)
+    world = World(tracks, cameras.h36m("S9", "54138969"), "ray3d")
+    site = Site((ROOM,), (DOOR,))
+    events = site_events(world, site)
+    times, counts = occupancy(person_frames(world, site), site, 10.0)
+    end_s = max(float(r.frames[-1]) / 10.0 for r in tracks.values())
+    buckets = by_time(events, times, counts, site, every_s, end_s)
+    places = {row["place"]: row for row in zone_summaries(events, site)}
+    assert sum(b["room: entries"] for b in buckets) == places["room"]["entries"]
+    assert sum(b["room: exits"] for b in buckets) == places["room"]["exits"]
+    assert sum(b["door: forward"] for b in buckets) == places["door"]["forward"]
+    assert sum(b["door: back"] for b in buckets) == places["door"]["back"]
+    assert buckets[0]["start_s"] == 0 and buckets[-1]["end_s"] >= end_s
+    assert max(b["room: peak occupancy"] for b in buckets) == (counts["room"].max() if len(times) else 0)
+
+
+def test_the_site_command_counts_per_time_bucket_in_wall_clock_time_and_refuses_a_bad_length(tmp_path, capsys):
+    import csv
+
+    from ray3d.cli import main
+    from ray3d.io.world import write_world
+
+    times, points = _walk(np.concatenate([np.linspace(-2, 5, 71), np.linspace(5, -2, 71)[1:]]))
+    joints = np.zeros((len(points), 17, 3))
+    joints[:, :, :2] = points[:, None]
+    result = LiftResult(joints, np.zeros((len(points), 17), bool), 10.0, np.arange(len(points)))
+    world = write_world(tmp_path / "world.json", World({"3": result}, cameras.h36m("S9", "54138969"), "ray3d"))
+    site = tmp_path / "site.json"
+    site.write_text(json.dumps({"zones": [{"name": "room", "polygon": ROOM.polygon.tolist()}],
+                                "lines": [{"name": "door", "start": [0, -1], "end": [0, 1]}]}))
+    assert main(["site", str(world), "--site", str(site), "--out", str(tmp_path / "report"), "--every", "5s",
+                 "--start-time", "2026-12-05T08:00:00+01:00"]) == 0
+    with (tmp_path / "report" / "by-time.csv").open() as handle:
+        buckets = list(csv.DictReader(handle))
+    assert [b["start"] for b in buckets[:2]] == ["2026-12-05T08:00:00+01:00", "2026-12-05T08:00:05+01:00"]
+    assert sum(int(b["door: forward"]) + int(b["door: back"]) for b in buckets) == 2
+    assert sum(int(b["room: entries"]) for b in buckets) == 2
+    assert "By time" in (tmp_path / "report" / "report.html").read_text()
+    capsys.readouterr()
+    for bad in (["--every", "0min"], ["--every", "soon"], ["--start-time", "2026-12-05T08:00:00"]):
+        try:
+            code = main(["site", str(world), "--site", str(site), "--out", str(tmp_path / "other"), *bad])
+        except SystemExit as stopped:  # argparse's refusal of a value
+            code = stopped.code
+        assert code == 2 and len(capsys.readouterr().err.strip().splitlines()) == 1

@@ -192,3 +192,20 @@ def velocity(times: np.ndarray, points: np.ndarray, before_s: float, after_s: fl
     moved = (points[after] - points[before]) / np.maximum(span, 1e-9)[:, None]
     moved[span <= 0] = 0.0
     return moved, span
+
+
+DURATION_UNITS = {"s": 1.0, "sec": 1.0, "min": 60.0, "h": 3600.0}
+
+
+def parse_duration(text) -> float:
+    """A duration, ``NUMBER[UNIT]`` (s, sec, min, h; seconds without one; or a number) -> seconds (> 0);
+    ``ValueError`` naming what is wrong."""
+    import re
+
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        text = str(text)
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([a-z]*)\s*", str(text).lower())
+    if not match or match.group(2) not in ("", *DURATION_UNITS) or float(match.group(1)) <= 0:
+        raise ValueError(f"{text!r} is not a duration: a positive number and s, min or h (15min)")
+    return float(match.group(1)) * DURATION_UNITS.get(match.group(2), 1.0)
+

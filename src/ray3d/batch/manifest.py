@@ -8,9 +8,10 @@ CSV with a header row, or JSON (a list of objects, or ``{"inputs": [...]}``). Co
   ``roll``, ``hfov`` or ``focal``, and ``image_size`` (``WIDTHxHEIGHT``; a video's own by default);
 - the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``precision``, ``smooth_2d``,
   ``smooth_3d``, ``flip_test``, ``refine``, ``floor`` (a floor regions file), ``frame`` (world or camera),
-  ``format``, ``site`` (a site file: its report in ``NAME/site``); for keypoints ``layout``, ``fps``, ``subject``,
+  ``format``, ``site`` (a site file: its report in ``NAME/site``, with ``every`` (15min) and ``start_time`` its
+  counts per time bucket); for keypoints ``layout``, ``fps``, ``subject``,
   ``action`` and ``camera_index``; for videos ``detector``, ``fps``, ``start``, ``frames``, ``max_gap``,
-  ``min_track`` and ``overlay`` (false: none drawn).
+  ``min_track``, ``rejoin`` and ``overlay`` (false: none drawn).
 
 Everything is checked before any work starts: a manifest that is missing or empty, an unknown column, a value of
 the wrong type, a missing input or camera file, two inputs with one name are refused with one line naming the
@@ -20,6 +21,7 @@ row and column. What is in the files is read by the job itself, so one bad input
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import functools
 import hashlib
 import json
@@ -33,7 +35,7 @@ from ray3d.io.world import FRAME_AXES, WRITTEN_FORMATS
 from ray3d.jobs import CameraChoice, Job, input_kind
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.models.precision import PRECISIONS
-from ray3d.temporal import SMOOTHING_METHODS
+from ray3d.temporal import SMOOTHING_METHODS, parse_duration
 
 SMOOTHERS = (*SMOOTHING_METHODS, "none")
 
@@ -66,6 +68,10 @@ def _flag(value: Any) -> bool:
     raise ValueError("expected true or false")
 
 
+def _wall_clock(value: Any) -> datetime.datetime:
+    return datetime.datetime.fromisoformat(str(value))
+
+
 def _choice(options: tuple[str, ...]):
     def check(value: Any) -> str:
         if str(value) not in options:
@@ -87,17 +93,20 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
     "refine": (_flag, _BOTH), "format": (_choice(WRITTEN_FORMATS), _BOTH),
     "floor": (_text, _BOTH), "frame": (_choice(tuple(FRAME_AXES)), _BOTH), "site": (_text, _BOTH),
+    "every": (parse_duration, _BOTH), "start_time": (_wall_clock, _BOTH),
     "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)), "subject": (_text, ("keypoints",)),
     "action": (_text, ("keypoints",)), "camera_index": (_count, ("keypoints",)),
     "detector": (_text, ("video",)), "start": (_count, ("video",)), "frames": (_count, ("video",)),
-    "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)), "overlay": (_flag, ("video",)),
+    "max_gap": (_number, ("video",)), "min_track": (_number, ("video",)), "rejoin": (_number, ("video",)),
+    "overlay": (_flag, ("video",)),
 }
 CAMERA_COLUMNS = {"camera": "file", "camera_height": "camera_height", "pitch": "pitch", "roll": "roll",
                   "hfov": "hfov", "focal": "focal", "image_size": "image_size"}  # column -> CameraChoice field
 LIFT_COLUMNS = ("smooth_2d", "smooth_3d", "flip_test", "refine", "frame")
 PATH_COLUMNS = ("floor", "site")  # relative to the manifest's folder
 _CHECK_IMAGE_SIZE = (1920, 1080)  # a video's camera is checked with this size before the video's own is read
-VIDEO_COLUMNS = {"fps": "fps", "start": "start", "frames": "frames", "max_gap_s": "max_gap", "min_track_s": "min_track"}
+VIDEO_COLUMNS = {"fps": "fps", "start": "start", "frames": "frames", "max_gap_s": "max_gap", "min_track_s": "min_track",
+                 "rejoin_s": "rejoin"}
 
 
 @dataclasses.dataclass(frozen=True)

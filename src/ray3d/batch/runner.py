@@ -78,7 +78,8 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
             from ray3d.site.report import analyse_site
 
             analyse_site(world, read_site(entry.options["site"]), temporary / "site",
-                         title=f"{entry.name} on {Path(entry.options['site']).name}")
+                         title=f"{entry.name} on {Path(entry.options['site']).name}",
+                         every_s=entry.options.get("every"), start_time=entry.options.get("start_time"))
     except InputError as err:
         shutil.rmtree(temporary, ignore_errors=True)
         return {"status": "failed", "error": err.message, "seconds": time.perf_counter() - started}

@@ -58,6 +58,32 @@ def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTP
                              "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
 
 
+def add_time_buckets(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--every", type=duration, help="also count per time bucket of this length (e.g. 15min, "
+                        "30s, 1h): by-time.csv and the report")
+    parser.add_argument("--start-time", type=wall_clock, help="with --every: the video's first frame's date and time "
+                        "(ISO 8601, e.g. 2026-12-05T08:00:00+01:00): the buckets in wall-clock time")
+
+
+def duration(text: str) -> float:
+    """``--every``'s value (``temporal.parse_duration``) -> seconds."""
+    from ray3d.temporal import parse_duration
+
+    try:
+        return parse_duration(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def wall_clock(text: str):
+    import datetime
+
+    try:
+        return datetime.datetime.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an ISO 8601 date and time (2026-12-05T08:00:00)") from None
+
+
 def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular: str):
     """The ``ray3d.jobs.Job`` a command's arguments ask for: ``inputs`` (``plural`` / ``singular`` name them in a
     refusal), each with its ``--camera`` (one each where there are several; a single input may have none: its
@@ -74,7 +100,8 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
                                  args.hfov) for file in (given or [None] * len(inputs)))
     keypoints = not hasattr(args, "detector")
     video = VideoOptions() if keypoints else VideoOptions(
-        args.fps, getattr(args, "start", 0), getattr(args, "frames", None), args.max_gap, args.min_track)
+        args.fps, getattr(args, "start", 0), getattr(args, "frames", None), args.max_gap, args.min_track,
+        getattr(args, "rejoin", 3.0))
     return Job(tuple(inputs), cameras, args.checkpoint, args.precision,
                LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame),
                args.floor, layout=getattr(args, "layout", None), fps=args.fps if keypoints else None,

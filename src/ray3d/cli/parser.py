@@ -15,7 +15,7 @@ from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
 from ray3d.cli import video_commands as video_handlers
 from ray3d.cli.arguments import (add_camera_arguments, add_data_dir, add_force, add_lens_arguments,
-                                 add_lifting_arguments, add_precision)
+                                 add_lifting_arguments, add_precision, add_time_buckets)
 
 
 def _import_common(parser: argparse.ArgumentParser) -> None:
@@ -154,12 +154,16 @@ def build_parser() -> argparse.ArgumentParser:
     video.add_argument("--max-gap", type=float, default=0.5,
                        help="seconds a person may go undetected and keep their track (default 0.5)")
     video.add_argument("--min-track", type=float, default=1.0, help="drop tracks shorter than this, seconds (default 1)")
+    video.add_argument("--rejoin", type=float, default=3.0,
+                       help="take a person up again after a gap of up to this many seconds where their walk led, in "
+                            "the same clothes: one identity (default 3; 0: never)")
     video.add_argument("--format", choices=WRITTEN_FORMATS, default=".json",
                        help="world file format (.trc: OpenSim / Pose2Sim markers; .bvh: one skeleton per track)")
     video.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
     video.add_argument("--site", type=Path, help="also analyse the people on this site file's zones and lines: a "
                        "report, tables and plots in OUT/site (as ray3d site does; docs/site.md)")
+    add_time_buckets(video)
     video.add_argument("--privacy", action="store_true", help="write nothing derived from the pixels but "
                        "skeletons, tracks and events: no overlay video")
     # Detector keypoints of real footage: the model trained for them.
@@ -255,6 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
     site.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "
                                                              "places.csv")
+    add_time_buckets(site)
     add_force(site, "replace existing tables")
     site.set_defaults(handler=site_handlers.site)
 

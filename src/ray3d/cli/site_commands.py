@@ -9,19 +9,25 @@ from pathlib import Path
 from ray3d.io.atomic import check_output, refuse_existing
 
 
-def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool) -> None:
-    """Before any work: no output of the site analysis may be an input or exist (unless ``overwrite``)."""
+def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool, every_s: float | None = None) -> None:
+    """Before any work: no output of the site analysis (with time buckets of ``every_s``) may be an input or exist
+    (unless ``overwrite``)."""
     from ray3d.site.report import site_outputs
 
-    for path in site_outputs(out_dir):
+    for path in site_outputs(out_dir, every_s is not None):
         refuse_existing(check_output(path, inputs), overwrite)
 
 
-def report_site(world, site, out_dir: Path, title: str, overwrite: bool) -> None:
+def report_site(world, site, out_dir: Path, title: str, overwrite: bool, every_s: float | None = None,
+                start_time=None) -> None:
     """Analyse a ``World`` on a ``ray3d.site.Site`` and print the counts per place and the events by kind."""
     from ray3d.site.report import analyse_site
 
-    events, places, paths = analyse_site(world, site, out_dir, title, overwrite)
+    if start_time is not None and every_s is None:
+        from ray3d.errors import InputError
+
+        raise InputError("--start-time: it places the time buckets of --every; give --every too")
+    events, places, paths = analyse_site(world, site, out_dir, title, overwrite, every_s, start_time)
     for row in places:
         tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
                  else f"{row['forward']} forward, {row['back']} back")
@@ -39,7 +45,8 @@ def site(args: argparse.Namespace) -> int:
     from ray3d.io.site_files import read_site
     from ray3d.io.world import read_world
 
-    refuse_site_outputs(args.out, (args.world, args.site), args.force)
+    refuse_site_outputs(args.out, (args.world, args.site), args.force, args.every)
     plan = read_site(args.site)  # a bad site file is refused before the world file is read
-    report_site(read_world(args.world), plan, args.out, f"{args.world.name} on {args.site.name}", args.force)
+    report_site(read_world(args.world), plan, args.out, f"{args.world.name} on {args.site.name}", args.force,
+                args.every, args.start_time)
     return 0

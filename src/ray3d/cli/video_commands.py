@@ -21,7 +21,7 @@ def video(args: argparse.Namespace) -> int:
     several = len(job.inputs) > 1
     plan = None
     if args.site is not None:  # refused before any work, not after it
-        refuse_site_outputs(args.out / "site", (*args.input, args.site), args.force)
+        refuse_site_outputs(args.out / "site", (*args.input, args.site), args.force, args.every)
         plan = read_site(args.site)
     fused_path, viewer_path = args.out / "world.json", args.out / "viewer.html"
     if several:
@@ -43,7 +43,8 @@ def video(args: argparse.Namespace) -> int:
     else:
         world, name = worlds[0], args.input[0].name
     if plan is not None:
-        report_site(world, plan, args.out / "site", f"{name} on {args.site.name}", args.force)
+        report_site(world, plan, args.out / "site", f"{name} on {args.site.name}", args.force, args.every,
+                    args.start_time)
     return 0
 
 

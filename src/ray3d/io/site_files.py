@@ -155,9 +155,15 @@ def write_site_tables(out_dir: str | Path, events: list[dict], tracks: list[dict
         lines.write(events)
         lines.close()
     for path, rows in zip(paths[1:], (events, tracks, places, frames, occupancy)):
-        columns = list(dict.fromkeys(key for row in rows for key in row))
-        with atomic_path(path, overwrite) as temporary, temporary.open("w", newline="") as handle:
-            writer = csv.DictWriter(handle, columns)
-            writer.writeheader()
-            writer.writerows({k: json.dumps(v) if isinstance(v, list) else v for k, v in row.items()} for row in rows)
+        write_csv(path, rows, overwrite)
     return paths
+
+
+def write_csv(path: Path, rows: list[dict], overwrite: bool = False) -> Path:
+    """``rows`` as a CSV table (the columns of every row, in the order first met; lists as JSON text)."""
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+    with atomic_path(path, overwrite) as temporary, temporary.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, columns)
+        writer.writeheader()
+        writer.writerows({k: json.dumps(v) if isinstance(v, list) else v for k, v in row.items()} for row in rows)
+    return path

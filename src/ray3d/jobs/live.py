@@ -11,7 +11,7 @@ import threading
 from pathlib import Path
 
 from ray3d.jobs.job import Job
-from ray3d.jobs.run import fuse_and_write
+from ray3d.jobs.run import camera_and_detector, fuse_and_write
 
 
 @dataclasses.dataclass
@@ -40,16 +40,13 @@ def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None) -
 
 def open_stream(job: Job, k: int, paced: bool | None = None, stall_timeout_s: float = 10.0, first_index: int = 0):
     """Input ``k`` of ``job`` opened as a stream (from frame ``first_index`` on, where it is a file), with its camera
-    for the stream's image size and a detector that keeps up: (``FrameSource``, ``Camera``, detector). The one
-    place a live camera is put together, in this process or in a Ray actor."""
+    for the stream's image size and a detector that keeps up (``jobs.run.camera_and_detector``): (``FrameSource``,
+    ``Camera``, detector), in this process or in a Ray actor."""
     from ray3d.live.source import FrameSource
-    from ray3d.video import DEFAULT_DETECTOR, VideoInfo, camera_for_video, make_detector
+    from ray3d.video import VideoInfo
 
     source = FrameSource.open(job.inputs[k], job.video.fps, paced, stall_timeout_s, first_index=first_index)
-    camera = camera_for_video(job.cameras[k].camera(source.image_size),
-                              VideoInfo(source.name, 0, source.fps, source.image_size))
-    detector = job.detector(camera) if callable(job.detector) else \
-        make_detector(job.detector or DEFAULT_DETECTOR, camera, live=True)
+    camera, detector = camera_and_detector(job, k, VideoInfo(source.name, 0, source.fps, source.image_size), live=True)
     detector.prepare([])
     return source, camera, detector
 

@@ -28,14 +28,25 @@ class InputResult:
     keypoints: object = None
 
 
-def video_input(job: Job, k: int, live: bool = False):
+def video_input(job: Job, k: int):
     """Input ``k`` of a video job made ready: its ``VideoInfo`` (the header read once), its camera (for the video's
-    image size) and its detector (``live``: one that keeps up with a stream)."""
-    from ray3d.video import DEFAULT_DETECTOR, camera_for_video, make_detector, read_video_info
+    image size) and its detector."""
+    from ray3d.video import read_video_info
 
     info = read_video_info(job.inputs[k])
+    return (info, *camera_and_detector(job, k, info))
+
+
+def camera_and_detector(job: Job, k: int, info, live: bool = False):
+    """Input ``k``'s camera for its video's or stream's ``VideoInfo`` (image size, frame rate) and its detector
+    (``live``: one that keeps up with a stream; a callable ``job.detector`` makes it for the camera). The one place
+    a video's or a stream's camera and detector are put together."""
+    from ray3d.video import DEFAULT_DETECTOR, camera_for_video, make_detector
+
     camera = camera_for_video(job.cameras[k].camera(info.image_size), info)
-    return info, camera, make_detector(job.detector or DEFAULT_DETECTOR, camera, live=live)
+    detector = job.detector(camera) if callable(job.detector) else \
+        make_detector(job.detector or DEFAULT_DETECTOR, camera, live=live)
+    return camera, detector
 
 
 def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -> InputResult:

@@ -1,12 +1,15 @@
 """What a site's events and tracks add up to: per track (time seen, distance, speed, time in each zone, stature
 class), per place (entries, exits, dwell, crossings), per person-frame (place, speed, heading, posture, zones),
-zone occupancy over time and a heat map of time spent."""
+zone occupancy over time, a heat map of time spent, and all of it per time bucket (``by_time``)."""
 
 from __future__ import annotations
+
+import datetime
 
 import numpy as np
 
 from ray3d.body import POSTURES, postures
+from ray3d.errors import InputError
 from ray3d.io.world import World
 from ray3d.site.events import LINE_CROSSED, ZONE_ENTERED, ZONE_LEFT
 from ray3d.site.places import Site, zone_visits
@@ -115,3 +118,41 @@ def heat_map(rows: list[dict], fps: float, cell_m: float = 0.5) -> tuple[np.ndar
     grid = np.zeros((cells[:, 1].max() + 1, cells[:, 0].max() + 1))
     np.add.at(grid, (cells[:, 1], cells[:, 0]), 1.0 / fps)
     return grid, (float(low[0]), float(low[1]))
+
+
+def by_time(events: list[dict], occupancy_times: np.ndarray, occupancy_counts: dict[str, np.ndarray], site: Site,
+            every_s: float, end_s: float, start_time: datetime.datetime | None = None) -> list[dict]:
+    """The counts per ``every_s`` seconds from the world's frame 0 to ``end_s``: per zone its entries, exits, the
+    mean dwell of the visits that left in the bucket and the mean and largest occupancy over its frames; per line
+    its crossings each way. A bucket's ``start`` / ``end`` are seconds, and wall-clock times (ISO 8601) when the
+    video's ``start_time`` is given. Every count adds up to the whole run's (an event is in the bucket of its
+    time)."""
+    if not every_s > 0:
+        raise InputError(f"every: a time bucket must be longer than 0 s, got {every_s}", ("every",))
+    count = max(1, int(np.ceil(end_s / every_s + 1e-9)))
+    if end_s >= count * every_s:  # an event at the very end belongs to the last bucket
+        count += 1
+    bucket_of = lambda time_s: min(int(time_s // every_s), count - 1)  # noqa: E731
+    rows = []
+    for k in range(count):
+        start, end = k * every_s, (k + 1) * every_s
+        row: dict = {"start_s": round(start, 3), "end_s": round(end, 3)}
+        if start_time is not None:
+            row["start"] = (start_time + datetime.timedelta(seconds=start)).isoformat()
+            row["end"] = (start_time + datetime.timedelta(seconds=end)).isoformat()
+        mine = [e for e in events if bucket_of(e["time_s"]) == k]
+        inside = (occupancy_times >= start) & (occupancy_times < end) if k < count - 1 else occupancy_times >= start
+        for zone in site.zones:
+            entered = [e for e in mine if e["event"] == ZONE_ENTERED.name and e["zone"] == zone.name]
+            left = [e["dwell_s"] for e in mine if e["event"] == ZONE_LEFT.name and e["zone"] == zone.name]
+            people = occupancy_counts[zone.name][inside]
+            row.update({f"{zone.name}: entries": len(entered), f"{zone.name}: exits": len(left),
+                        f"{zone.name}: mean dwell s": round(float(np.mean(left)), 3) if left else None,
+                        f"{zone.name}: mean occupancy": round(float(people.mean()), 3) if len(people) else 0.0,
+                        f"{zone.name}: peak occupancy": int(people.max()) if len(people) else 0})
+        for line in site.lines:
+            crossed = [e for e in mine if e["event"] == LINE_CROSSED.name and e["line"] == line.name]
+            row.update({f"{line.name}: forward": sum(e["direction"] == "forward" for e in crossed),
+                        f"{line.name}: back": sum(e["direction"] == "back" for e in crossed)})
+        rows.append(row)
+    return rows

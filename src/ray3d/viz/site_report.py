@@ -31,6 +31,7 @@ _TEMPLATE = """<!doctype html>
 <img id="plan" alt="floor plan" src="data:image/png;base64,__PLAN__"><img id="occupancy" alt="occupancy" src="data:image/png;base64,__OCCUPANCY__">
 <h2>Places</h2>
 __PLACES__
+__BY_TIME__
 <h2>Timeline</h2>
 <canvas id="timeline"></canvas>
 <p class="note" id="legend"></p>
@@ -78,14 +79,17 @@ def _table(rows: list[dict]) -> str:
 
 
 def write_site_report(path: str | Path, events: list[dict], places: list[dict], plan_png: Path, occupancy_png: Path,
-                      fps: float, title: str = "ray3d site report", note: str = "", overwrite: bool = False) -> Path:
-    """The report at ``path``, the two plots embedded in it; its events link to ``viewer.html`` beside it."""
+                      fps: float, title: str = "ray3d site report", note: str = "", overwrite: bool = False,
+                      buckets: list[dict] | None = None) -> Path:
+    """The report at ``path``, the two plots embedded in it (and the counts per time bucket, when given); its
+    events link to ``viewer.html`` beside it."""
     def embedded(png: Path) -> str:
         return base64.b64encode(Path(png).read_bytes()).decode("ascii")
 
     page = (_TEMPLATE.replace("__TITLE__", html.escape(title)).replace("__NOTE__", html.escape(note))
             .replace("__PLAN__", embedded(plan_png)).replace("__OCCUPANCY__", embedded(occupancy_png))
             .replace("__PLACES__", _table(places))
+            .replace("__BY_TIME__", f"<h2>By time</h2>{_table(buckets)}" if buckets else "")
             .replace("__COLOURS__", json.dumps({kind.name: kind.colour for kind in EVENT_KINDS.values()}))
             .replace("__FPS__", json.dumps(float(fps))).replace("__EVENTS__", json.dumps(events).replace("</", "<\\/")))
     return write_text(path, page, overwrite)
