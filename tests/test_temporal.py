@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from ray3d import InputError
@@ -50,6 +50,8 @@ def test_resample_decimates_whole_ratios_and_interpolates_others():
 
 @settings(max_examples=60, deadline=None)
 @given(st.floats(5.0, 240.0), st.integers(3, 200), st.floats(-3.0, 3.0), st.floats(-5.0, 5.0))
+@example(60.03125, 3, 1.0, 0.0)  # within 0.1 % of the model's rate: taken frame by frame, and read back so
+@example(120.1, 200, 1.0, 0.0)   # every second frame of a near-120 recording, read back on the same grid
 def test_resampling_there_and_back_keeps_a_linear_motion(fps, count, slope, offset):
     """Linear interpolation is exact on a linear signal, so the round trip returns it wherever the model's
     frames cover the input's span (the last input frame may lie past the last model frame: held)."""

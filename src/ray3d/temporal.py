@@ -95,12 +95,18 @@ def interpolate_at(sequence: np.ndarray, times: np.ndarray) -> np.ndarray:
     return (1 - weight) * sequence[lower] + weight * sequence[upper]
 
 
+def _whole_step(native_fps: float, fps: float) -> int | None:
+    """k when ``native_fps`` is (within 0.1 %) k times ``fps``: every k-th frame is taken, not interpolated."""
+    ratio = native_fps / fps
+    return int(round(ratio)) if abs(ratio - round(ratio)) < 1e-3 and round(ratio) >= 1 else None
+
+
 def resample(sequence: np.ndarray, native_fps: float, fps: float) -> np.ndarray:
     """(F, ...) frames at ``native_fps`` -> ``fps``: every k-th frame when the ratio is a whole number k
     (no interpolation, as the shipped data), else linear interpolation in time."""
-    ratio = native_fps / fps
-    if abs(ratio - round(ratio)) < 1e-3 and round(ratio) >= 1:  # BVH frame times carry few decimals
-        return sequence[:: int(round(ratio))]
+    step = _whole_step(native_fps, fps)  # BVH frame times carry few decimals
+    if step is not None:
+        return sequence[::step]
     times = np.arange(0.0, (len(sequence) - 1) / native_fps + 1e-9, 1.0 / fps) * native_fps
     return interpolate_at(sequence, times)
 
@@ -111,8 +117,10 @@ def needs_resampling(fps: float, model_fps: float) -> bool:
 
 def resample_back(sequence: np.ndarray, model_fps: float, fps: float, count: int) -> np.ndarray:
     """The inverse of ``resample(x, fps, model_fps)``: a (T', ...) sequence at ``model_fps`` read at the
-    ``count`` frames of the original sequence at ``fps``."""
-    return interpolate_at(sequence, np.arange(count) / fps * model_fps)
+    ``count`` frames of the original sequence at ``fps`` (on the same grid as ``resample`` made it: every k-th
+    frame taken is frame k of the original's)."""
+    step = _whole_step(fps, model_fps)
+    return interpolate_at(sequence, np.arange(count) / step if step is not None else np.arange(count) / fps * model_fps)
 
 
 def fill_missing(sequence: np.ndarray, missing: np.ndarray) -> np.ndarray:
