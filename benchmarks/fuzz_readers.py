@@ -1,5 +1,6 @@
 """Fuzz every file reader: valid files of each format (keypoints JSON / CSV / npz, AlphaPose and mmpose results,
-camera JSON / YAML / OpenCV JSON / calibration TOML, world JSON / CSV / npz, floor points CSV, BVH) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
+camera JSON / YAML / OpenCV JSON / calibration TOML, world JSON / CSV / npz, floor points CSV, BVH, site JSON / YAML,
+floor regions, batch manifests CSV / JSON) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
 A reader may return a result or raise ``InputError``; anything else is a crash and is listed.
 
     python benchmarks/fuzz_readers.py --files 10000 [--seed 0] [--out DIR]
@@ -19,7 +20,9 @@ import numpy as np
 
 from ray3d import InputError, cameras
 from ray3d.demo import demo_clip
-from ray3d.io.camera_files import read_camera, save_cameras
+from ray3d.batch import read_manifest
+from ray3d.io.camera_files import read_camera, read_floor, save_cameras
+from ray3d.io.site_files import read_site
 from ray3d.io.floor_points import read_floor_points
 from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
 from ray3d.data.bvh import read_bvh
@@ -69,6 +72,19 @@ def seeds(folder: Path) -> dict[Path, object]:
     files.update({folder / "alphapose.json": read_keypoints, folder / "mmpose.json": read_keypoints})
     write_world(folder / "b.bvh", world)
     files[folder / "b.bvh"] = lambda path: read_bvh(path).positions()
+    (folder / "site.json").write_text(json.dumps({
+        "zones": [{"name": "room", "polygon": [[0, 0], [4, 0], [4, 3]], "max_occupancy": 2, "max_dwell_s": 30}],
+        "lines": [{"name": "door", "start": [0, -1], "end": [0, 1]}]}))
+    (folder / "site.yaml").write_text("zones:\n  - name: room\n    polygon: [[0, 0], [4, 0], [4, 3]]\n"
+                                      "lines:\n  - {name: door, start: [0, -1], end: [0, 1]}\n")
+    (folder / "floor.json").write_text(json.dumps({"floor_regions": [
+        {"name": "stage", "polygon": [[0, 0], [2, 0], [2, 2]], "height_m": 0.3},
+        {"name": "ramp", "polygon": [[3, 0], [5, 0], [5, 2]], "vertex_heights_m": [0, 0.2, 0.2]}]}))
+    (folder / "m.csv").write_text("input,camera,fps,flip_test,every\nk.npz,h36m:S9:54138969,50,yes,15min\n")
+    (folder / "m.json").write_text(json.dumps({"inputs": [{"input": "k.npz", "camera_height": 3, "pitch": 20,
+                                                           "hfov": 60, "image_size": "1000x1000"}]}))
+    files.update({folder / "site.json": read_site, folder / "site.yaml": read_site, folder / "floor.json": read_floor,
+                  folder / "m.csv": read_manifest, folder / "m.json": read_manifest})
     return files
 
 

@@ -303,3 +303,70 @@ def test_a_checkpoint_whose_json_does_not_fit_its_weights_is_refused_in_one_line
     with pytest.raises(InputError, match=re.escape(needle)) as refused:
         load_model(tmp_path / "m.safetensors")
     assert str(tmp_path / "m.json") in str(refused.value) and "\n" not in str(refused.value)
+
+
+def _valid_files(folder) -> dict:
+    """One valid file of each kind not fuzzed above, with its reader: site files (JSON, YAML), floor regions,
+    batch manifests (CSV, JSON) and world files (JSON, CSV)."""
+    from ray3d.batch import read_manifest
+    from ray3d.io.camera_files import read_floor
+    from ray3d.io.site_files import read_site
+    from ray3d.io.world import LiftResult, World, write_world
+
+    site = {"zones": [{"name": "room", "polygon": [[0, 0], [4, 0], [4, 3]], "max_occupancy": 2}],
+            "lines": [{"name": "door", "start": [0, -1], "end": [0, 1]}]}
+    (folder / "site.json").write_text(json.dumps(site))
+    (folder / "site.yaml").write_text("zones:\n  - name: room\n    polygon: [[0, 0], [4, 0], [4, 3]]\n"
+                                      "lines:\n  - {name: door, start: [0, -1], end: [0, 1]}\n")
+    (folder / "floor.json").write_text(json.dumps({"floor_regions": [
+        {"name": "stage", "polygon": [[0, 0], [2, 0], [2, 2]], "height_m": 0.3},
+        {"name": "ramp", "polygon": [[3, 0], [5, 0], [5, 2]], "vertex_heights_m": [0, 0.2, 0.2]}]}))
+    np.savez(folder / "take.npz", keypoints=cameras.h36m("S9", "54138969").project(demo_clip()[:20]), fps=50.0)
+    (folder / "m.csv").write_text("input,camera,fps,flip_test\ntake.npz,h36m:S9:54138969,50,yes\n")
+    (folder / "m.json").write_text(json.dumps({"inputs": [{"input": "take.npz", "camera_height": 3, "pitch": 20,
+                                                           "hfov": 60, "image_size": "1000x1000"}]}))
+    joints = np.zeros((4, 17, 3)) + [0.0, 0.0, 0.9]
+    world = World({"1": LiftResult(joints, np.zeros((4, 17), bool), 10.0, np.arange(4))},
+                  cameras.h36m("S9", "54138969"), "ray3d", rejoined={"1": [{"joined": "2", "after_frame": 1,
+                                                                               "gap_s": 0.5}]})
+    for suffix in (".json", ".csv"):
+        write_world(folder / f"world{suffix}", world)
+    return {"site.json": read_site, "site.yaml": read_site, "floor.json": read_floor, "m.csv": read_manifest,
+            "m.json": read_manifest, "world.json": read_world, "world.csv": read_world}
+
+
+@_FUZZ
+@given(name=st.sampled_from(["site.json", "site.yaml", "floor.json", "m.csv", "m.json", "world.json", "world.csv"]),
+       edits=st.lists(st.tuples(st.floats(0, 1), st.integers(0, 8), st.binary(max_size=6)), min_size=1, max_size=4))
+def test_valid_files_of_every_kind_mutated_raise_only_input_errors(tmp_path_factory, name, edits):
+    """A valid site, floor, batch manifest or world file with bytes cut, replaced or inserted at random is read or
+    refused as ``InputError``, never anything else."""
+    folder = tmp_path_factory.mktemp("mutated")
+    readers = _valid_files(folder)
+    data = bytearray((folder / name).read_bytes())
+    for where, cut, inserted in edits:
+        at = int(where * len(data))
+        data[at:at + cut] = inserted
+    (folder / name).write_bytes(bytes(data))
+    _only_input_errors(readers[name], folder / name)
+
+
+def test_paths_the_system_refuses_and_numbers_beyond_any_float_are_one_line(tmp_path, keypoints_file, capsys):
+    """Found by the reader fuzz: a path too long to look up (a command's argument, a manifest's column) and an
+    OpenCV JSON image width of 10^400 are refused in one line, never an internal error."""
+    from ray3d.batch import read_manifest
+
+    too_long = "a" * 5000
+    assert main(["lift", "--keypoints", str(keypoints_file), "--camera", too_long, "--out",
+                 str(tmp_path / "w.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error:" in err[0] and "internal" not in err[0]
+    (tmp_path / "take.npz").write_bytes(keypoints_file.read_bytes())
+    (tmp_path / "m.csv").write_text(f"input,camera\ntake.npz,{too_long}\n")
+    with pytest.raises(InputError, match="row 1: File name too long"):
+        read_manifest(tmp_path / "m.csv")
+    camera = tmp_path / "opencv.json"
+    camera.write_text('{"camera_matrix": [1000, 0, 500, 0, 1000, 500, 0, 0, 1], "rvec": [0, 0, 0], '
+                      '"tvec": [0, 0, 4], "image_width": 1' + "0" * 400 + ', "image_height": 1000}')
+    with pytest.raises(InputError, match="image_width"):
+        read_camera(camera)

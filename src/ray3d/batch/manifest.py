@@ -182,58 +182,68 @@ def read_manifest(path: str | Path) -> list[Entry]:
         raise InputError(f"{path}: the manifest lists no inputs")
     entries, names = [], {}
     for number, row in enumerate(rows, start=1):
-        where = f"{path}: row {number}"
-        unknown = sorted(set(row) - set(COLUMNS))
-        if unknown:
-            raise InputError(f"{where}: unknown column {unknown[0]!r} (known: {', '.join(COLUMNS)})")
-        if "input" not in row:
-            raise InputError(f"{where}: column 'input' is empty")
-        source = Path(str(row["input"])).expanduser()
-        source = source if source.is_absolute() else path.parent / source
-        if not source.exists():
-            raise InputError(f"{where}: column input: {source} does not exist")
-        kind = input_kind(source)
-        options = {}
-        for column, value in row.items():
-            parse, kinds = COLUMNS[column]
-            if kind not in kinds:
-                raise InputError(f"{where}: column {column} applies to {' and '.join(kinds)} inputs, not to {source}")
-            try:
-                options[column] = parse(value)
-            except (ValueError, TypeError, InputError) as err:
-                raise InputError(f"{where}: column {column}: {value!r}: {getattr(err, 'message', err)}") from None
-        del options["input"]
-        name = str(options.pop("name", source.stem))
-        if not name or Path(name).name != name or name.startswith("."):
-            raise InputError(f"{where}: column name: {name!r} is not a plain folder name")
-        if name in names:
-            raise InputError(f"{where}: name {name!r} is also row {names[name]}'s; give one of them a name column")
-        names[name] = number
-        checkpoint = Path(options.get("checkpoint", "")).expanduser()
-        if checkpoint.suffix == ".safetensors" and not checkpoint.is_absolute():
-            options["checkpoint"] = str(path.parent / checkpoint)
-        for column in ("camera", *PATH_COLUMNS):
-            if column in options and not options[column].startswith("h36m:"):
-                given = Path(options[column]).expanduser()
-                options[column] = str(given if given.is_absolute() else path.parent / given)
-        for column in PATH_COLUMNS:
-            if column in options and not Path(options[column]).is_file():
-                raise InputError(f"{where}: column {column}: {options[column]} does not exist")
-        entry = Entry(number, source, name, kind, options)
         try:
-            job = entry.job()
-        except InputError as err:
-            raise InputError(f"{where}: {err.message}") from None
-        try:  # a video's camera given by height and pitch waits for the video's image size
-            job.cameras[0].camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
-        except InputError as err:
-            raise InputError(f"{where}: camera: {err.message}") from None
-        if "site" in options:
-            from ray3d.io.site_files import read_site
-
-            try:
-                read_site(options["site"])
-            except InputError as err:
-                raise InputError(f"{where}: column site: {err.message}") from None
-        entries.append(entry)
+            entries.append(_entry(path, number, row, names))
+        except OSError as err:  # a path the system will not look up (too long, ...): this row's, not a crash
+            raise InputError(f"{path}: row {number}: {err.strerror or type(err).__name__}"
+                             + (f": {str(err.filename)[:80]}" if err.filename else "")) from None
     return entries
+
+
+def _entry(path: Path, number: int, row: dict, names: dict) -> Entry:
+    """Row ``number`` of the manifest at ``path``, checked (``names``: the names given so far, to their rows)."""
+    where = f"{path}: row {number}"
+    unknown = sorted(set(row) - set(COLUMNS))
+    if unknown:
+        raise InputError(f"{where}: unknown column {unknown[0]!r} (known: {', '.join(COLUMNS)})")
+    if "input" not in row:
+        raise InputError(f"{where}: column 'input' is empty")
+    source = Path(str(row["input"])).expanduser()
+    source = source if source.is_absolute() else path.parent / source
+    if not source.exists():
+        raise InputError(f"{where}: column input: {source} does not exist")
+    kind = input_kind(source)
+    options = {}
+    for column, value in row.items():
+        parse, kinds = COLUMNS[column]
+        if kind not in kinds:
+            raise InputError(f"{where}: column {column} applies to {' and '.join(kinds)} inputs, not to {source}")
+        try:
+            options[column] = parse(value)
+        except (ValueError, TypeError, InputError) as err:
+            raise InputError(f"{where}: column {column}: {value!r}: {getattr(err, 'message', err)}") from None
+    del options["input"]
+    name = str(options.pop("name", source.stem))
+    if not name or Path(name).name != name or name.startswith("."):
+        raise InputError(f"{where}: column name: {name!r} is not a plain folder name")
+    if name in names:
+        raise InputError(f"{where}: name {name!r} is also row {names[name]}'s; give one of them a name column")
+    names[name] = number
+    checkpoint = Path(options.get("checkpoint", "")).expanduser()
+    if checkpoint.suffix == ".safetensors" and not checkpoint.is_absolute():
+        options["checkpoint"] = str(path.parent / checkpoint)
+    for column in ("camera", *PATH_COLUMNS):
+        if column in options and not options[column].startswith("h36m:"):
+            given = Path(options[column]).expanduser()
+            options[column] = str(given if given.is_absolute() else path.parent / given)
+    for column in PATH_COLUMNS:
+        if column in options and not Path(options[column]).is_file():
+            raise InputError(f"{where}: column {column}: {options[column]} does not exist")
+    entry = Entry(number, source, name, kind, options)
+    try:
+        job = entry.job()
+    except InputError as err:
+        raise InputError(f"{where}: {err.message}") from None
+    try:  # a video's camera given by height and pitch waits for the video's image size
+        job.cameras[0].camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
+    except InputError as err:
+        raise InputError(f"{where}: camera: {err.message}") from None
+    if "site" in options:
+        from ray3d.io.site_files import read_site
+
+        try:
+            read_site(options["site"])
+        except InputError as err:
+            raise InputError(f"{where}: column site: {err.message}") from None
+    return entry
+

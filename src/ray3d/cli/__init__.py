@@ -45,9 +45,15 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError, io.UnsupportedOperation):
             pass
         return 141
-    except Exception as err:  # a bug, not bad input: one line and how to report it, the traceback with --debug
+    except Exception as err:
         if args.debug:
             raise
+        if isinstance(err, OSError) and err.filename is not None:
+            # A path the system refused (too long, not permitted, a full disk): the user's to mend.
+            print(f"ray3d {args.command}: error: {str(err.filename)[:200]}: {err.strerror or type(err).__name__}",
+                  file=sys.stderr)
+            return 2
+        # A bug, not bad input: one line and how to report it, the traceback with --debug.
         print(f"ray3d {args.command}: internal error: {type(err).__name__}: {err} -- this is a bug in ray3d; "
               "please report it with the command (run again with --debug for the traceback)", file=sys.stderr)
         return 1

@@ -69,8 +69,9 @@ def _matrix(value: Any, path: Path, field: str, sizes: tuple[int, ...]) -> np.nd
 
 def _image_side(value: Any, path: Path, field: str) -> int:
     """A positive whole number of pixels (an integral float as OpenCV's readers give it is one)."""
+    # Compared before anything converts it: JSON's whole numbers have no bound, NaN and infinity fail the range.
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value != int(value) or not 0 < value <= 1_000_000:
+            or not 0 < value <= 1_000_000 or value != int(value):
         raise InputError(f"{path}: {field}: expected a positive whole number of pixels, got {value!r}")
     return int(value)
 
