@@ -235,3 +235,16 @@ def test_one_event_engine_spells_every_event_name():
                 if isinstance(node, ast.ClassDef) and {"update", "ended"} <= {
                     f.name for f in node.body if isinstance(f, ast.FunctionDef)} and "Event" in path.read_text()}
     assert monitors == {"ray3d.site.events"}
+
+
+def test_every_record_of_where_a_person_stands_is_the_one_positioned_record():
+    """A class holding joints with the root's position sd is a ``geometry.uncertainty.Positioned`` (one record,
+    one way to turn it into covariances), and no module but that one writes the ray-shaped covariance."""
+    records = {(module, node.name, tuple(getattr(base, "id", getattr(base, "attr", "")) for base in node.bases))
+               for module, path in MODULES.items() for node in ast.walk(ast.parse(path.read_text()))
+               if isinstance(node, ast.ClassDef) and {"joints", "position_sd"} <= {
+                   getattr(item.target, "id", None) for item in node.body if isinstance(item, ast.AnnAssign)}}
+    assert {(m, name) for m, name, bases in records if "Positioned" not in bases} == \
+        {("ray3d.geometry.uncertainty", "Positioned")}
+    assert len(records) >= 4
+    assert {m for m in MODULES if m != "ray3d.geometry.uncertainty" and _calls(MODULES[m], "along_ray")} == set()

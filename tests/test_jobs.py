@@ -15,7 +15,7 @@ from ray3d import InputError, cameras
 from ray3d.batch import read_manifest
 from ray3d.batch.runner import process_entry
 from ray3d.demo import demo_clip
-from ray3d.fusion.tracks import information_weighted
+from ray3d.geometry.uncertainty import information_weighted
 from ray3d.io.world import read_world
 from ray3d.jobs import CameraChoice, Job, fuse_and_write, run_input
 from ray3d.temporal import velocity

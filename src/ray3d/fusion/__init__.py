@@ -25,9 +25,9 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.fusion.clock import find_time_offset
-from ray3d.fusion.tracks import (MIN_SHARED_FRAMES, VELOCITY_GATE_M_S, CameraTrack, floor_covariance, floor_velocity,
-                                 handover_reach_m, information_weighted, joint_covariances, on_clock, pair_distance,
-                                 root_sd, root_spread)
+from ray3d.fusion.tracks import (MIN_SHARED_FRAMES, VELOCITY_GATE_M_S, CameraTrack, floor_velocity, handover_reach_m,
+                                 on_clock, pair_distance)
+from ray3d.geometry.uncertainty import information_weighted, root_spread
 from ray3d.io.world import LiftResult, World
 
 NEAR_MISS_M = 1.5  # two cameras' tracks walking alike this close, left apart, are checked as one person
@@ -106,10 +106,6 @@ def _group_floor(tracks: list[CameraTrack], members: list[int], frame: int) -> n
     return np.mean(np.concatenate(points), axis=0)
 
 
-def _covariances(track: CameraTrack, rows: np.ndarray, camera_center: np.ndarray) -> np.ndarray:
-    """(N, 17, 3, 3) each joint's covariance from this camera in each frame: long along the joint's own ray (the
-    root's sd along its ray) and narrow across it (the root's sd across), plus the pose's own error."""
-    return joint_covariances(track.joints[rows], root_sd(track, rows), camera_center)
 
 
 def fuse(tracks: list[CameraTrack], members: list[int], centers: list[np.ndarray], fps: float,
@@ -127,7 +123,7 @@ def fuse(tracks: list[CameraTrack], members: list[int], centers: list[np.ndarray
     for m, i in enumerate(members):
         track = tracks[i]
         shared, rows, at = np.intersect1d(track.frames, frames, return_indices=True)
-        joints[m, at], covariances[m, at] = track.joints[rows], _covariances(track, rows, centers[track.view])
+        joints[m, at], covariances[m, at] = track.joints[rows], track.joint_covariances(centers[track.view], rows)
         seen[m, at] = True
         seen_by[at, track.view] = True
         interpolated[at] &= track.interpolated[rows]
@@ -189,8 +185,7 @@ def camera_agreement(tracks: list[CameraTrack], groups: list[list[int]], names: 
         if not len(rows_a):  # one person, seen by the two cameras one after the other
             continue
         difference = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
-        covariance = (floor_covariance(a, rows_a, centres[a.view][:2])
-                      + floor_covariance(b, rows_b, centres[b.view][:2]))
+        covariance = a.floor_covariance(centres[a.view], rows_a) + b.floor_covariance(centres[b.view], rows_b)
         sigmas = np.sqrt(np.einsum("ni,nij,nj->n", difference, np.linalg.inv(covariance), difference))
         entry = gaps.setdefault((a.view, b.view), [[], []])
         entry[0] += np.linalg.norm(difference, axis=-1).tolist()

@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from ray3d.errors import InputError
-from ray3d.fusion.tracks import POSE_SD_M, CameraTrack, floor_covariance, on_clock, pair_distance
+from ray3d.fusion.tracks import CameraTrack, on_clock, pair_distance
+from ray3d.geometry.uncertainty import POSE_SD_M
 from ray3d.io.world import World
 
 BOUNCE_SD_M = 0.015   # how well two cameras agree on the pelvis' height about its mean
@@ -28,7 +29,7 @@ def _differences(a: CameraTrack, b: CameraTrack, centres: tuple[np.ndarray, np.n
     floor points, the difference of their pelvis heights about their means, and the mean difference of their
     bodies about their roots."""
     shared, rows_a, rows_b = np.intersect1d(a.frames, b.frames, return_indices=True)
-    information = np.linalg.inv(floor_covariance(a, rows_a, centres[0]) + floor_covariance(b, rows_b, centres[1]))
+    information = np.linalg.inv(a.floor_covariance(centres[0], rows_a) + b.floor_covariance(centres[1], rows_b))
     floor = a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2]
     height_a, height_b = a.joints[rows_a, 0, 2], b.joints[rows_b, 0, 2]
     about_a, about_b = (t.joints[r] - t.joints[r, :1] for t, r in ((a, rows_a), (b, rows_b)))

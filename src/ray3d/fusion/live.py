@@ -8,7 +8,7 @@ person all of whose tracks ended within ``handover_s`` where their walk would ha
 (``handover_reach_m``); otherwise it is a new person. While two world people are about as near (within
 0.25 m of each other's distance: people crossing), it waits, ``WAIT_S`` at most; another camera's track not yet
 decided is a candidate only where no world person is. A join is never undone. Each world person's joints are
-the information-weighted mean of their tracks' latest answers (``joint_covariances``: long along each joint's
+the information-weighted mean of their tracks' latest answers (``Positioned.joint_covariances``: long along each joint's
 ray, narrow across it), from the tracks seen within one and a half frame periods (the slowest camera's)."""
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from collections import deque
 
 import numpy as np
 
-from ray3d.fusion.tracks import (GATE_FLOOR_M, gate_m, handover_reach_m, information_weighted, joint_covariances,
-                                 root_spread)
+from ray3d.fusion.tracks import GATE_FLOOR_M, gate_m, handover_reach_m
+from ray3d.geometry.uncertainty import information_weighted, root_spread
 from ray3d.geometry import Camera
 from ray3d.live.people import PersonNow
 from ray3d.temporal import velocity
@@ -167,7 +167,7 @@ class LiveFusion:
             return None
         joints, covariance = information_weighted(
             np.stack([t.now.joints for _, t in current]),
-            np.stack([joint_covariances(t.now.joints, t.now.position_sd, self.centres[view]) for view, t in current]))
+            np.stack([t.now.joint_covariances(self.centres[view]) for view, t in current]))
         person.seen_s = max(t.seen_s for _, t in current)
         person.path.add(person.seen_s, joints[0, :2])  # when the newest of its answers was seen
         statures = [t.now.stature_m for _, t in current if t.now.stature_m is not None]

@@ -1,6 +1,6 @@
-"""One camera's tracks on the first camera's clock (``on_clock``), and what comparing two of them needs: the
-root's uncertainty, shaped along its ray (``along_ray``), floor velocities, and the distance and gate that say
-whether two cameras' tracks can be one person (``pair_distance``)."""
+"""One camera's tracks on the first camera's clock (``on_clock``), and what comparing two of them needs: floor
+velocities, and the distance and gate that say whether two cameras' tracks can be one person (``pair_distance``);
+the root's ray-shaped uncertainty is the record's own (``geometry.uncertainty.Positioned``)."""
 
 from __future__ import annotations
 
@@ -8,19 +8,18 @@ import dataclasses
 
 import numpy as np
 
+from ray3d.geometry.uncertainty import Positioned
 from ray3d.io.world import World
 from ray3d.temporal import velocity
 
-POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axis
 GATE_SIGMAS = 3.0     # how many (combined) standard deviations two cameras' places of one person may differ
 GATE_FLOOR_M = 0.25   # plus this: a body is not a point (the pelvis seen from two sides)
 MIN_SHARED_FRAMES = 5
 VELOCITY_GATE_M_S = 0.6  # one person's floor velocity as two cameras see it differs by less (median)
-UNKNOWN_SD_M = (0.3, 0.05)  # the root's sd along and across its ray taken for a track that states none
 
 
 @dataclasses.dataclass
-class CameraTrack:
+class CameraTrack(Positioned):
     """One camera's track read on the first camera's frames: which camera (``view``), its name there, the joints
     in the world, the root's sd along and across its ray, the joints filled in (not seen) and the stature."""
 
@@ -28,7 +27,7 @@ class CameraTrack:
     name: str
     frames: np.ndarray      # (N,) the first camera's frames it covers
     joints: np.ndarray      # (N, 17, 3)
-    sd: np.ndarray          # (N, 2) root sd along and across the ray
+    position_sd: np.ndarray  # (N, 2) root sd along and across the ray (NaN where the track states none)
     interpolated: np.ndarray  # (N, 17)
     stature_m: float | None
 
@@ -61,19 +60,6 @@ def on_clock(world: World, view: int, offset_s: float, fps: float) -> list[Camer
     return tracks
 
 
-def root_sd(track: CameraTrack, rows: np.ndarray) -> np.ndarray:
-    """(N, 2) the root's sd along and across its ray (``UNKNOWN_SD_M`` where the track states none)."""
-    return np.where(np.isfinite(track.sd[rows]), track.sd[rows], UNKNOWN_SD_M)
-
-
-def along_ray(points: np.ndarray, centre: np.ndarray, sd: np.ndarray) -> np.ndarray:
-    """(..., D, D) covariances of (..., D) points seen from ``centre``: ``sd[..., 0]`` along the ray to each point,
-    ``sd[..., 1]`` across it."""
-    ray = points - centre
-    ray /= np.maximum(np.linalg.norm(ray, axis=-1, keepdims=True), 1e-9)
-    along = ray[..., :, None] * ray[..., None, :]
-    return (sd[..., 0, None, None] ** 2 * along
-            + sd[..., 1, None, None] ** 2 * (np.eye(points.shape[-1]) - along))
 
 
 def floor_velocity(track: CameraTrack, rows: np.ndarray, fps: float) -> np.ndarray:
@@ -88,7 +74,7 @@ def pair_distance(a: CameraTrack, b: CameraTrack, fps: float = 10.0) -> tuple[fl
     if len(shared) < MIN_SHARED_FRAMES:
         return np.inf, 0.0, len(shared)
     gap = np.linalg.norm(a.joints[rows_a, 0, :2] - b.joints[rows_b, 0, :2], axis=-1)
-    larger_a, larger_b = root_sd(a, rows_a).max(axis=-1), root_sd(b, rows_b).max(axis=-1)
+    larger_a, larger_b = a.stated_sd(rows_a).max(axis=-1), b.stated_sd(rows_b).max(axis=-1)
     allowed = gate_m(larger_a, larger_b)
     pace = np.linalg.norm(floor_velocity(a, rows_a, fps) - floor_velocity(b, rows_b, fps), axis=-1)
     if np.median(pace) > VELOCITY_GATE_M_S:
@@ -96,31 +82,8 @@ def pair_distance(a: CameraTrack, b: CameraTrack, fps: float = 10.0) -> tuple[fl
     return float(np.median(gap)), float(np.median(allowed)), len(shared)
 
 
-def joint_covariances(joints: np.ndarray, sd: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """(..., J, 3, 3) each of the (..., J, 3) joints' covariance from a camera at ``centre``: long along the
-    joint's own ray (by the root's sd along its ray, ``sd`` (..., 2)) and narrow across it (the root's sd
-    across), plus the pose's own error."""
-    along_and_across = np.repeat(np.asarray(sd)[..., None, :], joints.shape[-2], axis=-2)
-    return along_ray(joints, centre, along_and_across) + POSE_SD_M ** 2 * np.eye(3)
 
 
-def information_weighted(joints: np.ndarray, covariances: np.ndarray,
-                         seen: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """N cameras' answers (N, ..., 3) with their covariances (N, ..., 3, 3) -> the information-weighted mean
-    (..., 3) and its covariance (..., 3, 3); ``seen`` (N, ...) says which answers there are (all by default). The
-    one fusion of several cameras' joints, offline (``fuse``) and live (``fusion.live``)."""
-    information = np.linalg.inv(covariances)
-    if seen is not None:
-        information = information * seen[..., None, None]
-    covariance = np.linalg.inv(information.sum(axis=0))
-    weighted = np.einsum("n...ij,n...j->...i", information, np.nan_to_num(joints))
-    return np.einsum("...ij,...j->...i", covariance, weighted), covariance
-
-
-def root_spread(covariance: np.ndarray) -> np.ndarray:
-    """(..., 2) the largest and the smallest sd of the root's floor point under (..., J, 3, 3) joint covariances
-    (as a camera's track states its root's sd along and across its ray)."""
-    return np.sqrt(np.clip(np.linalg.eigvalsh(covariance[..., 0, :2, :2]), 0.0, None))[..., ::-1].copy()
 
 
 def handover_reach_m(gap_s: float) -> float:
@@ -133,7 +96,3 @@ def gate_m(sd_a, sd_b):
     """How far apart two cameras' places of one person may be, given each place's largest sd (arrays alike)."""
     return GATE_SIGMAS * np.hypot(sd_a, sd_b) + GATE_FLOOR_M
 
-
-def floor_covariance(track: CameraTrack, rows: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """(N, 2, 2) the floor point's covariance from one camera: long along its ray, narrow across it."""
-    return along_ray(track.joints[rows, 0, :2], centre, root_sd(track, rows))

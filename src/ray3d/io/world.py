@@ -15,6 +15,7 @@ import numpy as np
 
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
+from ray3d.geometry.uncertainty import Positioned
 from ray3d.io.atomic import atomic_path, refuse_existing
 from ray3d.io.bvh_export import Y_UP, bvh_text
 from ray3d.io.text_files import read_json
@@ -44,7 +45,7 @@ def _frame_described(axes: str) -> str:
 
 
 @dataclasses.dataclass
-class LiftResult:
+class LiftResult(Positioned):
     """One person's world joints (T, 17, 3) in metres (z up, floor z = 0, H36M-17 order) at ``fps``, the frame
     index of each row (T,), which input joints were missing and filled in from neighbouring frames (T, 17), and
     the root's position uncertainty (T, 2): one standard deviation along the camera's ray through it and across
@@ -58,11 +59,6 @@ class LiftResult:
     refinement: dict | None = None  # what ray3d.refine found (stature, scale, contact, uncertainty), if it ran
     position_sd: np.ndarray | None = None
     seen_by: np.ndarray | None = None  # (T, C) which of the world's cameras saw each frame (several cameras)
-
-    @property
-    def root(self) -> np.ndarray:
-        """(T, 3) the pelvis: where the person stands on the floor plan, and how high."""
-        return self.joints[:, 0]
 
     @property
     def missing_fraction(self) -> float:

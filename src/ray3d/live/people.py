@@ -21,6 +21,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.geometry.uncertainty import Positioned
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.stream import LiftStream, lift_streams
@@ -35,7 +36,7 @@ RUNNER_SHARE = 0.1  # of a frame's period, kept for the events, the outputs and 
 
 
 @dataclasses.dataclass(frozen=True)
-class PersonNow:
+class PersonNow(Positioned):
     """One person in the frame just processed: their track id, world joints (17, 3), the root's standard
     deviation along and across its ray (2,) and their stature so far (None before the first refinement)."""
 
