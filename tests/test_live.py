@@ -232,7 +232,7 @@ def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answ
     from ray3d.lifting.options import LiftOptions
 
     people = _scene()
-    summary, detector = _run(tmp_path, people, Site((ROOM,), (DOOR,)))
+    summary, detector = _run(tmp_path, people, Site((ROOM,), (DOOR,)), every_s=1.0)
     assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == len(people)
     lines = (tmp_path / "live" / "events.jsonl").read_text().splitlines()
     events = [json.loads(line) for line in lines]
@@ -251,6 +251,11 @@ def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answ
         np.testing.assert_allclose(result.joints, expected.joints, atol=2e-5)  # CSV keeps 5 decimals
         assert result.refinement["stature_m"] == pytest.approx(expected.refinement["stature_m"])
     assert (tmp_path / "live" / "site" / "report.html").exists()
+    import csv
+
+    with (tmp_path / "live" / "site" / "by-time.csv").open() as handle:  # the report's buckets, from the world file
+        buckets = list(csv.DictReader(handle))
+    assert sum(int(b["door: forward"]) + int(b["door: back"]) for b in buckets) >= 1
 
 
 def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_path):
@@ -502,7 +507,7 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
 
     runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people)),
                               kwargs={"site": Site((ROOM,), (DOOR,)), "started": started, "stop": stop,
-                                      "options": LiveOptions(port=0),
+                                      "options": LiveOptions(port=0, every_s=2.0),
                                                          "video_options": VideoOptions(min_track_s=0.5)})
     runner.start()
     assert listening.wait(30)
@@ -535,6 +540,10 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
     assert state["counts"]["door"] == {"forward": sum(e["direction"] == "forward" for e in upto),
                                        "back": sum(e["direction"] == "back" for e in upto)}
     assert len(state["people"]) == 2
+    # The counts per 2 s bucket add up to the counts so far; the page shows them as a table.
+    assert state["buckets"] and state["buckets"][0]["start_s"] == 0.0
+    assert sum(b["door: forward"] + b["door: back"] for b in state["buckets"]) == sum(state["counts"]["door"].values())
+    assert sum(b["room: entries"] for b in state["buckets"]) == state["counts"]["room"]["entered"]
 
 
 def test_a_stream_that_stalls_ends_the_run_with_its_outputs_complete(tmp_path):

@@ -35,8 +35,12 @@ def live(args: argparse.Namespace) -> int:
               "finding and lifting its people", file=sys.stderr, flush=True)
     stop = threading.Event()
     caught = stop_on_signals(stop, inputs.followed)
+    if args.start_time is not None and args.every is None:
+        from ray3d.errors import InputError
+
+        raise InputError("--start-time: it places the time buckets of --every; give --every too")
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
-                          None if args.quiet else sys.stdout)
+                          None if args.quiet else sys.stdout, every_s=args.every, start_time=args.start_time)
     summary = run_live_job(job, inputs, args.out, plan, options, stop,
                            started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True),
                            offsets_s=offsets)

@@ -216,6 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
     live.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
     live.add_argument("--quiet", action="store_true", help="no events on stdout (they are still in events.jsonl)")
+    add_time_buckets(live)
     live.add_argument("--address", help="run each camera in a Ray actor: local (a local Ray started for the run), "
                       "auto or ray://HOST:10001 (a running cluster); default: every camera in this process")
     live.add_argument("--workers", type=int, help="with --address local: the local Ray's CPUs (default all)")

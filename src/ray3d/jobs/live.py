@@ -101,7 +101,8 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
             inputs.followed.close()
             inputs.followed.finish()
             raise InputError(f"{fused_path}: exists; ray3d live never writes over an output", ("out",))
-        summary = follow(inputs.followed, out_dir, site, options or LiveOptions(), stop, started, offsets_s)
+        options = options or LiveOptions()
+        summary = follow(inputs.followed, out_dir, site, options, stop, started, offsets_s)
     finally:
         if inputs.ray is not None:
             inputs.ray.shutdown()
@@ -120,6 +121,7 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
         from ray3d.site.report import analyse_site
 
         analyse_site(read_world(summary.files["world"]), site, out_dir / "site",
-                     title=f"ray3d live: {inputs.followed.name}")
+                     title=f"ray3d live: {inputs.followed.name}", every_s=options.every_s,
+                     start_time=options.start_time)
         summary.files["site"] = out_dir / "site"
     return summary

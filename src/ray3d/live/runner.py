@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import datetime
 import threading
 import time
 from collections import deque
@@ -31,17 +32,20 @@ from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.lifting.options import LiftOptions, VideoOptions
+from ray3d.site.analytics import TimeBuckets
 from ray3d.site.events import SiteMonitor
 from ray3d.site.places import Site
 
 ENDINGS = ("ended", "stalled", "broke off", "stopped")
 LATEST_EVENTS = 20  # events the page shows
+RECENT_BUCKETS = 12  # time buckets the page shows
 
 
 @dataclasses.dataclass(frozen=True)
 class LiveOptions:
     """How the stream is served and followed: the page (``page``, ``host``, ``port``, ``token``), the
-    ``webhook`` URL, ``echo`` events on a text stream (stdout), ``trail_s`` of each path on the page. (Who is
+    ``webhook`` URL, ``echo`` events on a text stream (stdout), ``trail_s`` of each path on the page, counts per
+    ``every_s`` seconds (wall-clock from ``start_time``) on the page and in the site's report. (Who is
     followed how, a person's longest gap and the shortest track written, is the job's ``VideoOptions``.)"""
 
     page: bool = True
@@ -51,6 +55,8 @@ class LiveOptions:
     webhook: str | None = None
     echo: TextIO | None = None
     trail_s: float = 10.0
+    every_s: float | None = None  # the counts per time bucket of this length, on the page and in the report
+    start_time: datetime.datetime | None = None  # the stream's first frame, for wall-clock buckets
 
 
 @dataclasses.dataclass
@@ -75,7 +81,7 @@ class LiveSummary:
 
 
 def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
-              latest: deque, stats: dict) -> dict:
+              latest: deque, stats: dict, buckets: TimeBuckets | None) -> dict:
     occupancy = {zone.name: int(sum(bool(zone.contains(p.joints[0, :2])) for p in people))
                  for zone in monitor.site.zones}
     return {"frame": frame_index, "time_s": frame_index / fps,
@@ -83,13 +89,17 @@ def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dic
                         "joints": np.round(p.joints, 3).tolist(), "position_sd_m": np.round(p.position_sd, 3).tolist(),
                         "stature_m": p.stature_m} for p in people],
             "trails": {t: [list(xy) for xy in trail] for t, trail in trails.items()},
-            "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats}
+            "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats,
+            "buckets": buckets.rows(frame_index / fps)[-RECENT_BUCKETS:] if buckets else []}
 
 
-def _monitored(monitor: SiteMonitor, settled: tuple[int, list[PersonNow]]) -> list[dict]:
-    """The site's events of a settled frame (its index and its people)."""
+def _monitored(monitor: SiteMonitor, settled: tuple[int, list[PersonNow]], buckets: TimeBuckets | None) -> list[dict]:
+    """The site's events of a settled frame (its index and its people), its occupancy counted in its bucket."""
     index, people = settled
-    return monitor.update(index, {person.track: person.joints for person in people})
+    events = monitor.update(index, {person.track: person.joints for person in people})
+    if buckets is not None:
+        buckets.observe(index / monitor.fps, {zone: len(inside) for zone, inside in monitor.occupants.items()})
+    return events
 
 
 @contextlib.contextmanager
@@ -248,6 +258,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         cameras.finish()
         raise
     monitor = SiteMonitor(site, views.fps)
+    buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
                                  for l in site.lines]})
@@ -264,6 +275,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     def emit(events: list[dict]) -> None:
         nonlocal events_count
         log.write(events)
+        if buckets is not None:
+            buckets.add(events)
         if webhook:
             webhook.post(events)
         latest.extend(events)
@@ -288,7 +301,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     break
                 view, result = taken
                 settled, persons, leaving = views.take(view, result)
-                events = _monitored(monitor, settled) if settled is not None and settled[0] > last_index else []
+                events = _monitored(monitor, settled, buckets) if settled is not None and settled[0] > last_index else []
                 last_index = max(last_index, settled[0] if settled is not None else last_index)
                 for person in leaving:
                     events += monitor.ended(person)
@@ -307,12 +320,12 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                 board.publish(_snapshot(last_index, views.fps, persons, trails, monitor, latest, {
                     "fps": rate, "latency_median_ms": float(np.median(recent_latency)),
                     "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": cameras.dropped,
-                    "read": cameras.read}))
+                    "read": cameras.read}, buckets))
     finally:
         cameras.close()
         settled, leaving = views.finish()
         if settled is not None and settled[0] > last_index:
-            emit(_monitored(monitor, settled))
+            emit(_monitored(monitor, settled, buckets))
         for person, _ in leaving:
             emit(monitor.ended(person))
         log.close()

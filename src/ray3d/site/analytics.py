@@ -120,39 +120,79 @@ def heat_map(rows: list[dict], fps: float, cell_m: float = 0.5) -> tuple[np.ndar
     return grid, (float(low[0]), float(low[1]))
 
 
+class TimeBuckets:
+    """Counts per ``every_s`` seconds from the world's frame 0, taken as the events and frames come (``ray3d
+    live``) or all at once (``by_time``): per zone its entries, exits, the mean dwell of the visits that left in the
+    bucket and the mean and peak occupancy over its frames; per line its crossings each way. With the video's
+    ``start_time`` each bucket has its wall-clock start and end too. An event counts in the bucket of its time."""
+
+    def __init__(self, site: Site, every_s: float, start_time: datetime.datetime | None = None):
+        if not every_s > 0:
+            raise InputError(f"every: a time bucket must be longer than 0 s, got {every_s}", ("every",))
+        self.site, self.every_s, self.start_time = site, float(every_s), start_time
+        self._counts: dict[int, dict] = {}
+
+    def _bucket(self, time_s: float) -> dict:
+        k = max(0, int(time_s // self.every_s))
+        if k not in self._counts:
+            self._counts[k] = {"entries": {}, "dwell": {}, "people": {}, "peak": {}, "frames": 0,
+                               "forward": {}, "back": {}}
+        return self._counts[k]
+
+    def add(self, events: list[dict]) -> None:
+        for event in events:
+            kind = event["event"]
+            if kind == ZONE_ENTERED.name:
+                counts = self._bucket(event["time_s"])["entries"]
+                counts[event["zone"]] = counts.get(event["zone"], 0) + 1
+            elif kind == ZONE_LEFT.name:
+                self._bucket(event["time_s"])["dwell"].setdefault(event["zone"], []).append(event["dwell_s"])
+            elif kind == LINE_CROSSED.name:
+                counts = self._bucket(event["time_s"])[event["direction"]]
+                counts[event["line"]] = counts.get(event["line"], 0) + 1
+
+    def observe(self, time_s: float, occupancy: dict[str, int]) -> None:
+        """A frame at ``time_s`` with {zone: people in it}."""
+        bucket = self._bucket(time_s)
+        bucket["frames"] += 1
+        for zone, people in occupancy.items():
+            bucket["people"][zone] = bucket["people"].get(zone, 0) + int(people)
+            bucket["peak"][zone] = max(bucket["peak"].get(zone, 0), int(people))
+
+    def rows(self, until_s: float = 0.0) -> list[dict]:
+        """Every bucket from 0 to the last with anything in it (or holding ``until_s``), in order."""
+        last = max([*self._counts, int(max(until_s, 0.0) // self.every_s)])
+        rows = []
+        for k in range(last + 1):
+            bucket = self._counts.get(k) or {"entries": {}, "dwell": {}, "people": {}, "peak": {}, "frames": 0,
+                                             "forward": {}, "back": {}}
+            start, end = k * self.every_s, (k + 1) * self.every_s
+            row: dict = {"start_s": round(start, 3), "end_s": round(end, 3)}
+            if self.start_time is not None:
+                row["start"] = (self.start_time + datetime.timedelta(seconds=start)).isoformat()
+                row["end"] = (self.start_time + datetime.timedelta(seconds=end)).isoformat()
+            for zone in self.site.zones:
+                left = bucket["dwell"].get(zone.name, [])
+                frames = bucket["frames"]
+                row.update({f"{zone.name}: entries": bucket["entries"].get(zone.name, 0),
+                            f"{zone.name}: exits": len(left),
+                            f"{zone.name}: mean dwell s": round(float(np.mean(left)), 3) if left else None,
+                            f"{zone.name}: mean occupancy":
+                                round(bucket["people"].get(zone.name, 0) / frames, 3) if frames else 0.0,
+                            f"{zone.name}: peak occupancy": bucket["peak"].get(zone.name, 0)})
+            for line in self.site.lines:
+                row.update({f"{line.name}: forward": bucket["forward"].get(line.name, 0),
+                            f"{line.name}: back": bucket["back"].get(line.name, 0)})
+            rows.append(row)
+        return rows
+
+
 def by_time(events: list[dict], occupancy_times: np.ndarray, occupancy_counts: dict[str, np.ndarray], site: Site,
             every_s: float, end_s: float, start_time: datetime.datetime | None = None) -> list[dict]:
-    """The counts per ``every_s`` seconds from the world's frame 0 to ``end_s``: per zone its entries, exits, the
-    mean dwell of the visits that left in the bucket and the mean and largest occupancy over its frames; per line
-    its crossings each way. A bucket's ``start`` / ``end`` are seconds, and wall-clock times (ISO 8601) when the
-    video's ``start_time`` is given. Every count adds up to the whole run's (an event is in the bucket of its
-    time)."""
-    if not every_s > 0:
-        raise InputError(f"every: a time bucket must be longer than 0 s, got {every_s}", ("every",))
-    count = max(1, int(np.ceil(end_s / every_s + 1e-9)))
-    if end_s >= count * every_s:  # an event at the very end belongs to the last bucket
-        count += 1
-    bucket_of = lambda time_s: min(int(time_s // every_s), count - 1)  # noqa: E731
-    rows = []
-    for k in range(count):
-        start, end = k * every_s, (k + 1) * every_s
-        row: dict = {"start_s": round(start, 3), "end_s": round(end, 3)}
-        if start_time is not None:
-            row["start"] = (start_time + datetime.timedelta(seconds=start)).isoformat()
-            row["end"] = (start_time + datetime.timedelta(seconds=end)).isoformat()
-        mine = [e for e in events if bucket_of(e["time_s"]) == k]
-        inside = (occupancy_times >= start) & (occupancy_times < end) if k < count - 1 else occupancy_times >= start
-        for zone in site.zones:
-            entered = [e for e in mine if e["event"] == ZONE_ENTERED.name and e["zone"] == zone.name]
-            left = [e["dwell_s"] for e in mine if e["event"] == ZONE_LEFT.name and e["zone"] == zone.name]
-            people = occupancy_counts[zone.name][inside]
-            row.update({f"{zone.name}: entries": len(entered), f"{zone.name}: exits": len(left),
-                        f"{zone.name}: mean dwell s": round(float(np.mean(left)), 3) if left else None,
-                        f"{zone.name}: mean occupancy": round(float(people.mean()), 3) if len(people) else 0.0,
-                        f"{zone.name}: peak occupancy": int(people.max()) if len(people) else 0})
-        for line in site.lines:
-            crossed = [e for e in mine if e["event"] == LINE_CROSSED.name and e["line"] == line.name]
-            row.update({f"{line.name}: forward": sum(e["direction"] == "forward" for e in crossed),
-                        f"{line.name}: back": sum(e["direction"] == "back" for e in crossed)})
-        rows.append(row)
-    return rows
+    """A finished world's ``TimeBuckets``: its events, and its occupancy frame by frame (``occupancy``), in
+    buckets from frame 0 to ``end_s``; every count adds up to the whole run's."""
+    buckets = TimeBuckets(site, every_s, start_time)
+    buckets.add(events)
+    for k, time_s in enumerate(occupancy_times):
+        buckets.observe(float(time_s), {name: counts[k] for name, counts in occupancy_counts.items()})
+    return buckets.rows(end_s)
