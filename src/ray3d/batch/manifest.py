@@ -161,6 +161,9 @@ def _file_hash(path: Path) -> str:
 def _rows(path: Path) -> list[dict[str, Any]]:
     if path.suffix.lower() == ".json":
         document = read_json(path)
+        if isinstance(document, dict) and set(document) - {"inputs"}:
+            raise InputError(f"{path}: unknown field {sorted(set(document) - {'inputs'})[0]!r} (a manifest holds "
+                             "\"inputs\" only: assets/manifest.schema.json)")
         rows = document.get("inputs") if isinstance(document, dict) else document
         if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
             raise InputError(f"{path}: expected a list of inputs or {{\"inputs\": [...]}}, each an object")
