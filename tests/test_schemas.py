@@ -15,6 +15,7 @@ from ray3d.batch import read_manifest
 from ray3d.batch.manifest import COLUMNS
 from ray3d.demo import demo_clip
 from ray3d.io.camera_files import read_camera, read_floor, save_cameras
+from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
 
 jsonschema = pytest.importorskip("jsonschema")
 
@@ -25,7 +26,7 @@ def _validator(name: str):
     return jsonschema.Draft202012Validator(schema)
 
 
-@pytest.mark.parametrize("name", ["world", "site", "camera", "manifest"])
+@pytest.mark.parametrize("name", ["world", "site", "camera", "manifest", "keypoints"])
 def test_every_shipped_schema_is_a_valid_draft_2020_12_schema(name):
     _validator(name)
 
@@ -85,3 +86,22 @@ def test_the_manifest_schema_names_the_readers_columns_and_refuses_what_it_refus
         (tmp_path / f"wrong{k}.json").write_text(json.dumps(wrong))
         with pytest.raises(InputError):
             read_manifest(tmp_path / f"wrong{k}.json")
+
+
+def test_the_keypoints_schema_accepts_what_ray3d_writes_and_refuses_what_its_reader_refuses(tmp_path):
+    validator = _validator("keypoints")
+    pixels = cameras.h36m("S9", "54138969").project(demo_clip()[:6])
+    keypoints = Keypoints(pixels, np.ones(pixels.shape[:2]), np.arange(6), np.array(["a", "a", "a", "b", "b", "b"]),
+                          "h36m17", 50.0, "test")
+    write_keypoints_json(tmp_path / "k.json", keypoints)
+    validator.validate(json.loads((tmp_path / "k.json").read_text()))
+    assert read_keypoints(tmp_path / "k.json").layout == "h36m17"
+    good = json.loads((tmp_path / "k.json").read_text())
+    detection = good["detections"][0]
+    for k, wrong in enumerate([{**good, "detections": []}, {**good, "detections": [{"frame": 0, "track": 1}]},
+                               {**good, "detections": [{**detection, "keypoints": [[1.0]] * 17}]},
+                               {**good, "detections": [{**detection, "keypoints": [[1.0, 2.0, 3.0, 4.0]] * 17}]}]):
+        assert not validator.is_valid(wrong), k
+        (tmp_path / f"wrong{k}.json").write_text(json.dumps(wrong))
+        with pytest.raises(InputError):
+            read_keypoints(tmp_path / f"wrong{k}.json")
