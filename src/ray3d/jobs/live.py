@@ -24,7 +24,9 @@ class LiveInputs:
 
     @property
     def on_ray(self) -> bool:
-        return type(self.followed).__name__ == "RayCameras"
+        from ray3d.live.cluster import RayCameras
+
+        return isinstance(self.followed, RayCameras)
 
 
 def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None) -> LiveInputs:
@@ -66,7 +68,7 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
                           lifter=job.lifter, lift_options=job.lift_options(k),
                           max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s)
                      for k in range(len(job.inputs))]
-        played = [paced is not False for _ in job.inputs]  # a file read as fast as it decodes waits for its reader
+        played = [paced is not False] * len(job.inputs)  # an unpaced file waits for its reader; the rest play on
         try:
             return LiveInputs(RayCameras(ray, arguments, [str(s) for s in job.inputs], played, cpus_per_camera),
                               ray if started else None)

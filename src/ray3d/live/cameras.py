@@ -102,7 +102,11 @@ class CameraPeople:
         self.people = LivePeople(camera, detector, lifter, fps, lift_options.floor, max_gap_s, deadline_frames=keep,
                                  id_prefix=id_prefix)
         self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s)
-        self.postponed = lambda: getattr(detector, "postponed", 0)
+        self.detector = detector
+
+    def postponed(self) -> int:
+        """People the detector left for the next frame so far, to keep up."""
+        return getattr(self.detector, "postponed", 0)
 
     def process(self, frame: LiveFrame) -> FrameResult:
         persons, finished = self.people.update(frame)

@@ -178,9 +178,8 @@ class RayCameras:
             worker.actor = self._remote.remote(**arguments)
             self._in_flight[worker.actor.step.remote()] = view
             line = (f"{worker.name}: its camera worker stopped after frame {worker.last_index} and was started "
-                    f"again from frame {first}: frames {worker.last_index + 1}-{first - 1} dropped") if missed else \
-                (f"{worker.name}: its camera worker stopped after frame {worker.last_index} and was started again "
-                 f"from frame {first}")
+                    f"again from frame {first}" + (f": frames {worker.last_index + 1}-{first - 1} dropped" if missed
+                                                   else ""))
             self.dropped_stretches.append(line)
             self.report(line)
         return FrameResult(worker.last_index, time.monotonic(), [], lost, []) if lost else None
