@@ -6,6 +6,7 @@ landmark network runs when the video extra is installed."""
 from __future__ import annotations
 
 import json
+from importlib import resources
 from pathlib import Path
 
 import cv2
@@ -279,6 +280,24 @@ def test_foreground_proposals_find_moving_people_and_split_a_pair():
         near = regions[np.abs(regions[:, 1] - (v - height[name] / 2)) < 0.25 * height[name]]
         assert len(near) == expected
         assert np.all(np.abs(near[:, 2] / height[name] - 1.35) < 0.3)  # crops sized for a person there
+
+
+def test_a_person_the_bottom_edge_cuts_is_followed_and_flagged_in_part(tmp_path):
+    """Walking towards the camera, their feet leave the picture in the last frames: one track all along, and
+    the world file lists exactly the frames the detector put joints outside the picture."""
+    walker = _walker((4.6, 0.0), (-1.0, 0.0))
+    pixels = [CAMERA.project(walker)]
+    path = _render(tmp_path / "near.mp4", pixels)
+    result = lift_video(path, CAMERA, tmp_path / "out", StubDetector(pixels), Lifter.load(), overlay=False,
+                        progress=False)
+    world = read_world(result.files["world"])
+    (name,) = world.tracks
+    cut = np.flatnonzero((pixels[0][..., 1] >= SIZE[1]).any(axis=1) | (pixels[0] < 0).any(axis=(1, 2)))
+    assert len(cut) >= 8 and len(world.tracks[name].frames) == FRAMES
+    assert world.in_part == {name: cut.tolist()}
+    jsonschema = pytest.importorskip("jsonschema")
+    schema = json.loads(resources.files("ray3d").joinpath("assets", "world.schema.json").read_text())
+    jsonschema.validate(json.loads(result.files["world"].read_text()), schema)
 
 
 def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):

@@ -55,9 +55,13 @@ def _print_video(video, detector: str, result) -> None:
     tracks = result.world.tracks
     filled = np.mean([t.interpolated.all(axis=1).mean() for t in tracks.values()])
     rejoins = sum(len(r) for r in result.world.rejoined.values())
+    cut = result.world.in_part
     print(f"{video}: {result.frames} frames, {len(tracks)} people tracked by the {detector} detector and "
           f"lifted by {result.world.model} ({len(lifted.dropped)} short or unliftable tracks dropped, {rejoins} "
           f"taken up again after a gap); {100 * filled:.1f}% of their frames filled in between detections")
+    if cut:
+        print(f"  {len(cut)} people cut by the picture's edge in {sum(map(len, cut.values()))} of their frames "
+              f"(the world file's in_part)")
     seconds = lifted.seconds
     print(f"  {result.frames / sum(seconds.values()):.1f} frames/s end to end: people {seconds['people']:.1f} s, "
           f"lifting {seconds['lifting']:.1f} s, writing {seconds['writing']:.1f} s")

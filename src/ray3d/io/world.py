@@ -39,6 +39,14 @@ def check_frame(frame: str) -> str:
     return frame
 
 
+def _per_track(document: dict, field: str, path: Path) -> dict[str, list]:
+    """A world file's optional {track: list} field (``rejoined``, ``in_part``), checked for its shape."""
+    value = document.get(field, {})
+    if not isinstance(value, dict) or not all(isinstance(items, list) for items in value.values()):
+        raise InputError(f"{path}: field {field}: not an object holding a list per track")
+    return value
+
+
 def _frame_described(axes: str) -> str:
     """The frame a file's axes text describes."""
     return "camera" if axes == CAMERA_AXES else "world"
@@ -80,6 +88,7 @@ class World:
     unliftable: dict[str, str] = dataclasses.field(default_factory=dict)
     cameras: tuple[Camera, ...] = ()  # every camera, the first being ``camera``, when several saw the people
     rejoined: dict[str, list] = dataclasses.field(default_factory=dict)  # track -> the re-joins it holds (.json)
+    in_part: dict[str, list[int]] = dataclasses.field(default_factory=dict)  # track -> frames the edge cut (.json)
 
     def __post_init__(self) -> None:
         if not self.tracks:
@@ -195,7 +204,8 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                                                   {"seen_by": [np.flatnonzero(row).tolist() for row in r.seen_by]})}
                                            for t, r in world.tracks.items()},
                         **({"cameras": [c.to_dict() for c in world.cameras]} if len(world.cameras) > 1 else {}),
-                        **({"rejoined": world.rejoined} if world.rejoined else {})}
+                        **({"rejoined": world.rejoined} if world.rejoined else {}),
+                        **({"in_part": world.in_part} if world.in_part else {})}
             temporary.write_text(json.dumps(document))
         elif suffix == ".trc":
             temporary.write_text(_trc_text(world, path.name))
@@ -387,7 +397,7 @@ def read_world(path: str | Path) -> World:
                       for t, e in document["tracks"].items()}
             return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
                          str(document["units"]), _frame_described(str(document["axes"])), path, cameras=cameras,
-                         rejoined=document.get("rejoined", {}))
+                         rejoined=_per_track(document, "rejoined", path), in_part=_per_track(document, "in_part", path))
         return _read_csv(path)
     except InputError:
         raise

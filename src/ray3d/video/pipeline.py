@@ -21,6 +21,7 @@ from ray3d.io.world import World, check_world_output, export_paths, write_world
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.temporal import check_frame_rate
+from ray3d.video.boxes import outside_picture
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.identities import rejoin_tracks
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
@@ -53,6 +54,12 @@ class TrackedPeople:
             if rejoin.identity in self.tracks:
                 found.setdefault(rejoin.identity, []).append(rejoin.to_dict())
         return found
+
+    def in_part(self, image_size: tuple[int, int]) -> dict[str, list[int]]:
+        """{track kept: the frames in which the picture's edge cut the person} (what the world file records)."""
+        cut = {track: detections.frames[outside_picture(detections.pixels, image_size)].tolist()
+               for track, detections in self.tracks.items()}
+        return {track: frames for track, frames in cut.items() if frames}
 
     def keypoints(self) -> Keypoints:
         """The kept tracks' detections as one keypoint record (what ``keypoints.json`` holds)."""
@@ -184,7 +191,8 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
     except InputError as err:
         raise InputError(f"{info.path}: {err.message}") from None
     dropped = {**people.dropped, **lifted.unliftable}
-    world = World(lifted, camera, lifter.name, unliftable=lifted.unliftable, rejoined=people.rejoined())
+    world = World(lifted, camera, lifter.name, unliftable=lifted.unliftable, rejoined=people.rejoined(),
+                  in_part=people.in_part(camera.image_size))
     keypoints = people.keypoints()
     clock.append(time.perf_counter())
     Path(out_dir).mkdir(parents=True, exist_ok=True)
