@@ -298,6 +298,10 @@ def test_a_person_the_bottom_edge_cuts_is_followed_and_flagged_in_part(tmp_path)
     jsonschema = pytest.importorskip("jsonschema")
     schema = json.loads(resources.files("ray3d").joinpath("assets", "world.schema.json").read_text())
     jsonschema.validate(json.loads(result.files["world"].read_text()), schema)
+    document = json.loads(result.files["world"].read_text())
+    (tmp_path / "odd.json").write_text(json.dumps({**document, "in_part": [3, 4]}))
+    with pytest.raises(InputError, match="field in_part"):
+        read_world(tmp_path / "odd.json")
 
 
 def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):

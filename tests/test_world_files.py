@@ -163,7 +163,7 @@ def test_bvh_rest_pose_is_a_t_pose_facing_z_with_median_bones(tmp_path, rng):
 
 
 def test_bvh_of_several_tracks_writes_one_file_each_and_refuses_what_it_cannot_hold(tmp_path, rng):
-    from ray3d.io.world import export_paths
+    from ray3d.io.bvh_export import export_paths
     joints = _animated_skeleton(rng)
     tracks = {str(t): LiftResult(joints + t, np.zeros((40, 17), bool), 30.0, np.arange(40) + 10 * t) for t in (3, 8)}
     world = World(tracks, CAMERA, "test")

@@ -14,6 +14,9 @@ rotations only (for retargeting): its joints differ from the lifted ones by the 
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -165,3 +168,17 @@ def bvh_text(joints: np.ndarray, skeleton: Skeleton, fps: float, rigid: bool = F
     lines += ["MOTION", f"Frames: {len(joints)}", f"Frame Time: {1.0 / fps:.10f}"]
     lines += [" ".join(f"{v:.6f}" for v in row) for row in motion]
     return "\n".join(lines) + "\n"
+
+
+def export_paths(path: str | Path, world) -> dict[str, Path]:
+    """{track: file} that ``write_world`` writes for ``path`` and ``world`` (a ``ray3d.io.world.World``): one file
+    for every track, except BVH, which holds one skeleton: ``NAME_TRACK.bvh`` for each track when there are
+    several."""
+    path = Path(path)
+    if path.suffix.lower() != ".bvh" or len(world.tracks) == 1:
+        return {track: path for track in world.tracks}
+    # A track id becomes part of a file name: anything but letters, digits, dot, dash and underscore is replaced.
+    safe = {track: re.sub(r"[^A-Za-z0-9._-]", "_", track) for track in world.tracks}
+    if len(set(safe.values())) < len(safe):
+        safe = {track: f"{i}_{name}" for i, (track, name) in enumerate(safe.items())}
+    return {track: path.with_name(f"{path.stem}_{safe[track]}{path.suffix}") for track in world.tracks}

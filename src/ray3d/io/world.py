@@ -8,7 +8,6 @@ import csv
 import io
 import dataclasses
 import json
-import re
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +16,7 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
 from ray3d.geometry.uncertainty import Positioned
 from ray3d.io.atomic import atomic_path, refuse_existing
-from ray3d.io.bvh_export import Y_UP, bvh_text
+from ray3d.io.bvh_export import Y_UP, bvh_text, export_paths
 from ray3d.io.text_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import H36M17, layout_named_by
@@ -164,19 +163,6 @@ def check_world_output(path: str | Path, frame: str = "world") -> str:
         raise InputError(f"{path}: {suffix} files are written in the world frame (they need the floor); write the "
                          "camera frame as .json, .csv or .npz", arguments=("frame",))
     return suffix
-
-
-def export_paths(path: str | Path, world: World) -> dict[str, Path]:
-    """{track: file} that ``write_world`` writes for ``path``: one file for every track, except BVH, which holds
-    one skeleton: ``NAME_TRACK.bvh`` for each track when there are several."""
-    path = Path(path)
-    if path.suffix.lower() != ".bvh" or len(world.tracks) == 1:
-        return {track: path for track in world.tracks}
-    # A track id becomes part of a file name: anything but letters, digits, dot, dash and underscore is replaced.
-    safe = {track: re.sub(r"[^A-Za-z0-9._-]", "_", track) for track in world.tracks}
-    if len(set(safe.values())) < len(safe):
-        safe = {track: f"{i}_{name}" for i, (track, name) in enumerate(safe.items())}
-    return {track: path.with_name(f"{path.stem}_{safe[track]}{path.suffix}") for track in world.tracks}
 
 
 def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path:

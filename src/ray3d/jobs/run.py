@@ -10,7 +10,8 @@ import dataclasses
 from pathlib import Path
 
 from ray3d.geometry import Camera
-from ray3d.io.world import World, export_paths, write_world
+from ray3d.io.bvh_export import export_paths
+from ray3d.io.world import World, write_world
 from ray3d.jobs.job import Job
 
 
