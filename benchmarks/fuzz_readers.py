@@ -1,6 +1,6 @@
 """Fuzz every file reader: valid files of each format (keypoints JSON / CSV / npz, AlphaPose and mmpose results,
 camera JSON / YAML / OpenCV JSON / calibration TOML, world JSON / CSV / npz, floor points CSV, BVH, site JSON / YAML,
-floor regions, batch manifests CSV / JSON) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
+floor regions, batch manifests CSV / JSON, OpenPose frames, checkpoint JSON) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
 A reader may return a result or raise ``InputError``; anything else is a crash and is listed.
 
     python benchmarks/fuzz_readers.py --files 10000 [--seed 0] [--out DIR]
@@ -21,6 +21,7 @@ import numpy as np
 from ray3d import InputError, cameras
 from ray3d.demo import demo_clip
 from ray3d.batch import read_manifest
+from ray3d.checkpoints import load_model, resolve
 from ray3d.io.camera_files import read_camera, read_floor, save_cameras
 from ray3d.io.site_files import read_site
 from ray3d.io.floor_points import read_floor_points
@@ -85,7 +86,24 @@ def seeds(folder: Path) -> dict[Path, object]:
                                                            "hfov": 60, "image_size": "1000x1000"}]}))
     files.update({folder / "site.json": read_site, folder / "site.yaml": read_site, folder / "floor.json": read_floor,
                   folder / "m.csv": read_manifest, folder / "m.json": read_manifest})
+    (folder / "openpose.json").write_text(json.dumps({"version": 1.3, "people": [
+        {"person_id": [-1], "pose_keypoints_2d": [float(v) for _ in range(25) for v in (400.0, 300.0, 0.8)]}]}))
+    files[folder / "openpose.json"] = lambda path: read_keypoints(_in_folder(path, "openpose", "0_keypoints.json"))
+    weights = resolve("ray3d")
+    (folder / "checkpoint.json").write_bytes(weights.with_suffix(".json").read_bytes())
+    (folder / "checkpoint").mkdir()
+    (folder / "checkpoint" / "m.safetensors").write_bytes(weights.read_bytes())
+    files[folder / "checkpoint.json"] = lambda path: load_model(_in_folder(path, "checkpoint", "m.json")
+                                                                 .with_suffix(".safetensors"))
     return files
+
+
+def _in_folder(path: Path, folder: str, name: str) -> Path:
+    """``path``'s bytes as ``name`` in ``folder`` beside it (an OpenPose frame, a checkpoint's JSON)."""
+    target = path.parent / folder / name
+    target.parent.mkdir(exist_ok=True)
+    target.write_bytes(path.read_bytes())
+    return target
 
 
 def mutate(data: bytes, rng: np.random.Generator) -> bytes:

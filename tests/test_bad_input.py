@@ -201,7 +201,8 @@ def test_fuzzed_keypoint_files_raise_only_input_errors(tmp_path_factory, data, s
                                  st.sampled_from(["fx", "fy", "cx", "cy", "R", "t", "dist", "image_size", "cameras",
                                                   "detections", "keypoints", "frame", "track", "fps", "layout",
                                                   "tracks", "joints", "camera", "units", "instances", "frame_id",
-                                                  "image_id", "idx", "keypoint_scores", "score"]), inner, max_size=6),
+                                                  "image_id", "idx", "keypoint_scores", "score", "track_id",
+                                                  "person_id"]), inner, max_size=6),
                              max_leaves=20))
 def test_fuzzed_json_documents_raise_only_input_errors(tmp_path_factory, document):
     path = tmp_path_factory.mktemp("fuzz") / "doc.json"
@@ -289,10 +290,16 @@ def test_a_json_nested_deeper_than_python_can_parse_is_refused(tmp_path):
     (lambda d: d["model"].update(channels=64), "does not fit its configuration"),
     (lambda d: d["model"].update(kernels=[3, 3, 3, 3, 3, 3]), "does not fit its configuration"),
     (lambda d: d["model"].update(backbone="transformer-xl"), "model: "),
+    (lambda d: d.update(uncertainty="abc"), "uncertainty: expected an object, got str"),
+    (lambda d: d.update(uncertainty={"depth_bias_sd": [[1, "x"]]}), "uncertainty: depth_bias_sd: not numeric"),
+    (lambda d: d.update(uncertainty={"depth_sd": [0.1]}), "uncertainty: depth_sd: expected [a, b]"),
+    (lambda d: d.update(uncertainty={"depth_bias_sd": [[5, 0.1], [2, 0.1]]}), "the distances must increase"),
+    (lambda d: d.update(uncertainty={"floor_offset_sd_m": -1}), "floor_offset_sd_m: expected a number >= 0"),
 ])
 def test_a_checkpoint_whose_json_does_not_fit_its_weights_is_refused_in_one_line(tmp_path, change, needle, capsys):
     """A checkpoint's configuration with an unknown key, a string for an object, or sizes that do not match
-    the weights: one line naming the JSON and what is wrong (issue 49), never a raw PyTorch size dump."""
+    the weights, or an uncertainty of the wrong shape: one line naming the JSON and what is wrong (issue 49),
+    never a raw PyTorch size dump or an internal error when lifting."""
     from ray3d.checkpoints import load_model, resolve
 
     source = resolve("ray3d")
@@ -303,6 +310,67 @@ def test_a_checkpoint_whose_json_does_not_fit_its_weights_is_refused_in_one_line
     with pytest.raises(InputError, match=re.escape(needle)) as refused:
         load_model(tmp_path / "m.safetensors")
     assert str(tmp_path / "m.json") in str(refused.value) and "\n" not in str(refused.value)
+
+
+@_FUZZ
+@given(field=st.sampled_from(["depth_sd", "depth_bias_sd", "floor_offset_sd_m", "residual_distance_sd"]),
+       value=st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=3),
+                          lambda inner: st.lists(inner, max_size=4), max_leaves=12))
+def test_a_checkpoints_uncertainty_of_any_shape_is_read_or_refused_in_one_line(field, value):
+    """Whatever a checkpoint's ``uncertainty`` holds: refused as ``InputError`` naming the field, or read into a
+    refinement configuration whose error model gives finite sds."""
+    from ray3d.refine.config import RefineConfig, model_uncertainty
+
+    try:
+        measured = model_uncertainty({"uncertainty": {field: value}})
+    except InputError as err:
+        assert f"uncertainty: {field}" in str(err) and "\n" not in str(err)
+        return
+    config = RefineConfig.for_model({"uncertainty": measured})
+    assert np.isfinite(config.network_bias_sd(np.array([1.0, 10.0]))).all()
+    assert np.isfinite(config.network_frame_sd(np.array([1.0, 10.0]))).all()
+
+
+_JSON_VALUES = st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=5),
+                            lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=3), inner,
+                                                                                         max_size=3), max_leaves=10)
+
+
+@_FUZZ
+@given(section=st.sampled_from(["model", "uncertainty", None]),
+       field=st.sampled_from(["name", "layout", "output_layout", "input", "backbone", "kernels", "root_kernels",
+                              "channels", "layers", "hidden", "dropout", "causal", "depth_sd", "depth_bias_sd",
+                              "floor_offset_sd_m", "model", "uncertainty", "colour"]), value=_JSON_VALUES)
+def test_a_checkpoint_json_with_any_field_replaced_loads_or_is_refused_in_one_line(tmp_path_factory, section, field,
+                                                                                   value):
+    """A shipped checkpoint's JSON with any one field of its model, its uncertainty or its top level replaced by
+    any JSON value: the model loads, or one ``InputError`` names the JSON; never an internal error."""
+    from ray3d.checkpoints import load_model, resolve
+
+    source = resolve("ray3d-real")
+    document = json.loads(source.with_suffix(".json").read_text())
+    (document if section is None else document[section])[field] = value
+    folder = tmp_path_factory.mktemp("checkpoint")
+    (folder / "m.json").write_text(json.dumps(document))
+    os.link(source, folder / "m.safetensors")
+    try:
+        load_model(folder / "m.safetensors")
+    except InputError as err:
+        assert str(folder / "m.json") in str(err) and "\n" not in str(err)
+
+
+@pytest.mark.parametrize("files, needle", [
+    ({"a_keypoints.json": [1, 2]}, "people: expected a list of people"),
+    ({"a_keypoints.json": {"people": [3]}}, "people: expected a list of people"),
+    ({"a_keypoints.json": {"people": [{"pose_keypoints_2d": [1.0] * 75, "person_id": {"a": 1}}]}},
+     "a track id (track_id, idx, person_id) must be a number or a name"),
+])
+def test_openpose_frames_of_the_wrong_shape_name_the_file_and_field(tmp_path, files, needle):
+    for name, document in files.items():
+        (tmp_path / name).write_text(json.dumps(document))
+    with pytest.raises(InputError, match=re.escape(needle)) as refused:
+        read_keypoints(tmp_path)
+    assert str(tmp_path / "a_keypoints.json") in str(refused.value)
 
 
 def _valid_files(folder) -> dict:

@@ -15,6 +15,7 @@ from safetensors.torch import load_file, save_file
 from ray3d.errors import InputError, reads_file
 from ray3d.io.atomic import atomic_path, refuse_existing
 from ray3d.models.network import LiftingNetwork, ModelConfig
+from ray3d.refine.config import model_uncertainty
 
 SHIPPED_DIR = "assets/models"
 RFRH = "rfrh"
@@ -77,10 +78,13 @@ def model_config(document: dict[str, Any]) -> ModelConfig:
         raise InputError("checkpoint JSON has no 'model' configuration")
     if not isinstance(fields, dict):
         raise InputError(f"checkpoint JSON: model: expected an object of model fields, got {type(fields).__name__}")
-    known = {f.name for f in dataclasses.fields(ModelConfig)}
-    unknown = sorted(set(fields) - known)
+    known = {f.name: f.type for f in dataclasses.fields(ModelConfig)}
+    unknown = sorted(set(fields) - set(known))
     if unknown:
         raise InputError(f"checkpoint JSON: model: unknown field {unknown[0]!r}; the fields are {', '.join(sorted(known))}")
+    for name, value in fields.items():
+        if not _of_type(value, known[name]):
+            raise InputError(f"checkpoint JSON: model: {name}: expected {known[name]}, got {value!r:.40}")
     try:
         config = ModelConfig(**fields)
         LiftingNetwork(config)
@@ -90,6 +94,19 @@ def model_config(document: dict[str, Any]) -> ModelConfig:
         raise InputError(f"checkpoint JSON: model: a network cannot be built from it ({type(err).__name__}: "
                          f"{str(err).splitlines()[0][:160] if str(err) else ''})") from None
     return config
+
+
+def _of_type(value: Any, annotation: str) -> bool:
+    """Whether a JSON value is of a ``ModelConfig`` field's annotated type (str, bool, int, float,
+    tuple[int, ...], each optionally ``| None``), before anything is built from it."""
+    kind, _, optional = annotation.partition(" | ")
+    if value is None:
+        return optional == "None"
+    if kind == "tuple[int, ...]":
+        return isinstance(value, list) and bool(value) and all(_of_type(v, "int") and v > 0 for v in value)
+    if kind in ("int", "float") and isinstance(value, bool):
+        return False
+    return isinstance(value, {"str": str, "bool": bool, "int": int, "float": (int, float)}[kind])
 
 
 def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, Any]) -> LiftingNetwork:
@@ -143,6 +160,7 @@ def load_model(name_or_path: str | Path = "ray3d") -> tuple[LiftingNetwork, dict
     path = resolve(name_or_path)
     tensors, document = read_checkpoint(path)
     try:
+        model_uncertainty(document)
         return model_from_checkpoint(tensors, document), document
     except InputError as err:
         raise InputError(f"{path.with_suffix('.json')}: {err.message}", arguments=err.arguments) from None

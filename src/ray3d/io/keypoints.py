@@ -179,7 +179,6 @@ def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
 # with Halpe-26. Their face, hand and foot points are not used.
 _BODY_PREFIX = {17: "coco17", 26: "halpe26", 133: "coco17", 136: "halpe26"}
 
-
 FRAME_ORDERS = {"digits": "by the last number in each image name ('frame_000012.png' is frame 12)",
                 "appearance": "in the order the image names first appear in the file (they hold no number)"}
 
@@ -200,12 +199,13 @@ def _frame_number(path: Path, image_id, order: dict, rules: set[str]) -> int:
     return order.setdefault(str(image_id), len(order))
 
 
-def _track_id(value):
-    """AlphaPose's ``idx`` (a number, or a list of them after PoseFlow) or a ``track_id``; None when absent."""
-    if isinstance(value, list):
-        value = value[0] if value else None
-    if isinstance(value, float) and value.is_integer():
-        value = int(value)
+def _track_id(path: Path, value):
+    """AlphaPose's ``idx`` (a number, or a list of them after PoseFlow), a ``track_id`` or OpenPose's
+    ``person_id`` ([-1] when untracked); None when absent; refused when not a number or a name."""
+    value = (value[0] if value else None) if isinstance(value, list) else value
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float, str))):
+        raise InputError(f"{path}: a track id (track_id, idx, person_id) must be a number or a name, got {value!r:.40}")
+    value = int(value) if isinstance(value, float) and value.is_integer() else value
     return None if value in (None, -1) else value
 
 
@@ -222,13 +222,13 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
             if not isinstance(frame["instances"], list):
                 raise InputError(f"{path}: frame {k}: 'instances' must be a list")
             number = _frame_number(path, frame.get("frame_id", k), order, rules)
-            entries += [(number, _track_id(i.get("track_id")), i.get("keypoints"), i.get("keypoint_scores"),
+            entries += [(number, _track_id(path, i.get("track_id")), i.get("keypoints"), i.get("keypoint_scores"),
                          i.get("bbox_score", i.get("score", 1.0))) for i in frame["instances"] if isinstance(i, dict)]
     elif all(isinstance(d, dict) and "keypoints" in d for d in document):
         image_level = not any("image_id" in d or "frame_index" in d for d in document)
         for d in document:  # one image's mmpose instances carry no frame
             frame = 0 if image_level else _frame_number(path, d.get("frame_index", d.get("image_id")), order, rules)
-            entries.append((frame, _track_id(d.get("track_id", d.get("idx"))), d["keypoints"],
+            entries.append((frame, _track_id(path, d.get("track_id", d.get("idx"))), d["keypoints"],
                             d.get("keypoint_scores"), d.get("score", d.get("bbox_score", 1.0))))
         if image_level:  # several people in one image are several tracks
             entries = [(f, k if t is None else t, kp, sc, score) for k, (f, t, kp, sc, score) in enumerate(entries)]
@@ -279,9 +279,10 @@ def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
         raise InputError(f"{path}: no OpenPose *_keypoints.json files in this folder")
     pixels, scores, frames, tracks = [], [], [], []
     for frame, file in enumerate(files):
-        people = read_json(file).get("people", [])
-        if not isinstance(people, list):
-            raise InputError(f"{file}: 'people' must be a list")
+        document = read_json(file)
+        people = document.get("people", []) if isinstance(document, dict) else None
+        if not isinstance(people, list) or not all(isinstance(person, dict) for person in people):
+            raise InputError(f"{file}: people: expected a list of people (OpenPose: {{\"people\": [{{...}}]}})")
         for order, person in enumerate(people):
             values = _numeric(file, "pose_keypoints_2d", person.get("pose_keypoints_2d", []))
             if values.size != 75:
@@ -290,9 +291,8 @@ def read_openpose_folder(path: Path, layout, fps) -> Keypoints:
             pixels.append(values[:, :2])
             scores.append(values[:, 2])
             frames.append(frame)
-            person_id = person.get("person_id", -1)
-            person_id = person_id[0] if isinstance(person_id, list) else person_id
-            tracks.append(person_id if person_id not in (-1, None) else order)
+            person_id = _track_id(file, person.get("person_id"))
+            tracks.append(order if person_id is None else person_id)
     if not pixels:
         raise InputError(f"{path}: no person detected in any of {len(files)} files")
     pixels, scores = np.array(pixels), np.array(scores)

@@ -8,6 +8,8 @@ import dataclasses
 import numpy as np
 
 from ray3d import body
+from ray3d.errors import InputError
+from ray3d.geometry.arrays import numeric_array
 from ray3d.skeleton import DETECTOR_LAYOUTS, H36M17, Skeleton, layout_skeleton
 
 EVIDENCE_FPS = 30.0  # per-frame evidence is weighed as if the footage ran at this rate
@@ -72,11 +74,7 @@ class RefineConfig:
         says of its own model (its distance errors by distance, what the cues leave of them), for keypoints of
         ``layout`` (a detector's ankle keypoint stands higher than the mocap's ankle joint:
         ``body.DETECTOR_PLANTED_ANKLE_HEIGHT_M``), and ``changes``."""
-        measured = {key: value for key, value in document.get("uncertainty", {}).items() if key in UNCERTAINTY_FIELDS}
-        if "depth_bias_sd" in measured:
-            measured["depth_bias_sd"] = tuple(tuple(float(v) for v in pair) for pair in measured["depth_bias_sd"])
-        if "depth_sd" in measured:
-            measured["depth_sd"] = tuple(float(v) for v in measured["depth_sd"])
+        measured = model_uncertainty(document)
         if layout_skeleton(layout).name in DETECTOR_LAYOUTS:
             measured["contact_ankle_height_m"] = body.DETECTOR_PLANTED_ANKLE_HEIGHT_M
         return cls(**{**measured, **changes})
@@ -89,6 +87,33 @@ class RefineConfig:
     def network_frame_sd(self, distance: np.ndarray) -> np.ndarray:
         """(...) distances (m) -> (...) the relative sd of one frame's distance error about the track's."""
         return self.depth_sd[0] + self.depth_sd[1] * np.asarray(distance)
+
+
+def model_uncertainty(document: dict) -> dict:
+    """What a checkpoint document's ``uncertainty`` says of its model, checked field by field (``RefineConfig``'s
+    ``UNCERTAINTY_FIELDS``; anything else there is information): ``depth_bias_sd`` pairs of (distance m, relative
+    sd) in increasing distance, ``depth_sd`` (a, b) of a + b d, the others one number; one ``InputError``
+    naming the field otherwise."""
+    given = document.get("uncertainty", {}) if isinstance(document, dict) else {}
+    if not isinstance(given, dict):
+        raise InputError(f"checkpoint JSON: uncertainty: expected an object, got {type(given).__name__}")
+    measured = {}
+    for key in (k for k in UNCERTAINTY_FIELDS if k in given):
+        values = numeric_array(given[key], f"checkpoint JSON: uncertainty: {key}")
+        shaped = {"depth_bias_sd": values.ndim == 2 and values.shape[1:] == (2,), "depth_sd": values.shape == (2,)}
+        if not shaped.get(key, values.ndim == 0) or not values.size or not np.isfinite(values).all() \
+                or (values < 0).any():
+            raise InputError(f"checkpoint JSON: uncertainty: {key}: expected {_SHAPE_TEXT[key]}")
+        if key == "depth_bias_sd" and np.any(np.diff(values[:, 0]) <= 0):
+            raise InputError(f"checkpoint JSON: uncertainty: {key}: the distances must increase")
+        measured[key] = tuple(map(tuple, values.tolist())) if key == "depth_bias_sd" else \
+            tuple(values.tolist()) if key == "depth_sd" else float(values)
+    return measured
+
+
+_SHAPE_TEXT = {"depth_bias_sd": "[distance m, relative sd] pairs of numbers >= 0",
+               "depth_sd": "[a, b] (numbers >= 0)", "floor_offset_sd_m": "a number >= 0",
+               "residual_distance_sd": "a number >= 0"}
 
 
 @dataclasses.dataclass(frozen=True)
