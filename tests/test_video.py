@@ -187,6 +187,28 @@ def test_tracker_keeps_ids_through_an_occluded_crossing_and_ends_tracks_after_th
     assert sorted(len(t.frames) for t in tracks) == [41, 60]
 
 
+def test_one_box_for_two_people_walking_together_is_given_to_neither():
+    """Two people walking side by side, 0.5 m apart, that the detector sees as one box for 6 frames: neither track
+    takes it (whichever did would carry on as the other when they part); both skip those frames and keep their
+    own person before and after. One of them alone, the other missed, is still followed."""
+    people = [_walker((7.0, -3.0), (0.0, 1.2), 50), _walker((7.0, -2.5), (0.0, 1.2), 50)]
+    pixels = [CAMERA.project(p) for p in people]
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.5)
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    both = np.concatenate([pixels[0][:, :9], pixels[1][:, 9:]], axis=1)  # a box around the two of them
+    for t in range(50):
+        found = [pixels[0][t]] if 34 <= t < 37 else [both[t]] if 20 <= t < 26 else [pixels[0][t], pixels[1][t]]
+        tracker.update(t, [Detection(p, np.ones(17), 0.9) for p in found], frame)
+    tracks = tracker.tracks()
+    assert len(tracks) == 2
+    for track in tracks:
+        person = int(np.argmin([np.linalg.norm(p[track.frames[0], 0] - track.detections[0].pixels[0]) for p in pixels]))
+        for f, d in zip(track.frames, track.detections):
+            np.testing.assert_allclose(d.pixels, pixels[person][f])  # never the box of both, never the other
+        assert not set(range(20, 26)) & set(track.frames)
+        assert set(range(34, 37)) <= set(track.frames) if person == 0 else not set(range(34, 37)) & set(track.frames)
+
+
 def test_tracker_needs_several_hits_before_a_track_exists():
     tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3)
     frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)

@@ -4,7 +4,8 @@ Each person is a constant-velocity Kalman filter (OpenCV's ``cv2.KalmanFilter``)
 their ankles (the camera says where that pixel's ray meets the floor); detections are assigned to people by
 the Hungarian method (scipy's ``linear_sum_assignment``) on the Mahalanobis distance of that point plus the
 colour of their clothes, so that two people crossing in the image, at different depths or in different
-clothes, keep their ids. A person unseen for longer than ``max_gap_s`` has left: their track ends, and
+clothes, keep their ids. One box for two people walking side by side (the detector merged them for a few frames)
+is given to neither: they coast until they part. A person unseen for longer than ``max_gap_s`` has left: their track ends, and
 whoever appears later starts a new one (a track never bridges a long gap, so it never joins two people).
 """
 
@@ -33,6 +34,7 @@ COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two 
 # the point between their ankles by more than a stride. (Not for a person missed: at a crossing the one in front
 # would take the place of the one hidden.)
 _SAME_BOX = 0.5
+TOGETHER_M = 1.0  # two people walking closer than this on the floor may be one detection for a few frames
 
 
 @dataclasses.dataclass
@@ -70,6 +72,7 @@ class _Person:
         self.filter.errorCovPost = np.diag([noise[0, 0], noise[1, 1], 2.0 ** 2, 2.0 ** 2]).astype(np.float64)
         self.colour, self.hits, self.missed = colour, 1, 0
         self.box: np.ndarray | None = None  # (4,) the image box of their last detection
+        self.together = False  # one detection held both them and somebody walking beside them (``_merged``)
         self.track: Track | None = None
         self.waiting: list[tuple] = []  # (frame, detection, floor point) before the track is confirmed
 
@@ -137,7 +140,7 @@ class FloorTracker:
         usable = [i for i, m in enumerate(measured) if m is not None]
         for person in self._active:
             person.predict(elapsed)
-        matched_people, matched_detections = set(), set()
+        matched_people, matched_detections = set(), self._merged(detections, measured, usable)
         # A matching cascade: people seen in the last frame choose first, then those missed for one frame, and
         # so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
         # person in front, who is still being seen.
@@ -186,6 +189,28 @@ class FloorTracker:
                 survivors.append(person)
                 self._record(person, frame_index, detections[i], floor)
         self._active = survivors
+
+    def _merged(self, detections: list[Detection], measured: list, usable: list[int]) -> set[int]:
+        """The detections that hold two people walking together: each within the gate of two followed people who
+        were seen in the last frame (or held together since) within ``TOGETHER_M`` of each other, its box covering
+        most of both their last boxes, and no other detection near either. Given to neither (they coast until
+        they part, or for ``max_gap_s``): whichever took it would carry on as the other when they do."""
+        seen = [p for p in self._active if p.track is not None and (p.missed == 0 or p.together)]
+        for person in self._active:
+            person.together = False
+        held = set()
+        for a, first in enumerate(seen):
+            for second in seen[a + 1:]:
+                if np.linalg.norm(first.filter.statePre[:2, 0] - second.filter.statePre[:2, 0]) > TOGETHER_M:
+                    continue
+                near = [i for i in usable if first.distance(*measured[i][:2]) < _GATE
+                        or second.distance(*measured[i][:2]) < _GATE]
+                # Their last boxes (before the first such frame) both mostly inside it; held since, while it lasts.
+                if len(near) == 1 and all(p.missed or _covered(p.box, detections[near[0]].box) >= 0.5
+                                          for p in (first, second)):
+                    held.add(near[0])
+                    first.together = second.together = True
+        return held
 
     def tracks(self) -> list[Track]:
         """Every confirmed track so far (less those ``finished`` handed over), in the order they were confirmed."""
@@ -256,6 +281,12 @@ class FloorTracker:
         if np.isfinite(expected):
             foot[1] = max(y1, self.person_height.foot_below_head(foot[0], y0, expected))
         return foot
+
+
+def _covered(inner: np.ndarray, outer: np.ndarray) -> float:
+    """The share of box ``inner`` (4,) that lies inside box ``outer`` (4,)."""
+    low, high = np.maximum(inner[:2], outer[:2]), np.minimum(inner[2:], outer[2:])
+    return float(np.prod(np.clip(high - low, 0, None)) / max(float(np.prod(inner[2:] - inner[:2])), 1e-9))
 
 
 def _overlap(a: np.ndarray, b: np.ndarray) -> float:
