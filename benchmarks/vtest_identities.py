@@ -294,25 +294,15 @@ def _label(tile: np.ndarray, top: str, bottom: str) -> np.ndarray:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    d = sub.add_parser("detect")
-    d.add_argument("video", type=Path)
-    d.add_argument("--camera", type=Path, required=True)
-    d.add_argument("--out", type=Path, required=True)
-    r = sub.add_parser("review")
-    r.add_argument("detections", type=Path)
-    r.add_argument("video", type=Path)
-    r.add_argument("--camera", type=Path, required=True)
-    r.add_argument("--out", type=Path, required=True)
-    a = sub.add_parser("annotate")
-    a.add_argument("draft", type=Path)
-    a.add_argument("--labels", type=Path, required=True)
-    a.add_argument("--out", type=Path, required=True)
-    c = sub.add_parser("compare")
-    c.add_argument("detections", type=Path)
-    c.add_argument("video", type=Path)
-    c.add_argument("--camera", type=Path, required=True)
-    c.add_argument("--annotation", type=Path, required=True)
-    c.add_argument("--out", type=Path, required=True)
+    commands = {"detect": (["video"], ["camera", "out"]), "review": (["detections", "video"], ["camera", "out"]),
+                "annotate": (["draft"], ["labels", "out"]),
+                "compare": (["detections", "video"], ["camera", "annotation", "out"])}
+    for name, (positional, required) in commands.items():
+        command = sub.add_parser(name)
+        for field in positional:
+            command.add_argument(field, type=Path)
+        for field in required:
+            command.add_argument(f"--{field}", type=Path, required=True)
     args = parser.parse_args()
     if args.command == "detect":
         detect(args.video, args.camera, args.out)

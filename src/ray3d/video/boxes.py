@@ -13,10 +13,19 @@ def outside_picture(pixels: np.ndarray, image_size: tuple[int, int]) -> np.ndarr
     return ((u < 0) | (u >= width) | (v < 0) | (v >= height)).any(axis=-1)
 
 
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Areas of the intersections of boxes (..., 4) and (..., 4), broadcast."""
+    low, high = np.maximum(a[..., :2], b[..., :2]), np.minimum(a[..., 2:], b[..., 2:])
+    return np.prod(np.clip(high - low, 0, None), axis=-1)
+
+
 def box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Intersection over union of boxes (N, 4) and (M, 4) -> (N, M)."""
-    low = np.maximum(a[:, None, :2], b[None, :, :2])
-    high = np.minimum(a[:, None, 2:], b[None, :, 2:])
-    inter = np.prod(np.clip(high - low, 0, None), axis=-1)
+    inter = _intersection(a[:, None], b[None])
     area_a, area_b = (np.prod(x[:, 2:] - x[:, :2], axis=-1) for x in (a, b))
     return inter / np.maximum(area_a[:, None] + area_b[None] - inter, 1e-9)
+
+
+def box_inside(inner: np.ndarray, outer: np.ndarray) -> float:
+    """The share of box ``inner`` (4,) that lies inside box ``outer`` (4,)."""
+    return float(_intersection(inner, outer) / max(float(np.prod(inner[2:] - inner[:2])), 1e-9))

@@ -4,9 +4,10 @@ Each person is a constant-velocity Kalman filter (OpenCV's ``cv2.KalmanFilter``)
 their ankles (the camera says where that pixel's ray meets the floor); detections are assigned to people by
 the Hungarian method (scipy's ``linear_sum_assignment``) on the Mahalanobis distance of that point plus the
 colour of their clothes, so that two people crossing in the image, at different depths or in different
-clothes, keep their ids. One box for two people walking side by side (the detector merged them for a few frames)
-is given to neither: they coast until they part. A person unseen for longer than ``max_gap_s`` has left: their track ends, and
-whoever appears later starts a new one (a track never bridges a long gap, so it never joins two people).
+clothes, keep their ids. One box for two people walking side by side (the detector merged them for a few
+frames) is given to neither: they coast until they part. A person unseen for longer than ``max_gap_s`` has left:
+their track ends, and whoever appears later starts a new one (a track never bridges a long gap, so it never joins
+two people).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from scipy.optimize import linear_sum_assignment
 from ray3d.geometry import Camera
 from ray3d.io.keypoints import TrackDetections
 from ray3d.skeleton import H36M17, convert_keypoints
-from ray3d.video.boxes import box_overlap
+from ray3d.video.boxes import box_inside, box_overlap
 from ray3d.video.detectors import Detection
 from ray3d.video.proposals import PersonScale
 
@@ -206,7 +207,7 @@ class FloorTracker:
                 near = [i for i in usable if first.distance(*measured[i][:2]) < _GATE
                         or second.distance(*measured[i][:2]) < _GATE]
                 # Their last boxes (before the first such frame) both mostly inside it; held since, while it lasts.
-                if len(near) == 1 and all(p.missed or _covered(p.box, detections[near[0]].box) >= 0.5
+                if len(near) == 1 and all(p.missed or box_inside(p.box, detections[near[0]].box) >= 0.5
                                           for p in (first, second)):
                     held.add(near[0])
                     first.together = second.together = True
@@ -281,12 +282,6 @@ class FloorTracker:
         if np.isfinite(expected):
             foot[1] = max(y1, self.person_height.foot_below_head(foot[0], y0, expected))
         return foot
-
-
-def _covered(inner: np.ndarray, outer: np.ndarray) -> float:
-    """The share of box ``inner`` (4,) that lies inside box ``outer`` (4,)."""
-    low, high = np.maximum(inner[:2], outer[:2]), np.minimum(inner[2:], outer[2:])
-    return float(np.prod(np.clip(high - low, 0, None)) / max(float(np.prod(inner[2:] - inner[:2])), 1e-9))
 
 
 def _overlap(a: np.ndarray, b: np.ndarray) -> float:
