@@ -4,16 +4,17 @@ scored with the standard multi-object-tracking metrics (IDF1, ID switches, MOTA;
 port of TrackEval).
 
     python benchmarks/vtest_identities.py detect VIDEO --camera CAMERA --out DETECTIONS.npz
-    python benchmarks/vtest_identities.py tracklets DETECTIONS.npz VIDEO --out DIR
-    python benchmarks/vtest_identities.py compare DETECTIONS.npz --camera CAMERA \\
-        --annotation benchmarks/vtest_identities.csv [--out DIR]
+    python benchmarks/vtest_identities.py review DETECTIONS.npz VIDEO --camera CAMERA --out DIR
+    python benchmarks/vtest_identities.py annotate DIR/draft.csv --labels LABELS.json --out ANNOTATION.csv
+    python benchmarks/vtest_identities.py compare DETECTIONS.npz VIDEO --camera CAMERA \\
+        --annotation benchmarks/vtest_identities.csv --out DIR
 
 ``detect`` runs ``ray3d video``'s detector (``combined``) over the video once and keeps every detection.
-``tracklets`` is the annotation aid: it cuts the detections into tracklets that cannot hold two people (linked
-frame to frame only where one box clearly continues one box, cut wherever two boxes meet) and draws each
-tracklet's first and last crops with its candidates for continuing it, for a person to link by looking; see
-``benchmarks/vtest_identities.md`` for how the fixture was made. ``compare`` scores each tracker against the
-annotation: a tracker's box is the annotated box it overlaps at IoU >= 0.5.
+``review`` is the annotation aid: the floor tracker's draft (without re-joins) and the sheets a person labels it
+from (each track's life, every meeting of two tracks, every track's start beside the ends before it); ``annotate``
+writes the annotation from the draft and the labels; see ``benchmarks/vtest_identities.md`` for how the fixture was
+made. ``compare`` scores each tracker against the annotation: a tracker's box is the annotated box it overlaps at
+IoU >= 0.5.
 
 Needs the video extra and, for ``compare``, the ``trackers`` package (its pins in constraints.txt; it asks for
 opencv-python, which the video extra's OpenCV provides: ``pip install -c constraints.txt --no-deps trackers

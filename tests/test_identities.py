@@ -23,17 +23,19 @@ FPS = 10.0
 RED, BLUE = np.eye(32)[0], np.eye(32)[9]  # two clothes colours with nothing in common
 
 
-def _track(name: str, frames, start_xy, velocity_xy, colour=RED) -> Track:
+def _track(name: str, frames, start_xy, velocity_xy, colour=RED, floor_sd_m=0.0) -> Track:
     frames = list(frames)
     times = (np.array(frames) - frames[0]) / FPS
     floor = [np.asarray(start_xy, float) + np.asarray(velocity_xy, float) * t for t in times]
-    return Track(name, frames, [None] * len(frames), floor, colour)
+    return Track(name, frames, [None] * len(frames), floor, colour, [np.eye(2) * floor_sd_m ** 2] * len(frames))
 
 
-def _walker(name: str, frames, velocity=(1.2, 0.0), colour=RED, origin=(0.0, 0.0)) -> Track:
-    """A person walking from ``origin`` at frame 0 at ``velocity``, seen in ``frames``."""
+def _walker(name: str, frames, velocity=(1.2, 0.0), colour=RED, origin=(0.0, 0.0), floor_sd_m=0.0) -> Track:
+    """A person walking from ``origin`` at frame 0 at ``velocity``, seen in ``frames`` (each floor point with
+    that standard deviation)."""
     frames = list(frames)
-    return _track(name, frames, np.asarray(origin) + np.asarray(velocity) * frames[0] / FPS, velocity, colour)
+    return _track(name, frames, np.asarray(origin) + np.asarray(velocity) * frames[0] / FPS, velocity, colour,
+                  floor_sd_m)
 
 
 def test_a_person_lost_for_a_second_and_a_half_is_one_identity_with_the_gap_unseen():
@@ -56,6 +58,24 @@ def test_two_tracks_at_once_an_impossible_walk_and_a_long_gap_stay_apart():
     assert len(rejoin_tracks([first, late], FPS)[0]) == 2
     turned = _track("4", range(40, 70), first.floor[-1] + [1.2 * 1.0, 0.0], (-1.4, 0.0))  # back the other way
     assert len(rejoin_tracks([first, turned], FPS)[0]) == 2
+
+
+def test_the_walk_reaches_as_far_as_the_floor_points_are_uncertain():
+    """The same start, 1.6 m off where the walk led after 1 s: a far person, whose every floor point is uncertain
+    by half a metre (their walk read from them too), is re-joined; a near person, placed to a few centimetres, is
+    not (a stride's allowance would not take them there). The reach the re-join states is the gate's that way."""
+    for floor_sd_m, joined in ((0.5, True), (0.03, False)):
+        first = _walker("0", range(0, 30), floor_sd_m=floor_sd_m)
+        off = _walker("1", range(40, 70), origin=(0.0, 1.6), floor_sd_m=floor_sd_m)
+        identities, rejoins = rejoin_tracks([first, off], FPS)
+        assert (len(identities) == 1) is joined
+        if joined:
+            (rejoin,) = rejoins
+            assert rejoin.miss_m == pytest.approx(1.6) and rejoin.miss_m <= rejoin.reach_m < 4.0
+    # However uncertain the places, a walk the other way at walking pace is another person.
+    first = _walker("0", range(0, 30), floor_sd_m=0.05)
+    back = _track("2", range(40, 70), first.floor[-1] + [1.2, 0.0], (-1.4, 0.0), floor_sd_m=0.05)
+    assert len(rejoin_tracks([first, back], FPS)[0]) == 2
 
 
 def test_a_crossing_pair_is_told_apart_by_their_clothes_not_by_where_they_are():

@@ -22,6 +22,7 @@ from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
 from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
+from ray3d.video.tracking import _clothes_boxes, _clothes_colour, colour_distance
 
 SIZE, FPS, FRAMES = (640, 480), 20.0, 40
 CAMERA = Camera.from_height_pitch(3.0, 15.0, SIZE, hfov_deg=70.0)
@@ -207,6 +208,28 @@ def test_one_box_for_two_people_walking_together_is_given_to_neither():
             np.testing.assert_allclose(d.pixels, pixels[person][f])  # never the box of both, never the other
         assert not set(range(20, 26)) & set(track.frames)
         assert set(range(34, 37)) <= set(track.frames) if person == 0 else not set(range(34, 37)) & set(track.frames)
+
+
+def test_clothes_colours_tell_jeans_from_black_trousers_under_the_same_jacket():
+    """Two people in one black jacket, one in blue jeans and one in black trousers: their clothes' colours are
+    far apart (the legs are read as well as the torso), while each is close to themself seen again."""
+    pose = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
+    seen = np.ones(17, bool)
+    detection = Detection(pose, np.ones(17), 0.9)
+    torso, legs = _clothes_boxes(detection, pose, seen)
+    assert torso[3] <= legs[3] and legs[1] < torso[3]  # the legs' box below the torso's, from the hips
+
+    def dressed(trousers_rgb, seed):  # the camera's noise differs from frame to frame
+        frame = np.full((SIZE[1], SIZE[0], 3), 128.0)
+        frame[int(torso[1]):int(torso[3]) + 1, int(torso[0]):int(torso[2]) + 1] = (30, 30, 35)
+        frame[int(torso[3]) + 1:int(legs[3]) + 1, int(legs[0]):int(legs[2]) + 1] = trousers_rgb
+        noisy = frame + np.random.default_rng(seed).normal(0.0, 3.0, frame.shape)
+        return _clothes_colour(np.clip(noisy, 0, 255).astype(np.uint8), torso, legs)
+
+    jeans, black = dressed((60, 90, 150), 0), dressed((35, 35, 40), 1)
+    # The torsos tell them apart not at all; half the histogram unlike is half the way to nothing in common.
+    assert colour_distance(jeans, black) > 0.5 > 0.2 > max(colour_distance(black, dressed((35, 35, 40), 2)),
+                                                           colour_distance(jeans, dressed((60, 90, 150), 3)))
 
 
 def test_tracker_needs_several_hits_before_a_track_exists():

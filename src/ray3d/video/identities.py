@@ -1,12 +1,18 @@
 """Who is who over short gaps: a track that ends (its person lost behind somebody, or missed by the detector for
 longer than the tracker waits) is kept as a candidate for ``within_s`` seconds; a track that starts after it, where
-its walk would have taken it (``fusion.tracks.handover_reach_m`` of the extrapolated place), heading the way it
-was, in clothes of its colours, is the same person: one identity, the frames between unseen.
+its walk would have taken it, heading the way it was, in clothes of its colours (jacket and trousers), is the same
+person: one identity, the frames between unseen.
+
+"Where its walk would have taken it" is a gate in standard deviations: the walk's own allowance
+(``fusion.tracks.handover_reach_m`` of the extrapolated place) widened by what the floor points' covariances make
+uncertain: the place where the one track ended and the other started, and the velocity read from them carried over
+the gap. A far person's floor point moves by a metre with a pixel, and their walk is read that loosely; a near
+person's is not. The heading gate is read the same way.
 
 The rules hold for every pair: a track never continues one it overlaps in time (one person is never two at once),
 nor one its start is out of walking reach of, nor one whose clothes are unlike its own (two people crossing with
 their identities swapped). Where several could continue, the likeliest (the nearest to the walk's prediction, in
-units of the reach, plus the clothes' difference) is taken."""
+standard deviations, plus the clothes' difference) is taken."""
 
 from __future__ import annotations
 
@@ -21,12 +27,15 @@ from ray3d.video.tracking import COLOUR_GATE, Track, colour_distance
 REJOIN_WITHIN_S = 3.0   # the longest gap across which a person is taken up again
 WALK_WINDOW_S = 1.0     # a track's walk (its velocity) at its end and start, over this much of it
 HEADING_GATE_M_S = 1.5  # two walks that differ by more (their velocities) are two people, moving
+WALK_SPEED_SD_M_S = 1.5  # how little a walk read from one point says of its velocity
+_SIGMAS = 3.03  # the gates in standard deviations: chi-square, 2 degrees of freedom, 99 %
 
 
 @dataclasses.dataclass(frozen=True)
 class Rejoin:
     """``joined`` continued ``identity`` after ``gap_s`` seconds unseen (from frame ``after_frame``): its start
-    ``miss_m`` from where the walk led, within ``reach_m``, clothes ``unlike`` (0 the same, 1 nothing in common)."""
+    ``miss_m`` from where the walk led, within ``reach_m`` (the gate's reach that way), clothes ``unlike`` (0 the
+    same, 1 nothing in common)."""
 
     identity: str
     joined: str
@@ -40,19 +49,41 @@ class Rejoin:
         return {k: (round(v, 3) if isinstance(v, float) else v) for k, v in dataclasses.asdict(self).items()}
 
 
-def _walk(track: Track, fps: float, at_end: bool) -> tuple[np.ndarray, np.ndarray, float]:
-    """The floor point (2,) and velocity (2,) at the track's end (or start), and the seconds it was read over."""
+@dataclasses.dataclass(frozen=True)
+class _Walk:
+    """Where a track's walk was at one of its ends and how it went: the floor point (2,) and velocity (2,) with
+    their covariances (2, 2) (from the floor points' own), read over ``span_s`` seconds."""
+
+    point: np.ndarray
+    point_noise: np.ndarray
+    velocity: np.ndarray
+    velocity_noise: np.ndarray
+    span_s: float
+
+
+def _walk(track: Track, fps: float, at_end: bool) -> _Walk | None:
+    """The walk at the track's end (or start), or None where no floor point of it was placed."""
     times = np.asarray(track.frames, dtype=np.float64) / fps
     points = np.stack(track.floor)
+    noise = np.stack(track.floor_noise) if track.floor_noise else np.zeros((len(points), 2, 2))
     seen = np.isfinite(points).all(axis=1)
-    times, points = times[seen], points[seen]
+    times, points, noise = times[seen], points[seen], noise[seen]
     if not len(points):
-        return np.full(2, np.nan), np.zeros(2), 0.0
-    if at_end:
-        moved, span = velocity(times, points, WALK_WINDOW_S, 0.0)
-        return points[-1], moved[-1], float(span[-1])
-    moved, span = velocity(times, points, 0.0, WALK_WINDOW_S)
-    return points[0], moved[0], float(span[0])
+        return None
+    before, after = (WALK_WINDOW_S, 0.0) if at_end else (0.0, WALK_WINDOW_S)
+    moved, span = velocity(times, points, before, after)
+    at = -1 if at_end else 0
+    # The velocity is the difference of two points span_s apart: its covariance is theirs over span_s squared.
+    other = np.searchsorted(times, times[at] - span[at] - 1e-9) if at_end else \
+        np.searchsorted(times, times[at] + span[at] - 1e-9)
+    other = int(np.clip(other, 0, len(times) - 1))
+    velocity_noise = (noise[at] + noise[other]) / max(float(span[at]), 1e-9) ** 2 if span[at] > 0 else \
+        np.eye(2) * WALK_SPEED_SD_M_S ** 2
+    return _Walk(points[at], noise[at], moved[at], velocity_noise, float(span[at]))
+
+
+def _mahalanobis_squared(difference: np.ndarray, covariance: np.ndarray) -> float:
+    return float(difference @ np.linalg.solve(covariance, difference))
 
 
 def rejoin_tracks(tracks: list[Track], fps: float,
@@ -62,36 +93,44 @@ def rejoin_tracks(tracks: list[Track], fps: float,
     identities: list[Track] = []
     rejoins: list[Rejoin] = []
     for track in sorted(tracks, key=lambda t: t.frames[0]):
-        start, start_walk, start_span = _walk(track, fps, at_end=False)
+        start = _walk(track, fps, at_end=False)
         best = None
         for identity in identities:
             gap_s = (track.frames[0] - identity.frames[-1]) / fps
-            if not 0 < gap_s <= within_s or not np.isfinite(start).all():
+            end = _walk(identity, fps, at_end=True)
+            if not 0 < gap_s <= within_s or start is None or end is None:
                 continue
-            end, end_walk, end_span = _walk(identity, fps, at_end=True)
-            if not np.isfinite(end).all():
-                continue
+            # Each gate is the walk's own allowance widened by how uncertain the floor points make its reading.
             # A walk read over too short a stretch is the detector's jitter as much as a heading.
-            if min(start_span, end_span) >= WALK_WINDOW_S / 2 and \
-                    np.linalg.norm(start_walk - end_walk) > HEADING_GATE_M_S:
+            turned = _mahalanobis_squared(start.velocity - end.velocity, start.velocity_noise + end.velocity_noise
+                                          + np.eye(2) * (HEADING_GATE_M_S / _SIGMAS) ** 2)
+            if min(start.span_s, end.span_s) >= WALK_WINDOW_S / 2 and turned > _SIGMAS ** 2:
                 continue
-            miss, reach = float(np.linalg.norm(start - (end + end_walk * gap_s))), handover_reach_m(gap_s)
+            miss_vector = start.point - (end.point + end.velocity * gap_s)
+            reach = handover_reach_m(gap_s)
+            spread = end.point_noise + end.velocity_noise * gap_s ** 2 + start.point_noise
+            missed = _mahalanobis_squared(miss_vector, spread + np.eye(2) * (reach / _SIGMAS) ** 2)
             unlike = 0.5 if identity.colour is None or track.colour is None else \
                 colour_distance(identity.colour, track.colour)
-            if miss > reach or unlike >= COLOUR_GATE:
+            if missed > _SIGMAS ** 2 or unlike >= COLOUR_GATE:
                 continue
-            score = miss / reach + unlike
+            miss = float(np.linalg.norm(miss_vector))
+            # The gate's reach along the miss: how far that way the start could have been and still be them.
+            reach_along = _SIGMAS * miss / np.sqrt(missed) if missed > 0 else reach
+            score = np.sqrt(missed) / _SIGMAS + unlike
             if best is None or score < best[0]:
-                best = (score, identity, Rejoin(identity.id, track.id, identity.frames[-1], gap_s, miss, reach,
-                                                unlike))
+                best = (score, identity, Rejoin(identity.id, track.id, identity.frames[-1], gap_s, miss,
+                                                float(reach_along), unlike))
         if best is None:
             identities.append(dataclasses.replace(track, frames=list(track.frames),
-                                                  detections=list(track.detections), floor=list(track.floor)))
+                                                  detections=list(track.detections), floor=list(track.floor),
+                                                  floor_noise=list(track.floor_noise)))
             continue
         _, identity, rejoin = best
         identity.frames += track.frames
         identity.detections += track.detections
         identity.floor += track.floor
+        identity.floor_noise += track.floor_noise
         identity.colour = track.colour if track.colour is not None else identity.colour
         rejoins.append(rejoin)
     return identities, rejoins

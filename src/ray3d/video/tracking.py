@@ -27,6 +27,7 @@ from ray3d.video.proposals import PersonScale
 
 _ANKLES = [H36M17.joint_names.index("l_ankle"), H36M17.joint_names.index("r_ankle")]
 _TORSO = [H36M17.joint_names.index(j) for j in ("l_shoulder", "r_shoulder", "l_hip", "r_hip")]
+_LEGS = [H36M17.joint_names.index(j) for j in ("l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")]
 _GATE = 13.8  # chi-square, 2 degrees of freedom, 99.9 %: beyond it a detection cannot be that person
 _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared standard deviations of position
 COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two detections are different people
@@ -41,13 +42,15 @@ TOGETHER_M = 1.0  # two people walking closer than this on the floor may be one 
 @dataclasses.dataclass
 class Track:
     """One person: the frame indices they were detected in, their detections there, where each put them on the
-    floor (x, y metres; NaN where the camera could not) and their clothes' colours (a hue-saturation histogram)."""
+    floor (x, y metres; NaN where the camera could not) with that point's covariance (2, 2), and their clothes'
+    colours (hue-saturation histograms of the torso and the legs)."""
 
     id: str  # the one type of a track id, from here to the world file and the events
     frames: list[int] = dataclasses.field(default_factory=list)
     detections: list[Detection] = dataclasses.field(default_factory=list)
     floor: list[np.ndarray] = dataclasses.field(default_factory=list)
     colour: np.ndarray | None = None
+    floor_noise: list[np.ndarray] = dataclasses.field(default_factory=list)
 
     def seconds(self, fps: float) -> float:
         """How long the person was followed, first to last frame."""
@@ -75,7 +78,7 @@ class _Person:
         self.box: np.ndarray | None = None  # (4,) the image box of their last detection
         self.together = False  # one detection held both them and somebody walking beside them (``_merged``)
         self.track: Track | None = None
-        self.waiting: list[tuple] = []  # (frame, detection, floor point) before the track is confirmed
+        self.waiting: list[tuple] = []  # (frame, detection, floor point, its covariance) until confirmed
 
     def predict(self, frames: int = 1) -> None:
         """The state ``frames`` frames on from the last (more than one where frames were skipped or dropped)."""
@@ -174,7 +177,7 @@ class FloorTracker:
                     matched_detections.add(i)
                     floor, noise, (colour, alone) = measured[i]
                     self._active[r].correct(floor, noise, colour if alone else None)
-                    self._record(self._active[r], frame_index, detections[i], floor)
+                    self._record(self._active[r], frame_index, detections[i], floor, noise)
         for r, person in enumerate(self._active):
             if r not in matched_people:
                 person.coast(elapsed)
@@ -188,7 +191,7 @@ class FloorTracker:
                 floor, noise, (colour, _) = measured[i]
                 person = _Person(floor, noise, colour, self.dt, self.acceleration)
                 survivors.append(person)
-                self._record(person, frame_index, detections[i], floor)
+                self._record(person, frame_index, detections[i], floor, noise)
         self._active = survivors
 
     def _merged(self, detections: list[Detection], measured: list, usable: list[int]) -> set[int]:
@@ -225,19 +228,21 @@ class FloorTracker:
         self._tracks = [track for track in self._tracks if id(track) in following]
         return done
 
-    def _record(self, person: _Person, frame_index: int, detection: Detection, floor: np.ndarray) -> None:
+    def _record(self, person: _Person, frame_index: int, detection: Detection, floor: np.ndarray,
+                noise: np.ndarray) -> None:
         person.box = detection.box
         if person.track is not None:
             person.track.frames.append(frame_index)
             person.track.detections.append(detection)
             person.track.floor.append(floor)
+            person.track.floor_noise.append(noise)
             person.track.colour = person.colour
             return
-        person.waiting.append((frame_index, detection, floor))
+        person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
-            person.track = Track(f"{self.id_prefix}{self._confirmed}", [f for f, _, _ in person.waiting],
-                                 [d for _, d, _ in person.waiting], [p for _, _, p in person.waiting],
-                                 person.colour)
+            frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
+            person.track = Track(f"{self.id_prefix}{self._confirmed}", frames, detections, floor, person.colour,
+                                 noise)
             self._confirmed += 1
             self._tracks.append(person.track)
 
@@ -264,8 +269,8 @@ class FloorTracker:
                 continue
             spread = (point[1:, :2] - point[0, :2]).T
             noise = spread @ spread.T + np.eye(2) * 0.15 ** 2  # the stride: the ankles swing about the body
-            torso = _torso_box(detection, pixels, found)
-            measured.append((point[0, :2], noise, (_clothes_colour(frame, torso), clear)))
+            measured.append((point[0, :2], noise, (_clothes_colour(frame, *_clothes_boxes(detection, pixels, found)),
+                                                   clear)))
         return measured
 
     def _foot_pixel(self, detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
@@ -288,18 +293,31 @@ def _overlap(a: np.ndarray, b: np.ndarray) -> float:
     return float(box_overlap(a[None], b[None])[0, 0])
 
 
-def _torso_box(detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
-    """(4,) the box of the shoulders and hips (where the clothes are, and not the neighbour's arm), from the
-    H36M-17 ``pixels`` (17, 2) ``seen`` (17,), or the middle of the person's box when those joints are not seen."""
-    torso = pixels[_TORSO][seen[_TORSO]]
-    if len(torso) >= 3:
-        return np.concatenate([torso.min(axis=0), torso.max(axis=0)])
+def _clothes_boxes(detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(4,) the box of the shoulders and hips and (4,) that of the hips, knees and ankles (the jacket and the
+    trousers, not the neighbour's arm), from the H36M-17 ``pixels`` (17, 2) ``seen`` (17,); where those joints are
+    not seen, the parts of the person's box they usually take."""
     x0, y0, x1, y1 = detection.box
-    return np.array([x0 + 0.2 * (x1 - x0), y0 + 0.2 * (y1 - y0), x1 - 0.2 * (x1 - x0), y0 + 0.6 * (y1 - y0)])
+    boxes = []
+    for joints, top, bottom in ((_TORSO, 0.2, 0.55), (_LEGS, 0.5, 1.0)):
+        found = pixels[joints][seen[joints]]
+        if len(found) >= 3:
+            boxes.append(np.concatenate([found.min(axis=0), found.max(axis=0)]))
+        else:
+            boxes.append(np.array([x0 + 0.2 * (x1 - x0), y0 + top * (y1 - y0), x1 - 0.2 * (x1 - x0),
+                                   y0 + bottom * (y1 - y0)]))
+    return boxes[0], boxes[1]
 
 
-def _clothes_colour(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
-    """A normalised hue-saturation histogram (8 x 4) of the frame inside a box (the torso)."""
+def _clothes_colour(frame: np.ndarray, torso: np.ndarray, legs: np.ndarray) -> np.ndarray:
+    """The clothes' colours: a hue-saturation histogram (8 x 4) of the frame inside the torso's box and one inside
+    the legs' box, each normalised, side by side and halved (one distribution: a dark jacket over jeans is told from
+    the same jacket over black trousers)."""
+    return np.concatenate([_hue_saturation(frame, torso), _hue_saturation(frame, legs)]) / 2
+
+
+def _hue_saturation(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """A normalised hue-saturation histogram (8 x 4) of the frame inside a box."""
     height, width = frame.shape[:2]
     x0, y0, x1, y1 = box
     u0, u1 = int(np.clip(x0, 0, width - 1)), int(np.clip(x1, 1, width))
