@@ -22,6 +22,7 @@ from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
 from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
+from ray3d.video.boxes import box_overlap
 from ray3d.video.tracking import _clothes_boxes, _clothes_colour, colour_distance
 
 SIZE, FPS, FRAMES = (640, 480), 20.0, 40
@@ -230,6 +231,33 @@ def test_clothes_colours_tell_jeans_from_black_trousers_under_the_same_jacket():
     # The torsos tell them apart not at all; half the histogram unlike is half the way to nothing in common.
     assert colour_distance(jeans, black) > 0.5 > 0.2 > max(colour_distance(black, dressed((35, 35, 40), 2)),
                                                            colour_distance(jeans, dressed((60, 90, 150), 3)))
+
+
+def test_a_person_keeps_their_colours_while_somebody_may_be_hidden_behind_them():
+    """A man in red stands in front of a man the detector then loses behind him; for 7 frames the red man's box
+    shows some blue (the hidden man's clothes beside his legs). His track does not learn blue from it while the
+    hidden man's last box lies under his: when the blue is gone, his colours are red as before."""
+    people = [_walker((6.0, 0.0), (0.0, 0.0), 17), _walker((8.0, 0.0), (0.0, 0.0), 17)]
+    pixels = [CAMERA.project(p) for p in people]
+    boxes = [Detection(p[0], np.ones(17), 0.9).box for p in pixels]
+    assert box_overlap(boxes[0][None], boxes[1][None])[0, 0] > 0.05  # the far man's box lies under the near one's
+
+    def dressed(t: int, blue_legs: bool) -> np.ndarray:  # his clothes where his joints are in frame t
+        torso, legs = _clothes_boxes(Detection(pixels[0][t], np.ones(17), 0.9), pixels[0][t], np.ones(17, bool))
+        frame = np.full((SIZE[1], SIZE[0], 3), 128, np.uint8)
+        for box in (torso, legs):
+            frame[int(box[1]):int(box[3]) + 1, int(box[0]):int(box[2]) + 1] = (200, 30, 40)
+        if blue_legs:
+            frame[int(legs[1]):int((legs[1] + legs[3]) / 2), int(legs[0]):int(legs[2]) + 1] = (30, 40, 200)
+        return frame
+
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.5)
+    for t in range(17):
+        seen = [0, 1] if t < 10 else [0]
+        tracker.update(t, [Detection(pixels[p][t], np.ones(17), 0.9) for p in seen], dressed(t, 10 <= t < 17))
+    (red,) = [t for t in tracker.tracks() if len(t.frames) == 17]
+    torso, legs = _clothes_boxes(Detection(pixels[0][16], np.ones(17), 0.9), pixels[0][16], np.ones(17, bool))
+    assert colour_distance(red.colour, _clothes_colour(dressed(16, False), torso, legs)) < 0.1
 
 
 def test_tracker_needs_several_hits_before_a_track_exists():

@@ -94,13 +94,14 @@ class _Person:
         covariance = self.filter.errorCovPre[:2, :2] + noise
         return float(innovation @ np.linalg.solve(covariance, innovation))
 
-    def correct(self, floor: np.ndarray, noise: np.ndarray, colour: np.ndarray | None) -> None:
-        """``colour`` None: the detection overlaps somebody else's, and its colours may be theirs."""
+    def correct(self, floor: np.ndarray, noise: np.ndarray) -> None:
         self.filter.measurementNoiseCov = noise
         self.filter.correct(floor.reshape(2, 1).astype(np.float64))
-        if colour is not None:
-            self.colour = 0.8 * self.colour + 0.2 * colour
         self.hits, self.missed = self.hits + 1, 0
+
+    def learn_colour(self, colour: np.ndarray) -> None:
+        """Their clothes seen again where nobody else's can be mixed in."""
+        self.colour = 0.8 * self.colour + 0.2 * colour
 
     def coast(self, frames: int = 1) -> None:
         """No detection for ``frames`` frames: the prediction stands."""
@@ -144,7 +145,8 @@ class FloorTracker:
         usable = [i for i, m in enumerate(measured) if m is not None]
         for person in self._active:
             person.predict(elapsed)
-        matched_people, matched_detections = set(), self._merged(detections, measured, usable)
+        matched_people: dict[int, int] = {}  # person (row) -> their detection
+        matched_detections = self._merged(detections, measured, usable)
         # A matching cascade: people seen in the last frame choose first, then those missed for one frame, and
         # so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
         # person in front, who is still being seen.
@@ -173,11 +175,18 @@ class FloorTracker:
             for a, b in zip(chosen_rows, chosen_cols):
                 if np.isfinite(cost[a, b]):
                     r, i = rows[a], cols[b]
-                    matched_people.add(r)
+                    matched_people[r] = i
                     matched_detections.add(i)
-                    floor, noise, (colour, alone) = measured[i]
-                    self._active[r].correct(floor, noise, colour if alone else None)
-                    self._record(self._active[r], frame_index, detections[i], floor, noise)
+                    self._active[r].correct(*measured[i][:2])
+        for r, i in matched_people.items():
+            floor, noise, (colour, alone) = measured[i]
+            # A box overlapping another one, or where somebody not seen now was last seen (they may be behind it),
+            # may hold their colours too.
+            hiding = any(_overlap(other.box, detections[i].box) > 0.05 for k, other in enumerate(self._active)
+                         if k not in matched_people and other.box is not None)
+            if alone and not hiding:
+                self._active[r].learn_colour(colour)
+            self._record(self._active[r], frame_index, detections[i], floor, noise)
         for r, person in enumerate(self._active):
             if r not in matched_people:
                 person.coast(elapsed)
