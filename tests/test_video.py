@@ -189,11 +189,13 @@ def test_tracker_keeps_ids_through_an_occluded_crossing_and_ends_tracks_after_th
     assert sorted(len(t.frames) for t in tracks) == [41, 60]
 
 
-def test_one_box_for_two_people_walking_together_is_given_to_neither():
-    """Two people walking side by side, 0.5 m apart, that the detector sees as one box for 6 frames: neither track
-    takes it (whichever did would carry on as the other when they part); both skip those frames and keep their
-    own person before and after. One of them alone, the other missed, is still followed."""
-    people = [_walker((7.0, -3.0), (0.0, 1.2), 50), _walker((7.0, -2.5), (0.0, 1.2), 50)]
+@pytest.mark.parametrize("second_xy", [(7.0, -2.5), (9.0, -2.0)], ids=["side by side", "2 m behind, crossing"])
+def test_one_box_for_two_people_is_given_to_neither(second_xy):
+    """Two people walking side by side, 0.5 m apart, or one 2 m behind the other and to the side, that the detector
+    sees as one box for 6 frames: neither track takes it (whichever did would carry on as the other when they
+    part); both skip those frames and keep their own person before and after. One of them alone, the other
+    missed, is still followed."""
+    people = [_walker((7.0, -3.0), (0.0, 1.2), 50), _walker(second_xy, (0.0, 1.2), 50)]
     pixels = [CAMERA.project(p) for p in people]
     tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.5)
     frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)

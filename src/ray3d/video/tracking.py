@@ -4,8 +4,8 @@ Each person is a constant-velocity Kalman filter (OpenCV's ``cv2.KalmanFilter``)
 their ankles (the camera says where that pixel's ray meets the floor); detections are assigned to people by
 the Hungarian method (scipy's ``linear_sum_assignment``) on the Mahalanobis distance of that point plus the
 colour of their clothes, so that two people crossing in the image, at different depths or in different
-clothes, keep their ids. One box for two people walking side by side (the detector merged them for a few
-frames) is given to neither: they coast until they part. A person unseen for longer than ``max_gap_s`` has left:
+clothes, keep their ids. One box for two people walking side by side or passing each other (the detector merged
+them for a few frames) is given to neither: they coast until they part. A person unseen for longer than ``max_gap_s`` has left:
 their track ends, and whoever appears later starts a new one (a track never bridges a long gap, so it never joins
 two people).
 """
@@ -36,7 +36,7 @@ COLOUR_GATE = 0.6  # Bhattacharyya distance of clothes colours beyond which two 
 # the point between their ankles by more than a stride. (Not for a person missed: at a crossing the one in front
 # would take the place of the one hidden.)
 _SAME_BOX = 0.5
-TOGETHER_M = 1.0  # two people walking closer than this on the floor may be one detection for a few frames
+TOGETHER_M = 3.0  # two people one box may hold: side by side, or one passing a few metres behind the other
 
 
 @dataclasses.dataclass
@@ -204,10 +204,11 @@ class FloorTracker:
         self._active = survivors
 
     def _merged(self, detections: list[Detection], measured: list, usable: list[int]) -> set[int]:
-        """The detections that hold two people walking together: each within the gate of two followed people who
-        were seen in the last frame (or held together since) within ``TOGETHER_M`` of each other, its box covering
-        most of both their last boxes, and no other detection near either. Given to neither (they coast until
-        they part, or for ``max_gap_s``): whichever took it would carry on as the other when they do."""
+        """The detections that hold two people walking together or passing each other: each near two followed
+        people who were seen in the last frame (or held together since) within ``TOGETHER_M`` of each other, its
+        box covering most of both their last boxes and more than either (not one person in front of another
+        hidden), and no other detection near either. Given to neither (they coast until they part, or for
+        ``max_gap_s``): whichever took it would carry on as the other when they do."""
         seen = [p for p in self._active if p.track is not None and (p.missed == 0 or p.together)]
         for person in self._active:
             person.together = False
@@ -219,8 +220,11 @@ class FloorTracker:
                 near = [i for i in usable if first.distance(*measured[i][:2]) < _GATE
                         or second.distance(*measured[i][:2]) < _GATE]
                 # Their last boxes (before the first such frame) both mostly inside it; held since, while it lasts.
-                if len(near) == 1 and all(p.missed or box_inside(p.box, detections[near[0]].box) >= 0.5
-                                          for p in (first, second)):
+                if len(near) != 1:
+                    continue
+                box = detections[near[0]].box
+                if all(p.missed or (box_inside(p.box, box) >= 0.5 and box_inside(box, p.box) < 0.8)
+                       for p in (first, second)):
                     held.add(near[0])
                     first.together = second.together = True
         return held
