@@ -97,8 +97,10 @@ def rejoin_tracks(tracks: list[Track], fps: float,
         best = None
         for identity in identities:
             gap_s = (track.frames[0] - identity.frames[-1]) / fps
+            if not 0 < gap_s <= within_s or start is None:
+                continue
             end = _walk(identity, fps, at_end=True)
-            if not 0 < gap_s <= within_s or start is None or end is None:
+            if end is None:
                 continue
             # Each gate is the walk's own allowance widened by how uncertain the floor points make its reading.
             # A walk read over too short a stretch is the detector's jitter as much as a heading.

@@ -5,9 +5,9 @@ their ankles (the camera says where that pixel's ray meets the floor); detection
 the Hungarian method (scipy's ``linear_sum_assignment``) on the Mahalanobis distance of that point plus the
 colour of their clothes, so that two people crossing in the image, at different depths or in different
 clothes, keep their ids. One box for two people walking side by side or passing each other (the detector merged
-them for a few frames) is given to neither: they coast until they part. A person unseen for longer than ``max_gap_s`` has left:
-their track ends, and whoever appears later starts a new one (a track never bridges a long gap, so it never joins
-two people).
+them for a few frames) is given to neither: they coast until they part. A person unseen for longer than
+``max_gap_s`` has left: their track ends, and whoever appears later starts a new one (a track never bridges a long
+gap, so it never joins two people).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ class _Person:
         self.filter.errorCovPost = np.diag([noise[0, 0], noise[1, 1], 2.0 ** 2, 2.0 ** 2]).astype(np.float64)
         self.colour, self.hits, self.missed = colour, 1, 0
         self.box: np.ndarray | None = None  # (4,) the image box of their last detection
-        self.together = False  # one detection held both them and somebody walking beside them (``_merged``)
+        self.together = False  # one detection held both them and somebody beside or passing them (``_merged``)
         self.track: Track | None = None
         self.waiting: list[tuple] = []  # (frame, detection, floor point, its covariance) until confirmed
 
@@ -282,8 +282,8 @@ class FloorTracker:
                 continue
             spread = (point[1:, :2] - point[0, :2]).T
             noise = spread @ spread.T + np.eye(2) * 0.15 ** 2  # the stride: the ankles swing about the body
-            measured.append((point[0, :2], noise, (_clothes_colour(frame, *_clothes_boxes(detection, pixels, found)),
-                                                   clear)))
+            colour = _clothes_colour(frame, *_clothes_boxes(detection, pixels, found))
+            measured.append((point[0, :2], noise, (colour, clear)))
         return measured
 
     def _foot_pixel(self, detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
