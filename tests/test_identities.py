@@ -78,6 +78,20 @@ def test_the_walk_reaches_as_far_as_the_floor_points_are_uncertain():
     assert len(rejoin_tracks([first, back], FPS)[0]) == 2
 
 
+def test_a_person_who_turns_back_while_hidden_is_one_identity_but_not_a_second_later():
+    """A walker at 1.2 m/s is hidden, turns round at a steady 1 m/s2 and comes out where they went in, walking back
+    (the mean of the two walks is standing still): after 2.4 s that is them; the same turn made in 0.5 s is not a
+    walk (2.4 m/s of velocity changed), whoever it is. One who slowed to a stop is found where they stopped."""
+    first = _walker("0", range(0, 30))
+    for gap_frames, joined in ((24, True), (5, False)):
+        back = _track("1", range(29 + gap_frames, 29 + gap_frames + 30), first.floor[-1], (-1.2, 0.0))
+        assert (len(rejoin_tracks([first, back], FPS)[0]) == 1) is joined
+    # Slowed from 1.2 m/s to a stop over the 2.4 s: 1.44 m on, where the walk alone would have led 2.9 m on.
+    stopped = _track("2", range(53, 83), first.floor[-1] + [1.44, 0.0], (0.0, 0.0))
+    (rejoin,) = rejoin_tracks([first, stopped], FPS)[1]
+    assert rejoin.miss_m == pytest.approx(0.0, abs=0.02)
+
+
 def test_a_crossing_pair_is_told_apart_by_their_clothes_not_by_where_they_are():
     """Two people walking side by side, 0.4 m apart, are lost together (one behind the other); after the gap each
     starts within walking reach of both. The track where the red walker's walk leads wears blue: it continues the

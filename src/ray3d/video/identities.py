@@ -3,11 +3,14 @@ longer than the tracker waits) is kept as a candidate for ``within_s`` seconds; 
 its walk would have taken it, heading the way it was, in clothes of its colours (jacket and trousers), is the same
 person: one identity, the frames between unseen.
 
-"Where its walk would have taken it" is a gate in standard deviations: the walk's own allowance
-(``fusion.tracks.handover_reach_m`` of the extrapolated place) widened by what the floor points' covariances make
-uncertain: the place where the one track ended and the other started, and the velocity read from them carried over
-the gap. A far person's floor point moves by a metre with a pixel, and their walk is read that loosely; a near
-person's is not. The heading gate is read the same way.
+"Where its walk would have taken it" is a gate in standard deviations: over the gap the person is taken to have
+walked at the mean of the two walks, the one at the end and the one at the start (a steady turn: who slowed down,
+stopped or turned back behind somebody is where that mean leads), and the gate is the walk's own allowance
+(``fusion.tracks.handover_reach_m``) widened by what the floor points' covariances make uncertain: the place where
+the one track ended and the other started, and the velocities read from them carried over the gap. A far person's
+floor point moves by a metre with a pixel, and their walk is read that loosely; a near person's is not. The heading
+gate is read the same way, and widens with the gap by what a walker can turn in that time (``TURN_M_S2``): nobody
+walks back the other way a second later, but after two or three seconds behind somebody they may.
 
 The rules hold for every pair: a track never continues one it overlaps in time (one person is never two at once),
 nor one its start is out of walking reach of, nor one whose clothes are unlike its own (two people crossing with
@@ -27,6 +30,7 @@ from ray3d.video.tracking import COLOUR_GATE, Track, colour_distance
 REJOIN_WITHIN_S = 3.0   # the longest gap across which a person is taken up again
 WALK_WINDOW_S = 1.0     # a track's walk (its velocity) at its end and start, over this much of it
 HEADING_GATE_M_S = 1.5  # two walks that differ by more (their velocities) are two people, moving
+TURN_M_S2 = 1.0         # how fast a walker changes their velocity (turns, stops, sets off): the gate widens by it
 WALK_SPEED_SD_M_S = 1.5  # how little a walk read from one point says of its velocity
 _SIGMAS = 3.03  # the gates in standard deviations: chi-square, 2 degrees of freedom, 99 %
 
@@ -82,6 +86,12 @@ def _walk(track: Track, fps: float, at_end: bool) -> _Walk | None:
     return _Walk(points[at], noise[at], moved[at], velocity_noise, float(span[at]))
 
 
+def _steady(walk: _Walk) -> bool:
+    """Whether the walk was read over enough of its track to be a walk: over less, it is the detector's jitter as
+    much as a heading."""
+    return walk.span_s >= WALK_WINDOW_S / 2
+
+
 def _mahalanobis_squared(difference: np.ndarray, covariance: np.ndarray) -> float:
     return float(difference @ np.linalg.solve(covariance, difference))
 
@@ -103,14 +113,16 @@ def rejoin_tracks(tracks: list[Track], fps: float,
             if end is None:
                 continue
             # Each gate is the walk's own allowance widened by how uncertain the floor points make its reading.
-            # A walk read over too short a stretch is the detector's jitter as much as a heading.
             turned = _mahalanobis_squared(start.velocity - end.velocity, start.velocity_noise + end.velocity_noise
-                                          + np.eye(2) * (HEADING_GATE_M_S / _SIGMAS) ** 2)
-            if min(start.span_s, end.span_s) >= WALK_WINDOW_S / 2 and turned > _SIGMAS ** 2:
+                                          + np.eye(2) * ((HEADING_GATE_M_S + TURN_M_S2 * gap_s) / _SIGMAS) ** 2)
+            if _steady(start) and _steady(end) and turned > _SIGMAS ** 2:
                 continue
-            miss_vector = start.point - (end.point + end.velocity * gap_s)
+            walks = [walk for walk in (end, start) if _steady(walk)] or [end]
+            mean_velocity = sum(walk.velocity for walk in walks) / len(walks)
+            mean_velocity_noise = sum(walk.velocity_noise for walk in walks) / len(walks) ** 2
+            miss_vector = start.point - (end.point + mean_velocity * gap_s)
             reach = handover_reach_m(gap_s)
-            spread = end.point_noise + end.velocity_noise * gap_s ** 2 + start.point_noise
+            spread = end.point_noise + mean_velocity_noise * gap_s ** 2 + start.point_noise
             missed = _mahalanobis_squared(miss_vector, spread + np.eye(2) * (reach / _SIGMAS) ** 2)
             unlike = 0.5 if identity.colour is None or track.colour is None else \
                 colour_distance(identity.colour, track.colour)
