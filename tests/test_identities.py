@@ -92,6 +92,20 @@ def test_a_person_who_turns_back_while_hidden_is_one_identity_but_not_a_second_l
     assert rejoin.miss_m == pytest.approx(0.0, abs=0.02)
 
 
+def test_a_short_track_in_the_gap_does_not_lend_the_person_its_colours():
+    """A walker seen for 3 s, then 0.3 s on a box whose colours are read half off somebody beside them, then again:
+    the short track is them (near enough in colour, on their walk), and the walker's colours stay what 3 s of
+    them showed, so the walker seen again is them, though unlike the short track's colours."""
+    walker_colour, later_colour = np.eye(32)[0] * 0.6 + np.eye(32)[1] * 0.4, np.eye(32)[0] * 0.4 + np.eye(32)[1] * 0.6
+    mixed = np.eye(32)[0] * 0.8 + np.eye(32)[2] * 0.2
+    first = _walker("0", range(0, 30), colour=walker_colour)
+    short = _walker("1", range(38, 41), colour=mixed)
+    again = _walker("2", range(48, 80), colour=later_colour)
+    identities, rejoins = rejoin_tracks([first, short, again], FPS)
+    assert [(r.identity, r.joined) for r in rejoins] == [("0", "1"), ("0", "2")] and len(identities) == 1
+    assert rejoins[1].unlike < 0.3  # against 3.3 s of the walker's colours, not 0.66 against the short track's
+
+
 def test_a_crossing_pair_is_told_apart_by_their_clothes_not_by_where_they_are():
     """Two people walking side by side, 0.4 m apart, are lost together (one behind the other); after the gap each
     starts within walking reach of both. The track where the red walker's walk leads wears blue: it continues the

@@ -12,6 +12,9 @@ floor point moves by a metre with a pixel, and their walk is read that loosely; 
 gate is read the same way, and widens with the gap by what a walker can turn in that time (``TURN_M_S2``): nobody
 walks back the other way a second later, but after two or three seconds behind somebody they may.
 
+An identity's clothes are the mean of its tracks' colours, each weighted by its frames: a short track on a box
+read half off somebody beside them does not lend the person that somebody's colours.
+
 The rules hold for every pair: a track never continues one it overlaps in time (one person is never two at once),
 nor one its start is out of walking reach of, nor one whose clothes are unlike its own (two people crossing with
 their identities swapped). Where several could continue, the likeliest (the nearest to the walk's prediction, in
@@ -145,6 +148,10 @@ def rejoin_tracks(tracks: list[Track], fps: float,
         identity.detections += track.detections
         identity.floor += track.floor
         identity.floor_noise += track.floor_noise
-        identity.colour = track.colour if track.colour is not None else identity.colour
+        if identity.colour is None or track.colour is None:
+            identity.colour = track.colour if track.colour is not None else identity.colour
+        else:
+            seen_before = len(identity.frames) - len(track.frames)
+            identity.colour = (identity.colour * seen_before + track.colour * len(track.frames)) / len(identity.frames)
         rejoins.append(rejoin)
     return identities, rejoins
