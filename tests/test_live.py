@@ -270,7 +270,9 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     people = _scene()
     facing = cameras.h36m("S9", "55011271")
     lifter = Lifter.load()
-    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", paced=True)
+    # Every frame processed (as from files read as fast as they are processed): what is tested is who is who
+    # across the cameras, not keeping up, which a loaded machine may not (then a person's frames are dropped).
+    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", waits=True)
                for c in (CAMERA, facing)]
     job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)),
               video=VideoOptions(min_track_s=0.5))
@@ -278,7 +280,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
                           [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter)
     summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
                            LiveOptions(page=False))
-    assert summary.ending == "ended" and summary.processed + summary.dropped == summary.read == 2 * len(people)
+    assert summary.ending == "ended" and summary.processed == summary.read == 2 * len(people)
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     started = {e["track"] for e in events if e["event"] == "track started"}
     assert len(started) == 2
