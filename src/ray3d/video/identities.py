@@ -120,6 +120,7 @@ def rejoin_tracks(tracks: list[Track], fps: float,
                                           + np.eye(2) * ((HEADING_GATE_M_S + TURN_M_S2 * gap_s) / _SIGMAS) ** 2)
             if _steady(start) and _steady(end) and turned > _SIGMAS ** 2:
                 continue
+            # Unseen, they walked at the mean of the two walks (a steady turn), of those read long enough to be walks.
             walks = [walk for walk in (end, start) if _steady(walk)] or [end]
             mean_velocity = sum(walk.velocity for walk in walks) / len(walks)
             mean_velocity_noise = sum(walk.velocity_noise for walk in walks) / len(walks) ** 2
@@ -148,10 +149,9 @@ def rejoin_tracks(tracks: list[Track], fps: float,
         identity.detections += track.detections
         identity.floor += track.floor
         identity.floor_noise += track.floor_noise
-        if identity.colour is None or track.colour is None:
-            identity.colour = track.colour if track.colour is not None else identity.colour
-        else:
+        if track.colour is not None:
             seen_before = len(identity.frames) - len(track.frames)
-            identity.colour = (identity.colour * seen_before + track.colour * len(track.frames)) / len(identity.frames)
+            identity.colour = track.colour if identity.colour is None else \
+                (identity.colour * seen_before + track.colour * len(track.frames)) / len(identity.frames)
         rejoins.append(rejoin)
     return identities, rejoins
