@@ -1,7 +1,7 @@
 """Who is who over short gaps: a track that ends (its person lost behind somebody, or missed by the detector for
 longer than the tracker waits) is kept as a candidate for ``within_s`` seconds; a track that starts after it, where
-its walk would have taken it, heading the way it was, in clothes of its colours (jacket and trousers), is the same
-person: one identity, the frames between unseen.
+its walk would have taken it, heading a way it could have turned to, in clothes of its colours (jacket and
+trousers), is the same person: one identity, the frames between unseen.
 
 "Where its walk would have taken it" is a gate in standard deviations: over the gap the person is taken to have
 walked at the mean of the two walks, the one at the end and the one at the start (a steady turn: who slowed down,
@@ -145,13 +145,13 @@ def rejoin_tracks(tracks: list[Track], fps: float,
                                                   floor_noise=list(track.floor_noise)))
             continue
         _, identity, rejoin = best
+        if track.colour is not None:
+            seen, now = len(identity.frames), len(track.frames)
+            identity.colour = track.colour if identity.colour is None else \
+                (identity.colour * seen + track.colour * now) / (seen + now)
         identity.frames += track.frames
         identity.detections += track.detections
         identity.floor += track.floor
         identity.floor_noise += track.floor_noise
-        if track.colour is not None:
-            seen_before = len(identity.frames) - len(track.frames)
-            identity.colour = track.colour if identity.colour is None else \
-                (identity.colour * seen_before + track.colour * len(track.frames)) / len(identity.frames)
         rejoins.append(rejoin)
     return identities, rejoins
