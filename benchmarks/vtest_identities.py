@@ -6,7 +6,7 @@ port of TrackEval).
     python benchmarks/vtest_identities.py detect VIDEO --camera CAMERA --out DETECTIONS.npz
     python benchmarks/vtest_identities.py review DETECTIONS.npz VIDEO --camera CAMERA --out DIR
     python benchmarks/vtest_identities.py annotate DIR/draft.csv --labels LABELS.json --out ANNOTATION.csv
-    python benchmarks/vtest_identities.py compare DETECTIONS.npz VIDEO --camera CAMERA \\
+    python benchmarks/vtest_identities.py compare DETECTIONS.npz VIDEO --camera CAMERA [--min-track-s 1.0] \\
         --annotation benchmarks/vtest_identities.csv --out DIR
 
 ``detect`` runs ``ray3d video``'s detector (``combined``) over the video once and keeps every detection.
@@ -36,10 +36,9 @@ from ray3d.io.camera_files import read_camera
 from ray3d.video import make_detector, read_frames, read_video_info
 from ray3d.video.detectors import Detection
 from ray3d.video.frames import camera_for_video, spread_frames
-from ray3d.video.identities import rejoin_tracks
 from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import BLAZEPOSE33
-from ray3d.video.pipeline import CONFIRM_FRAMES
+from ray3d.video.pipeline import CONFIRM_FRAMES, follow_people
 from ray3d.video.tracking import FloorTracker
 
 
@@ -71,13 +70,12 @@ def load_detections(path: Path) -> tuple[dict[int, list[Detection]], float, int]
     return by_frame, float(data["fps"]), int(data["frame_count"])
 
 
-def floor_tracks(by_frame: dict[int, list[Detection]], frame_count: int, fps: float, camera, video: Path,
-                 rejoin_s: float) -> list:
-    """``ray3d video``'s tracks of these detections: the floor tracker, then its re-joins over ``rejoin_s``."""
+def floor_tracks(by_frame: dict[int, list[Detection]], frame_count: int, fps: float, camera, video: Path) -> list:
+    """``ray3d video``'s floor tracker's tracks of these detections (before its re-joins)."""
     tracker = FloorTracker(camera, fps, BLAZEPOSE33.name, VideoOptions().max_gap_s, CONFIRM_FRAMES)
     for index, frame in read_frames(video, 0, frame_count):
         tracker.update(index, by_frame[index], frame)
-    return rejoin_tracks(tracker.tracks(), fps, rejoin_s)[0]
+    return tracker.tracks()
 
 
 def meetings(tracks, apart_frames: int = 10) -> list[tuple[int, int, str, str]]:
@@ -199,17 +197,21 @@ def write_truth(by_frame: dict[int, list[Detection]], annotation: Path, path: Pa
     path.write_text("".join(lines))
 
 
-def run_trackers(by_frame, frame_count: int, fps: float, camera, video: Path) -> dict[str, dict[int, list]]:
+def run_trackers(by_frame, frame_count: int, fps: float, camera, video: Path,
+                 min_track_s: float) -> dict[str, dict[int, list]]:
     """{tracker: {frame: [(track id, box)]}}: the floor tracker with and without its re-joins, and the
     ``trackers`` package's ByteTrack, OC-SORT and SORT at their defaults (given the video's frame rate), all on
-    the same detections (boxes of the confident joints, the landmark network's person score)."""
+    the same detections (boxes of the confident joints, the landmark network's person score); every tracker's
+    tracks followed for less than ``min_track_s`` left out, as ``ray3d video`` leaves out its own."""
     import supervision as sv
     from trackers import ByteTrackTracker, OCSORTTracker, SORTTracker
 
     results: dict[str, dict[int, list]] = {}
+    tracks = floor_tracks(by_frame, frame_count, fps, camera, video)
     for name, rejoin_s in (("floor tracker + re-join", VideoOptions().rejoin_s), ("floor tracker", 0.0)):
         found = results[name] = {}
-        for number, track in enumerate(floor_tracks(by_frame, frame_count, fps, camera, video, rejoin_s)):
+        options = VideoOptions(rejoin_s=rejoin_s, min_track_s=min_track_s)
+        for number, track in enumerate(follow_people(tracks, fps, frame_count, options).kept):
             for frame, detection in zip(track.frames, track.detections):
                 found.setdefault(frame, []).append((number + 1, detection.box))
     for name, tracker in (("ByteTrack", ByteTrackTracker(frame_rate=fps)), ("OC-SORT", OCSORTTracker(frame_rate=fps)),
@@ -222,12 +224,26 @@ def run_trackers(by_frame, frame_count: int, fps: float, camera, video: Path) ->
                                   class_id=np.zeros(len(detections), dtype=int))
             tracked = tracker.update(given)
             found[frame] = [(int(i) + 1, box) for i, box in zip(tracked.tracker_id, tracked.xyxy) if i >= 0]
+        results[name] = _without_short_tracks(found, fps, min_track_s)
     return results
 
 
-def compare(detections: Path, camera_path: Path, video: Path, annotation: Path, out: Path) -> None:
+def _without_short_tracks(found: dict[int, list], fps: float, min_track_s: float) -> dict[int, list]:
+    """A tracker's {frame: [(track id, box)]} less the tracks followed (first to last frame) for less than
+    ``min_track_s``: the rule of ``ray3d.video.pipeline.follow_people``, on a maintained tracker's tracks."""
+    frames: dict[int, list[int]] = {}
+    for frame, rows in found.items():
+        for identity, _ in rows:
+            frames.setdefault(identity, []).append(frame)
+    short = {i for i, seen in frames.items() if (max(seen) - min(seen) + 1) / fps < min_track_s}
+    return {frame: [(i, box) for i, box in rows if i not in short] for frame, rows in found.items()}
+
+
+def compare(detections: Path, camera_path: Path, video: Path, annotation: Path, out: Path,
+            min_track_s: float) -> None:
     """Each tracker scored against the annotation (IDF1, ID switches, MOTA, recall / precision, tracks per
-    annotated person), printed as a table and written to ``out``/identities.json."""
+    annotated person), its tracks shorter than ``min_track_s`` left out, printed as a table and written to
+    ``out``/identities.json."""
     from trackers.eval import evaluate_mot_sequence
 
     by_frame, fps, count = load_detections(detections)
@@ -236,7 +252,8 @@ def compare(detections: Path, camera_path: Path, video: Path, annotation: Path, 
     write_truth(by_frame, annotation, truth)
     people = {line.split(",")[1] for line in truth.read_text().splitlines() if line.split(",")[7] == "1"}
     scores = {}
-    for name, found in run_trackers(by_frame, count, fps, read_camera(camera_path), video).items():
+    for name, found in run_trackers(by_frame, count, fps, read_camera(camera_path), video,
+                                          min_track_s).items():
         path = out / (name.replace(" ", "_").replace("+", "plus") + ".txt")
         path.write_text("".join(_mot_rows(f, i, b) for f, rows in sorted(found.items()) for i, b in rows))
         result = evaluate_mot_sequence(truth, path, metrics=["CLEAR", "Identity"])
@@ -304,19 +321,23 @@ def main() -> None:
             command.add_argument(field, type=Path)
         for field in required:
             command.add_argument(f"--{field}", type=Path, required=True)
+        if name == "compare":
+            command.add_argument("--min-track-s", type=float, default=VideoOptions().min_track_s,
+                                 help="leave out every tracker's tracks followed for less (ray3d video's default; "
+                                      "0: keep all)")
     args = parser.parse_args()
     if args.command == "detect":
         detect(args.video, args.camera, args.out)
     elif args.command == "review":
         by_frame, fps, count = load_detections(args.detections)
         camera = read_camera(args.camera)
-        tracks = floor_tracks(by_frame, count, fps, camera, args.video, 0.0)
+        tracks = floor_tracks(by_frame, count, fps, camera, args.video)
         write_identities(args.out / "draft.csv", tracks)
         draw_review(tracks, args.video, args.out, fps)
     elif args.command == "annotate":
         annotate(args.draft, args.labels, args.out)
     else:
-        compare(args.detections, args.camera, args.video, args.annotation, args.out)
+        compare(args.detections, args.camera, args.video, args.annotation, args.out, args.min_track_s)
 
 
 if __name__ == "__main__":

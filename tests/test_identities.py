@@ -16,7 +16,9 @@ from ray3d import cameras
 from ray3d.io.world import LiftResult, World, read_world, write_world
 from ray3d.site import CountingLine, Site, site_events
 from ray3d.site.analytics import zone_summaries
+from ray3d.lifting.options import VideoOptions
 from ray3d.video.identities import REJOIN_WITHIN_S, rejoin_tracks
+from ray3d.video.pipeline import follow_people
 from ray3d.video.tracking import Track
 
 FPS = 10.0
@@ -104,6 +106,22 @@ def test_a_short_track_in_the_gap_does_not_lend_the_person_its_colours():
     identities, rejoins = rejoin_tracks([first, short, again], FPS)
     assert [(r.identity, r.joined) for r in rejoins] == [("0", "1"), ("0", "2")] and len(identities) == 1
     assert rejoins[1].unlike < 0.3  # against 3.3 s of the walker's colours, not 0.66 against the short track's
+
+
+def test_the_people_reported_are_the_identities_followed_long_enough_a_fragment_in_a_gap_left_out():
+    # A walker lost twice, with a 0.7 s fragment on a box read wrongly (2 m off their walk) in the first gap.
+    walker = [_walker("0", range(0, 30)), _walker("2", range(45, 80)), _walker("3", range(95, 140))]
+    fragment = _walker("1", range(33, 40), origin=(0.0, 2.0), colour=BLUE)
+    people = follow_people(walker + [fragment], FPS, 140, VideoOptions())
+    assert [t.id for t in people.kept] == ["0"] and [t.id for t in people.dropped] == ["1"]
+    assert people.kept[0].frames == list(range(0, 30)) + list(range(45, 80)) + list(range(95, 140))
+    assert [r.joined for r in people.rejoins] == ["2", "3"] and people.shortest_s == 1.0
+    # Without the re-join each piece is a person; with no minimum the fragment is one too.
+    alone = follow_people(walker + [fragment], FPS, 140, VideoOptions(rejoin_s=0.0, min_track_s=0.0))
+    assert sorted(t.id for t in alone.kept) == ["0", "1", "2", "3"] and not alone.rejoins
+    # A clip of 1.2 s keeps whoever was followed for half of it (0.6 s), not the 1 s asked.
+    short_clip = follow_people([fragment], FPS, 12, VideoOptions())
+    assert [t.id for t in short_clip.kept] == ["1"] and short_clip.shortest_s == pytest.approx(0.6)
 
 
 def test_a_crossing_pair_is_told_apart_by_their_clothes_not_by_where_they_are():

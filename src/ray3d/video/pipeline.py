@@ -24,10 +24,10 @@ from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.temporal import check_frame_rate
 from ray3d.video.boxes import outside_picture
 from ray3d.video.detectors import PoseDetector
-from ray3d.video.identities import rejoin_tracks
+from ray3d.video.identities import Rejoin, rejoin_tracks
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
 from ray3d.video.overlay import write_overlay
-from ray3d.video.tracking import FloorTracker
+from ray3d.video.tracking import FloorTracker, Track
 from ray3d.viz.html_viewer import write_viewer
 
 SHORT_CLIP_SHARE = 0.5   # a track as long as this share of the clip is kept, however short the clip
@@ -118,20 +118,39 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
         read += 1
     if read == 0:
         raise InputError(f"{info.path}: no frames could be read")
-    # A short clip keeps a person seen for half of it: one seen in every frame of a 1.7 s clip is a track.
-    shortest = min(options.min_track_s, SHORT_CLIP_SHARE * read / fps)
-    identities, rejoins = rejoin_tracks(tracker.tracks(), fps, options.rejoin_s)
-    kept, dropped, seen_for = {}, {}, {}
-    for track in identities:
-        seen_for[track.id] = seconds = track.seconds(fps)
-        if seconds < shortest:
-            dropped[track.id] = f"seen for {seconds:.2f} s (under {shortest:.2f} s)"
-        else:
-            kept[track.id] = track.as_detections()
+    people = follow_people(tracker.tracks(), fps, read, options)
+    kept = {track.id: track.as_detections() for track in people.kept}
     if not kept:
-        raise InputError(_nobody_followed(info.path, read, fps, shortest, seen_for, tracker.frames_with_people,
-                                          detector_name), arguments=("min_track_s",) if seen_for else ("detector",))
-    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path, detector_name, rejoins)
+        seen_for = {track.id: track.seconds(fps) for track in people.dropped}
+        raise InputError(_nobody_followed(info.path, read, fps, people.shortest_s, seen_for,
+                                          tracker.frames_with_people, detector_name),
+                         arguments=("min_track_s",) if seen_for else ("detector",))
+    dropped = {track.id: f"seen for {track.seconds(fps):.2f} s (under {people.shortest_s:.2f} s)"
+               for track in people.dropped}
+    return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path, detector_name, people.rejoins)
+
+
+@dataclasses.dataclass(frozen=True)
+class FollowedPeople:
+    """A tracker's tracks as the people reported: one track per identity (re-joined), those ``kept`` and those
+    ``dropped`` (followed for less than ``shortest_s``), and the re-joins made."""
+
+    kept: list[Track]
+    dropped: list[Track]
+    rejoins: list[Rejoin]
+    shortest_s: float
+
+
+def follow_people(tracks: list[Track], fps: float, frames_read: int, options: VideoOptions) -> FollowedPeople:
+    """``tracks`` (a ``FloorTracker``'s, over ``frames_read`` frames) -> the people ``ray3d video`` reports: re-joined
+    over ``options.rejoin_s``, and without those followed for less than ``options.min_track_s`` (a track that short
+    is a box on two people or on part of one as often as a person)."""
+    # A short clip keeps a person seen for half of it: one seen in every frame of a 1.7 s clip is a track.
+    shortest = min(options.min_track_s, SHORT_CLIP_SHARE * frames_read / fps)
+    identities, rejoins = rejoin_tracks(tracks, fps, options.rejoin_s)
+    kept = [track for track in identities if track.seconds(fps) >= shortest]
+    dropped = [track for track in identities if track.seconds(fps) < shortest]
+    return FollowedPeople(kept, dropped, rejoins, shortest)
 
 
 def _nobody_followed(path: Path, read: int, fps: float, shortest: float, seen_for: dict[int, float],
