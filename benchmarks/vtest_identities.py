@@ -252,8 +252,8 @@ def compare(detections: Path, camera_path: Path, video: Path, annotation: Path, 
     write_truth(by_frame, annotation, truth)
     people = {line.split(",")[1] for line in truth.read_text().splitlines() if line.split(",")[7] == "1"}
     scores = {}
-    for name, found in run_trackers(by_frame, count, fps, read_camera(camera_path), video,
-                                          min_track_s).items():
+    found_by = run_trackers(by_frame, count, fps, read_camera(camera_path), video, min_track_s)
+    for name, found in found_by.items():
         path = out / (name.replace(" ", "_").replace("+", "plus") + ".txt")
         path.write_text("".join(_mot_rows(f, i, b) for f, rows in sorted(found.items()) for i, b in rows))
         result = evaluate_mot_sequence(truth, path, metrics=["CLEAR", "Identity"])
