@@ -59,3 +59,23 @@ def test_bench_level_sets_every_figure_beside_the_guess(tmp_path):
     assert 0 <= totals["refined_within_1sd"] <= totals["refined_within_2sd"] <= 1
     files = write(tmp_path, rows)
     assert "the guess" in files[1].read_text()
+
+
+def test_bench_level_moves_the_cameras_origin_off_the_floor_and_pools_a_cameras_people(tmp_path):
+    """``floor_offset_m`` gives the lifter and the guess each camera with its z = 0 above the floor; a camera's
+    people are lifted together and the ankle plane they found is reported over the true floor."""
+    from ray3d.bench.level import run, summary, write
+    from ray3d.data.motion import MotionSet
+
+    clip = demo_clip()[:120]
+    motion = MotionSet.from_clips([clip], clip_id=["demo"], subject="s")
+    camera = [c for c in grid("level-test") if ":dist4.0:" in c.name and ":pitch07:" in c.name][0]
+    rows = run(Lifter.load(layout="coco17"), motion, clips_per_camera=4, cameras=[camera], max_frames=40,
+               floor_offset_m=0.15)
+    assert len(rows) == 4 and {r["floor_offset_m"] for r in rows} == {0.15}
+    assert len({r["ankle_plane_m"] for r in rows}) == 1  # one plane for the camera's people
+    totals = summary(rows)
+    assert totals["people_per_camera"] == 4 and totals["floor_offset_m"] == 0.15
+    # Found over the true floor, not over the given z = 0 (a detector's ankle stands 0.07-0.17 m up).
+    assert 0.0 < totals["ankle_plane_over_floor_m"] < 0.25
+    assert "0.15 m off the floor" in write(tmp_path, rows)[1].read_text()

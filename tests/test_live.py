@@ -244,11 +244,15 @@ def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answ
     assert len(world.tracks) == 2 and summary.tracks == 2
     lifter = Lifter.load()
     seen = np.array(detector.calls)  # the frames processed (the others were dropped)
+    earlier = []  # what the people who left before said of the camera's ankle plane (the file is in that order)
     for track, result in world.tracks.items():
         person = int(np.argmin(np.linalg.norm(people[result.frames[0], :, 0] - result.joints[0, 0], axis=-1)))
-        expected = lifter.lift_tracks({0: (seen, detector.pixels[seen, person])}, CAMERA, "h36m17", world.fps,
-                                      **LiftOptions().lift_arguments())[0]  # at the stream's rate (played fast)
+        offline = lifter.lift_tracks({0: (seen, detector.pixels[seen, person])}, CAMERA, "h36m17", world.fps,
+                                     seen_before=tuple(earlier), **LiftOptions().lift_arguments())
+        expected = offline[0]  # at the stream's rate (played fast)
+        earlier += [e for e in offline.evidence.values() if e is not None]
         np.testing.assert_allclose(result.joints, expected.joints, atol=2e-5)  # CSV keeps 5 decimals
+        assert result.refinement["ankle_plane"]["people"] == len(earlier)
         assert result.refinement["stature_m"] == pytest.approx(expected.refinement["stature_m"])
     assert (tmp_path / "live" / "site" / "report.html").exists()
     import csv
@@ -588,3 +592,31 @@ def test_a_webhook_that_hangs_never_holds_up_the_stream_and_closing_it_is_bounde
     assert time.monotonic() - start < 2.5  # the queue's wait plus one attempt's timeout
     assert hook.delivered == 0 and hook.failed + hook.dropped == 5 and len(lines) == 1
     server.shutdown()
+
+
+def test_each_live_camera_in_this_process_lifts_on_its_own_floor(tmp_path):
+    """Two cameras whose files state different floors: each camera's people are lifted on its own, in process as
+    on Ray (``job.lift_options(k)``), not all on the first camera's."""
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import local_inputs
+    from ray3d.lifting.lifter import Lifter
+
+    people = _scene(4)
+    facing = cameras.h36m("S9", "55011271")
+    files = []
+    for k, (camera, floor_z) in enumerate(((CAMERA, -0.2), (facing, 0.1))):
+        path = tmp_path / f"camera{k}.json"
+        path.write_text(json.dumps({**camera.to_dict(), "floor_z_m": floor_z}))
+        files.append(str(path))
+    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", waits=True)
+               for c in (CAMERA, facing)]
+    job = Job(tuple(s.name for s in sources), tuple(CameraChoice(file) for file in files))
+    inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
+                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)], Lifter.load())
+    try:
+        assert [view.finisher.lift_options.floor_z for view in inputs.followed.views] == [-0.2, 0.1]
+    finally:
+        for view in inputs.followed.views:
+            view.finisher.close()
+        for source in sources:
+            source.close()

@@ -34,6 +34,10 @@ PLANTED_ANKLE_HEIGHT_M = 0.07
 DETECTOR_JOINT_OFFSETS_M = {"hip": (0.007, 0.0, 0.065), "knee": (0.0, 0.0, 0.03), "ankle": (0.0, 0.0, 0.05)}
 # How high a detector's ankle keypoint of a planted foot stands: the rays a detector gives pass there.
 DETECTOR_PLANTED_ANKLE_HEIGHT_M = PLANTED_ANKLE_HEIGHT_M + DETECTOR_JOINT_OFFSETS_M["ankle"][2]
+# How far one detector's mid-hips stand from another's (or a skeleton's pelvis) on the floor plan, per axis:
+# BlazePose's lifted hips against real-near's triangulated OpenPose hips err 0.01-0.07 m across the ray by view
+# (docs/RESULTS.md, "Where people stand, observed").
+DETECTOR_ROOT_DEFINITION_SD_M = 0.04
 
 HEAD, PELVIS = H36M17.index("head"), H36M17.index("pelvis")
 ANKLES = (H36M17.index("l_ankle"), H36M17.index("r_ankle"))
@@ -44,6 +48,11 @@ TRUNK_CHAIN = ("thorax", "spine", "pelvis")
 LEGS = (("l_hip", "l_knee", "l_ankle"), ("r_hip", "r_knee", "r_ankle"))
 ADULT_BODY_SIZE_M = 1.36
 ADULT_BODY_SIZE_SD = 0.12    # relative
+# The size chain a detector's keypoints give an adult of the prior's size: its hips stand higher (a shorter trunk,
+# longer thighs), its knees and ankles too (shorter shins), by ``DETECTOR_JOINT_OFFSETS_M``: 1.31 m.
+_RAISED = {joint: offset[2] for joint, offset in DETECTOR_JOINT_OFFSETS_M.items()}
+DETECTOR_BODY_SIZE_M = (ADULT_BODY_SIZE_M - _RAISED["hip"] + (_RAISED["hip"] - _RAISED["knee"])
+                        + (_RAISED["knee"] - _RAISED["ankle"]))
 # An upright person's head joint stands this many times their size chain over the floor.
 HEAD_HEIGHT_OF_BODY_SIZE = AXIS_HEIGHTS["head"] * ADULT_STATURE_M / ADULT_BODY_SIZE_M
 

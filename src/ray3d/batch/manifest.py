@@ -7,7 +7,8 @@ CSV with a header row, or JSON (a list of objects, or ``{"inputs": [...]}``). Co
 - the camera: ``camera`` (a camera file or ``h36m:SUBJECT:CAMERA_ID``), or ``camera_height``, ``pitch``,
   ``roll``, ``hfov`` or ``focal``, and ``image_size`` (``WIDTHxHEIGHT``; a video's own by default);
 - the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``precision``, ``smooth_2d``,
-  ``smooth_3d``, ``flip_test``, ``refine``, ``floor`` (a floor regions file), ``frame`` (world or camera),
+  ``smooth_3d``, ``flip_test``, ``refine``, ``floor`` (a floor regions file), ``floor_z`` (where the floor lies in
+  the camera's frame; default: observed from the people), ``frame`` (world or camera),
   ``format``, ``site`` (a site file: its report in ``NAME/site``, with ``every`` (15min) and ``start_time`` its
   counts per time bucket); for keypoints ``layout``, ``fps``, ``subject``,
   ``action`` and ``camera_index``; for videos ``detector``, ``fps``, ``start``, ``frames``, ``max_gap``,
@@ -91,7 +92,7 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
     "checkpoint": (_text, _BOTH), "precision": (_choice(PRECISIONS), _BOTH),
     "smooth_2d": (_choice(SMOOTHING_METHODS), _BOTH),
     "smooth_3d": (_choice(SMOOTHERS), _BOTH), "flip_test": (_flag, _BOTH),
-    "refine": (_flag, _BOTH), "format": (_choice(WRITTEN_FORMATS), _BOTH),
+    "refine": (_flag, _BOTH), "floor_z": (_number, _BOTH), "format": (_choice(WRITTEN_FORMATS), _BOTH),
     "floor": (_text, _BOTH), "frame": (_choice(tuple(FRAME_AXES)), _BOTH), "site": (_text, _BOTH),
     "every": (parse_duration, _BOTH), "start_time": (_wall_clock, _BOTH),
     "fps": (_number, _BOTH), "layout": (_text, ("keypoints",)), "subject": (_text, ("keypoints",)),
@@ -102,7 +103,7 @@ COLUMNS: dict[str, tuple[Any, tuple[str, ...]]] = {
 }
 CAMERA_COLUMNS = {"camera": "file", "camera_height": "camera_height", "pitch": "pitch", "roll": "roll",
                   "hfov": "hfov", "focal": "focal", "image_size": "image_size"}  # column -> CameraChoice field
-LIFT_COLUMNS = ("smooth_2d", "smooth_3d", "flip_test", "refine", "frame")
+LIFT_COLUMNS = ("smooth_2d", "smooth_3d", "flip_test", "refine", "frame", "floor_z")
 PATH_COLUMNS = ("floor", "site")  # relative to the manifest's folder
 _CHECK_IMAGE_SIZE = (1920, 1080)  # a video's camera is checked with this size before the video's own is read
 VIDEO_COLUMNS = {"fps": "fps", "start": "start", "frames": "frames", "max_gap_s": "max_gap", "min_track_s": "min_track",

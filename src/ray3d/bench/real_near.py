@@ -69,8 +69,9 @@ def _on_the_man(frames: np.ndarray, pixels: np.ndarray, truth_pixels: np.ndarray
 
 
 def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
-                 lifter: Lifter) -> tuple[dict, World | None]:
-    """One view's row (see the module's description), and the man as that view lifts him (None if not found)."""
+                 lifter: Lifter) -> tuple[dict, World | None, tuple | None]:
+    """One view's row (see the module's description), the man as that view lifts him, and his detections as
+    ``Lifter.lift_cameras`` takes them with their layout and rate (None, None if he was not found)."""
     from ray3d.jobs import CameraChoice, Job, video_input
     from ray3d.video import track_video
 
@@ -82,13 +83,13 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
         people = track_video(info, camera, chosen, VideoOptions(), progress=False)
     except InputError as err:
         return {**row, "refused": err.message,
-                "ms_per_frame": 1e3 * (time.perf_counter() - started) / info.frames}, None
+                "ms_per_frame": 1e3 * (time.perf_counter() - started) / info.frames}, None, None
     row["ms_per_frame"] = 1e3 * (time.perf_counter() - started) / people.frames_read
     converted = {t: (d.frames, _h36m_pixels(d.pixels, d.confidences, people.layout)) for t, d in people.tracks.items()}
     his = {t: c for t, c in converted.items() if _on_the_man(c[0], c[1], truth_pixels)}
     row["tracks"], row["tracks_on_the_man"] = len(people.tracks), len(his)
     if not his:
-        return {**row, "frames_detected": 0}, None
+        return {**row, "frames_detected": 0}, None, None
     frames = np.concatenate([f for f, _ in his.values()])
     errors = np.concatenate([np.linalg.norm(p[:, _SCORED] - truth_pixels[f][:, _SCORED], axis=-1).ravel()
                              for f, p in his.values()])
@@ -100,6 +101,11 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
     row.update(_errors(lifted, truth))
     in_sds = metrics.root_error_in_sds(lifted.joints, truth[lifted.frames], lifted.position_sd, camera)
     row["within_1sd"], row["within_2sd"] = float(np.mean(in_sds[:, 0] <= 1)), float(np.mean(in_sds[:, 0] <= 2))
+    row["across_within_1sd"], row["across_within_2sd"] = (float(np.mean(in_sds[:, 1] <= 1)),
+                                                          float(np.mean(in_sds[:, 1] <= 2)))
+    plane = lifted.refinement["ankle_plane"] if lifted.refinement else None
+    if plane:
+        row["floor_z_found_m"], row["floor_z_sd_m"] = plane["floor_z_m"], plane["sd_m"]
     frames_seen, pixels_seen = his[longest]
     guess = floor_guess(pixels_seen, camera)
     true_pelvis = truth[frames_seen, 0]
@@ -109,7 +115,8 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
     if row["guess_floor_error_m"]:
         row["pelvis_over_guess"] = row["pelvis_floor_error_m"] / row["guess_floor_error_m"]
     row["model"] = lifter.name
-    return row, World({video.stem: lifted}, camera, lifter.name)
+    return row, World({video.stem: lifted}, camera, lifter.name), (({video.stem: people.tracks[longest]}, camera),
+                                                                   people.layout, people.fps)
 
 
 def _errors(lifted: LiftResult, truth: np.ndarray) -> dict:
@@ -119,32 +126,49 @@ def _errors(lifted: LiftResult, truth: np.ndarray) -> dict:
             "pelvis_floor_error_m": float(np.median(np.linalg.norm(predicted[:, 0, :2] - true[:, 0, :2], axis=-1)))}
 
 
-def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, ...] = VIEWS) -> list[dict]:
+def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, ...] = VIEWS,
+        floor_offset_m: float = 0.0) -> list[dict]:
     """A row per view and, where two or more views found the man, one for the views fused (``ray3d.fusion``,
-    the videos being in step: offsets 0)."""
-    from ray3d.jobs import fuse_and_write
+    the videos being in step: offsets 0). ``floor_offset_m``: every camera given with its z = 0 this far above
+    the floor (``Camera.with_origin_at_height``; the truth moved into its frame), as a calibration made on a
+    board on a table would be. A last row lifts the views together on one floor (``Lifter.lift_cameras``)."""
 
     data_dir = Path(data_dir)
     for needed in (CALIBRATION, TRUTH):
         if not (data_dir / needed).is_file():
             raise InputError(f"{data_dir}: no {needed}: not the real-near recording", arguments=("data_dir",))
-    truth = read_truth(data_dir / TRUTH)
-    measured = [measure_view(data_dir / f"{view}.mp4", read_calibration_toml(data_dir / CALIBRATION, view), truth,
-                             detector, lifter) for view in views]
-    rows, worlds = [row for row, _ in measured], [world for _, world in measured if world is not None]
+    truth = read_truth(data_dir / TRUTH) - [0.0, 0.0, floor_offset_m]
+    measured = [measure_view(data_dir / f"{view}.mp4", read_calibration_toml(data_dir / CALIBRATION, view)
+                             .with_origin_at_height(floor_offset_m), truth, detector, lifter) for view in views]
+    for row, *_ in measured:
+        row["floor_offset_m"] = floor_offset_m
+    rows, worlds = [row for row, *_ in measured], [world for _, world, _ in measured if world is not None]
     if len(worlds) >= 2:
-        fusion = fuse_and_write(worlds)
-        fused = max(fusion.world.tracks.values(), key=lambda track: len(track.frames))
-        rows.append({"view": f"fused ({len(worlds)} views)", "detector": detector,
-                     "tracks_on_the_man": len(fusion.world.tracks), "frames_detected": int(len(fused.frames)),
-                     **_errors(fused, truth), "model": lifter.name,
-                     "agreement": fusion.agreement})
+        rows.append(_fused_row(f"fused ({len(worlds)} views)", worlds, truth, detector, lifter))
+        seen = {k: view for k, (_, _, view) in enumerate(measured) if view is not None}
+        pooled = lifter.lift_cameras({k: view[0] for k, view in seen.items()}, {k: v[1] for k, v in seen.items()},
+                                     {k: v[2] for k, v in seen.items()}, **LiftOptions().lift_arguments())
+        one_floor = [World(pooled[k], view[0][1], lifter.name) for k, view in seen.items()
+                     if not isinstance(pooled[k], InputError)]
+        plane = next(iter(pooled.values())).ankle_plane
+        rows.append({**_fused_row(f"fused ({len(one_floor)} views, one floor)", one_floor, truth, detector, lifter),
+                     "floor_offset_m": floor_offset_m, "floor_z_found_m": plane.floor_z_m, "floor_z_sd_m": plane.sd_m})
     return rows
+
+
+def _fused_row(name: str, worlds: list[World], truth: np.ndarray, detector: str, lifter: Lifter) -> dict:
+    from ray3d.jobs import fuse_and_write
+
+    fusion = fuse_and_write(worlds)
+    fused = max(fusion.world.tracks.values(), key=lambda track: len(track.frames))
+    return {"view": name, "detector": detector, "tracks_on_the_man": len(fusion.world.tracks),
+            "frames_detected": int(len(fused.frames)), **_errors(fused, truth), "model": lifter.name,
+            "agreement": fusion.agreement}
 
 
 COLUMNS = ("view", "detector", "tracks_on_the_man", "frames_detected", "median_2d_error_px", "ms_per_frame",
            "abs_mpjpe_mm", "pelvis_floor_error_m", "guess_floor_error_m", "pelvis_over_guess", "within_1sd",
-           "within_2sd")
+           "within_2sd", "across_within_1sd", "across_within_2sd", "floor_offset_m", "floor_z_found_m", "floor_z_sd_m")
 
 
 def write(out_dir: str | Path, rows: list[dict]) -> list[Path]:

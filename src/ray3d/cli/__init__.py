@@ -20,7 +20,8 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "pitch": "--pitch", "roll": "--roll", "image_size": "--image-size", "hfov": "--hfov", "focal": "--focal",
          "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d", "source": "SOURCE", "token": "--token",
          "port": "--port", "page": "--no-page", "offsets": "--offsets", "cameras": "WORLDS", "format": "--format",
-         "frame_stride": "--frame-stride", "clips_per_camera": "--clips-per-camera", "max_frames": "--max-frames"}
+         "frame_stride": "--frame-stride", "clips_per_camera": "--clips-per-camera", "max_frames": "--max-frames",
+         "floor_offset": "--floor-offset", "camera_step": "--camera-step", "floor_z": "--floor-z"}
 
 
 def main(argv: list[str] | None = None) -> int:

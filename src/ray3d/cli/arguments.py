@@ -53,6 +53,9 @@ def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTP
     parser.add_argument("--floor", help="a JSON file declaring floor regions (floor_regions: stages, platforms, "
                         "ramps; docs/floor.md) the refinement rests the feet on (default: the camera file's own, "
                         "else the plain floor z = 0)")
+    parser.add_argument("--floor-z", type=float, metavar="M",
+                        help="where the floor people stand on lies in the camera's frame, metres (0: at its z = 0; "
+                             "default: the camera file's floor_z_m, else observed from the people in view)")
     parser.add_argument("--frame", choices=["world", "camera"], default="world",
                         help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
                              "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
@@ -103,7 +106,8 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
         args.fps, getattr(args, "start", 0), getattr(args, "frames", None), args.max_gap, args.min_track,
         getattr(args, "rejoin", 3.0))
     return Job(tuple(inputs), cameras, args.checkpoint, args.precision,
-               LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame),
+               LiftOptions(args.smooth_2d, args.smooth_3d, args.flip_test, not args.no_refine, args.frame,
+                           floor_z=getattr(args, "floor_z", None)),
                args.floor, layout=getattr(args, "layout", None), fps=args.fps if keypoints else None,
                read_options={k: getattr(args, k) for k in ("subject", "action", "camera_index")
                              if getattr(args, k, None) is not None},

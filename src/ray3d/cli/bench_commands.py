@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
+
 from ray3d.cli.commands import write_json
 from ray3d.errors import InputError
 
@@ -79,8 +81,14 @@ def real_near(args: argparse.Namespace) -> int:
     from ray3d.bench.real_near import VIEWS, run, write
     from ray3d.lifting.lifter import Lifter
 
+    _check_floor_offset(args.floor_offset)
     return _show(write(args.out, run(args.data, args.detector, Lifter.load(args.checkpoint),
-                                     tuple(args.views or VIEWS))))
+                                     tuple(args.views or VIEWS), args.floor_offset)))
+
+
+def _check_floor_offset(offset: float) -> None:
+    if not np.isfinite(offset) or abs(offset) > 1.0:
+        raise InputError(f"bench: the floor offset must be within +/- 1 m, got {offset}", arguments=("floor_offset",))
 
 
 def level(args: argparse.Namespace) -> int:
@@ -88,11 +96,14 @@ def level(args: argparse.Namespace) -> int:
     from ray3d.data import motion as motion_data
     from ray3d.lifting.lifter import Lifter
 
-    if args.clips_per_camera < 1 or args.max_frames < 1:
-        raise InputError("bench level: clips per camera and frames must be at least 1",
-                         arguments=("clips_per_camera", "max_frames"))
+    from ray3d.data.virtual_cameras import grid
+
+    if args.clips_per_camera < 1 or args.max_frames < 1 or args.camera_step < 1:
+        raise InputError("bench level: clips per camera, frames and the camera step must be at least 1",
+                         arguments=("clips_per_camera", "max_frames", "camera_step"))
+    _check_floor_offset(args.floor_offset)
     rows = run(Lifter.load(args.checkpoint), motion_data.load_shipped(args.data_dir, "test"), args.clips_per_camera,
-               args.seed, args.max_frames)
+               args.seed, args.max_frames, grid("level-test")[::args.camera_step], args.floor_offset, args.floor_z)
     return _show(write(args.out, rows))
 
 

@@ -285,10 +285,20 @@ def lift(args: argparse.Namespace) -> int:
     return 0
 
 
+def print_ankle_plane(tracks: dict, camera=None) -> None:
+    """One line on stderr: where the tracks' ankles were found to meet the camera's floor, and what was applied."""
+    from ray3d.refine import AnklePlane
+
+    planes = [r.refinement["ankle_plane"] for r in tracks.values() if r.refinement and "ankle_plane" in r.refinement]
+    if planes:
+        print(f"note: {AnklePlane.from_summary(planes[0]).message(getattr(camera, 'name', ''))}", file=sys.stderr)
+
+
 def print_refinements(tracks: dict, camera=None) -> None:
     """Each track's refinement, and after the work (a refusal stays one line) what is implausible of them and the camera."""
     for doubt in () if camera is None else camera.doubts()[1]:
         print(f"warning: {doubt}", file=sys.stderr)
+    print_ankle_plane(tracks, camera)
     for track, result in tracks.items():
         if result.refinement:
             r = result.refinement

@@ -67,17 +67,18 @@ def lift_several(args: argparse.Namespace) -> int:
     as one camera's, then one fused world in --out (.json)."""
     from ray3d.cli.arguments import job_from_args
     from ray3d.errors import InputError
-    from ray3d.jobs import fuse_and_write, run_input
+    from ray3d.cli.commands import print_ankle_plane
+    from ray3d.jobs import fuse_and_write, lift_cameras_together
 
     job = job_from_args(args, args.keypoints, "keypoint files", "file")
     if args.out.suffix.lower() != ".json":
         raise InputError(f"{args.out}: several cameras' people are fused into a .json world file", ("out",))
     refuse_existing(check_output(args.out, (*args.keypoints, *(c.file for c in job.cameras))), args.force)
     worlds = []
-    for k, path in enumerate(job.inputs):
-        lifted = run_input(job, k, None)
+    for k, (path, lifted) in enumerate(zip(job.inputs, lift_cameras_together(job))):
         print(f"{path}: {len(lifted.world.tracks)} track(s) through camera {lifted.camera.name or job.cameras[k].file}")
         worlds.append(lifted.world)
+    print_ankle_plane(worlds[0].tracks)
     fusion = fuse_and_write(worlds, args.out, find_offsets=job.find_offsets, overwrite=args.force)
     print_fusion(fusion, [str(path) for path in args.keypoints])
     print(f"{len(fusion.world.tracks)} people from {len(worlds)} cameras -> {args.out}")

@@ -313,6 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
     near.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     near.add_argument("--checkpoint", default=DETECTOR_MODEL, help=f"the model that lifts (default {DETECTOR_MODEL})")
     near.add_argument("--views", nargs="+", help="which cameras (default: cam01 cam02 cam03 cam04)")
+    near.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
+                      help="give each camera with its z = 0 this far above the floor (a calibration board on a "
+                           "table; negative: below), default 0")
     near.set_defaults(handler=bench_handlers.real_near)
     level = bench_commands.add_parser("level", help="low, nearly level cameras (the level-test set) through an "
                                       "emulated detector with real detectors' joint offsets, beside the floor guess")
@@ -321,6 +324,12 @@ def build_parser() -> argparse.ArgumentParser:
     level.add_argument("--clips-per-camera", type=int, default=1, help="test clips per camera (default 1)")
     level.add_argument("--max-frames", type=int, default=300, help="frames of each clip, at 30 frames/s (default 300)")
     level.add_argument("--seed", type=int, default=0)
+    level.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
+                       help="give the lifter and the guess each camera with its z = 0 this far above the floor (a "
+                            "calibration board on a table; negative: below), default 0")
+    level.add_argument("--camera-step", type=int, default=1, metavar="N", help="every Nth camera of the set (default 1)")
+    level.add_argument("--floor-z", type=float, metavar="M", help="tell the lifter the floor lies here in the given "
+                       "camera's frame (0: its z = 0 assumed to be the floor; default: observed from the people)")
     add_data_dir(level)
     level.set_defaults(handler=bench_handlers.level)
     speed_bench = bench_commands.add_parser("speed", help="inference and training speed of every model preset")

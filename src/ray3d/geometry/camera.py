@@ -336,6 +336,12 @@ class Camera:
         width, height = self.image_size
         return bool(np.all(np.isfinite(pixels)) and np.all((pixels >= 0) & (pixels <= [width - 1, height - 1])))
 
+    def with_origin_at_height(self, height_m: float) -> Camera:
+        """This camera in the world frame whose z = 0 lies ``height_m`` above this one's (x and y unchanged, every
+        z smaller by ``height_m``): ``t + height_m R e_z``. A calibration made on a board on a table is the floor's
+        camera with its origin raised; ``with_origin_at_height(floor_z)`` puts z = 0 back on a floor at ``floor_z``."""
+        return dataclasses.replace(self, t=self.t + float(height_m) * self.R[:, 2])
+
     def in_floor_frame(self) -> Camera:
         """This camera, with its view, in the world frame of the floor below it, looking along +x (the frame of
         :meth:`from_height_pitch`, and the only one a camera estimated from a person can define)."""

@@ -136,6 +136,11 @@ class Floor:
         gradient = np.stack([heights[..., 0] - heights[..., 1], heights[..., 2] - heights[..., 3]], axis=-1) / length
         return heights.mean(axis=-1), gradient
 
+    def lowered(self, depth_m: float) -> Floor:
+        """This floor in the frame whose z = 0 lies ``depth_m`` above this one's (every region ``depth_m`` lower;
+        outside them the plain floor stays at z = 0 of the new frame)."""
+        return Floor(tuple(dataclasses.replace(r, height_m=r.height_m - depth_m) for r in self.regions))
+
     def to_dict(self) -> dict:
         return {"regions": [{"name": r.name, "polygon": r.polygon.round(4).tolist(),
                              "vertex_heights_m": np.round(r.plane_height(r.polygon), 4).tolist()}

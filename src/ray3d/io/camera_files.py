@@ -309,3 +309,22 @@ def floor_of_camera_file(camera: str | Path | None) -> Floor:
         return FLAT_FLOOR
     document = read_json(Path(camera))
     return read_floor(camera) if isinstance(document, dict) and FLOOR_KEY in document else FLAT_FLOOR
+
+
+FLOOR_Z_KEY = "floor_z_m"
+
+
+def floor_z_of_camera_file(camera: str | Path | None) -> float | None:
+    """Where a camera file of ours says the floor people stand on lies in its frame (``"floor_z_m"``: a
+    calibration whose z = 0 is a board on a table says -0.75), None when it does not say (then it is observed
+    from the people: ``ray3d.refine.ankle_plane``)."""
+    if camera is None or not str(camera).lower().endswith(".json") or not Path(camera).is_file():
+        return None
+    document = read_json(Path(camera))
+    if not isinstance(document, dict) or FLOOR_Z_KEY not in document:
+        return None
+    value = document[FLOOR_Z_KEY]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or abs(value) > 5:
+        raise InputError(f"{camera}: {FLOOR_Z_KEY}: expected the floor's height in the camera's frame, metres within "
+                         f"+/- 5; got {value!r}")
+    return float(value)

@@ -10,7 +10,7 @@ from typing import Any
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.io.camera_files import camera_from_options, floor_of_camera_file, read_floor
+from ray3d.io.camera_files import camera_from_options, floor_of_camera_file, floor_z_of_camera_file, read_floor
 from ray3d.io.world import WRITTEN_FORMATS
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.models.precision import check_precision
@@ -91,11 +91,12 @@ class Job:
     def lift_options(self, k: int) -> LiftOptions:
         """Input ``k``'s lifting options, with the floor it rests on."""
         floor = read_floor(self.floor_file) if self.floor_file else floor_of_camera_file(self.cameras[k].file)
-        return dataclasses.replace(self.lift, floor=floor)
+        floor_z = self.lift.floor_z if self.lift.floor_z is not None else floor_z_of_camera_file(self.cameras[k].file)
+        return dataclasses.replace(self.lift, floor=floor, floor_z=floor_z)
 
     def lifter(self, layout: str | None = None, keypoints_path: str | Path | None = None):
         """The ``Lifter`` for keypoints of ``layout`` (``lifting.lifter.chosen_lifter``; None: the lifting chooses
         the shipped model for the input's layout itself)."""
-        from ray3d.lifting.lifter import chosen_lifter
+        from ray3d.lifting.files import chosen_lifter
 
         return chosen_lifter(self.checkpoint, self.precision, layout, keypoints_path)

@@ -53,7 +53,7 @@ def camera_and_detector(job: Job, k: int, info, live: bool = False):
 def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -> InputResult:
     """Input ``k`` lifted as one camera's: a video into the folder ``out`` (world, detections, viewer, overlay), a
     keypoint file into the world file ``out`` (None: lifted, not written)."""
-    from ray3d.lifting.lifter import lift_file
+    from ray3d.lifting.files import lift_file
 
     if job.kind == "video":
         from ray3d.video import lift_video
@@ -70,6 +70,35 @@ def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -
     files = {"world": written[0]} if len(written) == 1 else {f"world {path.stem}": path for path in written}
     frames = len({int(f) for result in world.tracks.values() for f in result.frames})
     return InputResult(world.in_frame("world"), camera, frames, files, keypoints=keypoints)
+
+
+def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
+    """Every keypoint file of a several-camera job lifted as one site's cameras (``Lifter.lift_cameras``): one
+    world frame, one floor, where people's ankles meet it observed from every camera's people together. Not
+    written; fuse them with ``fuse_and_write``."""
+    from ray3d.errors import InputError
+    from ray3d.io.keypoints import read_keypoints
+    from ray3d.lifting.lifter import Lifter
+
+    files = [read_keypoints(path, job.layout, job.fps, **job.read_options) for path in job.inputs]
+    cameras = [choice.camera() for choice in job.cameras]
+    layouts = {k: keypoints.layout for k, keypoints in enumerate(files)}
+    if len(set(layouts.values())) > 1 and job.checkpoint is None:
+        lifter = Lifter.load(layout=files[0].layout)  # the shipped model reads every detector's layout
+    else:
+        lifter = job.lifter(files[0].layout, job.inputs[0]) or Lifter.load(layout=files[0].layout)
+    lifted = lifter.lift_cameras({k: (keypoints.by_track(), camera) for k, (keypoints, camera)
+                                  in enumerate(zip(files, cameras))}, layouts,
+                                 {k: keypoints.fps for k, keypoints in enumerate(files)}, progress,
+                                 **job.lift_options(0).lift_arguments())
+    results = []
+    for k, (path, keypoints, camera) in enumerate(zip(job.inputs, files, cameras)):
+        if isinstance(lifted[k], InputError):
+            raise InputError(f"{path}: {lifted[k].message}", lifted[k].arguments)
+        world = World(lifted[k], camera, lifter.name, unliftable=lifted[k].unliftable)
+        frames = len({int(f) for result in world.tracks.values() for f in result.frames})
+        results.append(InputResult(world, camera, frames, {}, keypoints=keypoints))
+    return results
 
 
 def fuse_and_write(worlds: list[World], world_path: str | Path | None = None, offsets_s: list[float] | None = None,

@@ -1,15 +1,21 @@
 """What a model reads from users' keypoints: the checks that refuse keypoints no camera could have seen (normalised
 coordinates, points off the image, feet above the horizon), the shapes checked, stand-ins for joints never seen,
-and the confidences in the model's input layout. Used by ``Lifter.lift`` and ``LiftStream`` alike."""
+and the confidences in the model's input layout. Used by ``Lifter.lift`` and ``LiftStream`` alike; and a track made
+ready to lift (``prepare_track``)."""
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
+
 import numpy as np
 
+from ray3d import temporal
 from ray3d.body import ANKLES
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.skeleton import Skeleton, convert_confidences
+from ray3d.refine import joint_directions
+from ray3d.skeleton import Skeleton, convert_confidences, convert_keypoints, layout_skeleton
 
 MODEL_FPS = 60.0  # the frame rate of the motion the shipped models were trained on
 
@@ -87,3 +93,52 @@ def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np
     seen = np.isfinite(keypoints).all(-1)
     scores = np.ones(seen.shape) if confidences is None else np.clip(np.nan_to_num(confidences), 0.0, 1.0)
     return convert_confidences(np.where(seen, scores, 0.0), skeleton, inputs)
+
+
+@dataclasses.dataclass(frozen=True)
+class PreparedTrack:
+    """One track made ready to lift: the model's input pixels (T, J, 2) and confidences (T, J) at the input's
+    ``fps`` (gaps filled), its keypoints' ``skeleton``, the (T, 17) H36M-17 joints it did not see, and the
+    (T, 17, 3) world directions of the joints' observed rays."""
+
+    pixels: np.ndarray
+    scores: np.ndarray
+    fps: float
+    skeleton: Skeleton
+    missing: np.ndarray
+    rays: np.ndarray
+
+    @property
+    def observed(self) -> np.ndarray:
+        return temporal.seen_frames(self.missing)
+
+    @property
+    def feet_seen(self) -> np.ndarray:
+        return ~self.missing[:, list(ANKLES)].all(axis=1)
+
+
+def prepare_track(keypoints: np.ndarray, camera: Camera, confidences, fps: float | None, layout: str,
+                  smooth_2d: str | None, model_skeleton: Callable[[Skeleton], Skeleton]) -> PreparedTrack:
+    """One track's (T, J, 2) keypoints of ``layout`` checked and made the input of a model reading the joints
+    ``model_skeleton(skeleton)`` gives (at the input's rate), and the refinement's rays."""
+    if fps is not None:
+        temporal.check_frame_rate(fps, "lift")
+    skeleton = layout_skeleton(layout)
+    keypoints, confidences = checked_keypoints(keypoints, confidences, skeleton, ("frames",))
+    if len(keypoints) == 0:
+        raise InputError("keypoints: no frames")
+    check_in_image(keypoints, camera)
+    h36m_pixels, h36m_found = convert_keypoints(keypoints, skeleton, confidences)
+    check_feet_below_horizon(h36m_pixels, h36m_found, camera)
+    inputs = model_skeleton(skeleton)
+    pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
+    scores = model_confidences(keypoints, skeleton, confidences, inputs)
+    never_seen = ~found.any(axis=0)
+    if never_seen[0]:
+        raise InputError(f"keypoints: the root ({inputs.joint_names[0]}, or both hips) is missing in every frame "
+                         "(NaN or confidence 0): there is nothing to place the person by")
+    input_fps = fps or MODEL_FPS
+    seen_pixels = temporal.fill_missing(pixels, ~found)
+    pixels = temporal.smooth(stand_in_for_unseen(seen_pixels, never_seen, inputs), smooth_2d, input_fps)
+    measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement
+    return PreparedTrack(pixels, scores, input_fps, skeleton, ~h36m_found, joint_directions(camera, measured, inputs))

@@ -10,41 +10,33 @@ from __future__ import annotations
 
 import dataclasses
 import threading
-from pathlib import Path
 
 import numpy as np
 import torch
 from tqdm import tqdm
 
 from ray3d import temporal
-from ray3d.body import ANKLES
 from ray3d.checkpoints import default_model, load_model
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
-from ray3d.io.keypoints import Keypoints, TrackDetections, read_keypoints
+from ray3d.io.keypoints import Keypoints, TrackDetections
 from ray3d.io.world import LiftResult, World
 from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.precision import check_precision, with_precision
 from ray3d.models.tensor_batch import TensorBatch
 from ray3d.lifting.options import LiftOptions
-from ray3d.refine import RefineConfig, joint_directions, network_position_sd, refine_track
-from ray3d.lifting.inputs import (MODEL_FPS, check_feet_below_horizon, check_in_image, checked_keypoints,
-                                 model_confidences, stand_in_for_unseen)
+from ray3d.refine import (AnklePlane, RefineConfig, given_ankle_plane, network_position_sd, observe_ankle_plane,
+                          on_observed_rays, refine_track, size_evidence)
+from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, prepare_track
 from ray3d.lifting.stream import LiftStream
-from ray3d.skeleton import Skeleton, conversion_matrix, convert_keypoints, layout_skeleton
+from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, progress_labels
+from ray3d.skeleton import H36M17, Skeleton, conversion_matrix
 
 SMALL_BATCHES_BEFORE_TRACING = 3
 
 
-class LiftedTracks(dict):
-    """{track id: LiftResult} of the tracks lifted, and ``unliftable``: {track id: why} of those that could not
-    be."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.unliftable: dict = {}
 
 
 class Lifter:
@@ -106,7 +98,7 @@ class Lifter:
     def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
              smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
              chunk: int = 8192, refine: bool | RefineConfig = True, progress: bool | str = False,
-             floor: Floor = FLAT_FLOOR) -> LiftResult | list[LiftResult]:
+             floor: Floor = FLAT_FLOOR, floor_z: float | None = None) -> LiftResult | list[LiftResult]:
         """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
 
         Args:
@@ -115,50 +107,125 @@ class Lifter:
             smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
             refine: move the person along their rays so the feet rest on the ``floor``, one body size (``ray3d.refine``;
                 a ``RefineConfig`` sets its uncertainties); False keeps the network's (either has its uncertainty).
+            floor_z: where the floor people stand on lies in the camera's frame (0: at its z = 0); None observes
+                it from the person (``ray3d.refine.ankle_plane``; ``lift_tracks`` observes it from everybody).
+                The result's ``ankle_plane`` says what was found and applied.
             progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
         """
-        if fps is not None:
-            temporal.check_frame_rate(fps, "lift")
         keypoints = np.asarray(keypoints, dtype=np.float64)
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences
             return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress,
-                              floor) for k, c in zip(keypoints, scores)]
-        skeleton = layout_skeleton(layout)
-        keypoints, confidences = checked_keypoints(keypoints, confidences, skeleton, ("frames",))
-        if len(keypoints) == 0:
-            raise InputError("keypoints: no frames")
-        check_in_image(keypoints, camera)
-        h36m_pixels, h36m_found = convert_keypoints(keypoints, skeleton, confidences)
-        check_feet_below_horizon(h36m_pixels, h36m_found, camera)
-        inputs = self._input_skeleton(skeleton)
-        pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
-        scores = model_confidences(keypoints, skeleton, confidences, inputs)
-        never_seen = ~found.any(axis=0)
-        if never_seen[0]:
-            raise InputError(f"keypoints: the root ({inputs.joint_names[0]}, or both hips) is missing in every frame "
-                             "(NaN or confidence 0): there is nothing to place the person by")
-        input_fps = fps or MODEL_FPS
-        seen_pixels = temporal.fill_missing(pixels, ~found)
-        pixels = temporal.smooth(stand_in_for_unseen(seen_pixels, never_seen, inputs), smooth_2d, input_fps)
-        resampled = temporal.needs_resampling(input_fps, MODEL_FPS)
-        model_pixels, model_scores = ((temporal.resample(pixels, input_fps, MODEL_FPS),
-                                       temporal.resample(scores, input_fps, MODEL_FPS)) if resampled else (pixels, scores))
-        joints = self._lift_pixels(model_pixels, camera, flip_test, chunk, progress, model_scores)
+                              floor, floor_z) for k, c in zip(keypoints, scores)]
+        prepared = self._prepare(keypoints, camera, confidences, fps, layout, smooth_2d)
+        lifted, _ = self._lift_prepared({0: prepared}, camera, flip_test, chunk, refine, floor, floor_z,
+                                        smooth_3d, {0: progress})
+        if isinstance(lifted[0], InputError):
+            raise lifted[0]
+        return lifted[0]
+
+    def _prepare(self, keypoints: np.ndarray, camera: Camera, confidences, fps: float | None, layout: str,
+                 smooth_2d: str | None) -> PreparedTrack:
+        return prepare_track(keypoints, camera, confidences, fps, layout, smooth_2d, self._input_skeleton)
+
+    def _network(self, prepared: PreparedTrack, camera: Camera, flip_test: bool, chunk: int,
+                 progress: bool | str) -> np.ndarray:
+        """(T, 17, 3) world joints of a prepared track as the network puts them."""
+        fps, pixels, scores = prepared.fps, prepared.pixels, prepared.scores
+        resampled = temporal.needs_resampling(fps, MODEL_FPS)
         if resampled:
-            joints = temporal.resample_back(joints, MODEL_FPS, input_fps, len(pixels))
-        config = refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document, skeleton)
-        if refine:
-            measured = np.where(never_seen[None, :, None], np.nan, pixels)  # a stand-in is no measurement
-            joints, refined = refine_track(joints, camera, input_fps, joint_directions(camera, measured, inputs),
-                                           temporal.seen_frames(~h36m_found), config,
-                                           feet_seen=h36m_found[:, list(ANKLES)].any(axis=1), floor=floor)
-            refinement, position_sd = refined.summary(), refined.position_sd_m
-        else:
-            refinement, position_sd = None, network_position_sd(joints, camera, config)
-        joints = temporal.smooth(joints, smooth_3d, input_fps)
-        return LiftResult(joints, ~h36m_found, input_fps, np.arange(len(joints)), refinement=refinement,
-                          position_sd=position_sd)
+            pixels, scores = temporal.resample(pixels, fps, MODEL_FPS), temporal.resample(scores, fps, MODEL_FPS)
+        joints = self._lift_pixels(pixels, camera, flip_test, chunk, progress, scores)
+        return temporal.resample_back(joints, MODEL_FPS, fps, len(prepared.pixels)) if resampled else joints
+
+    def _lift_prepared(self, prepared: dict, camera: Camera, flip_test: bool, chunk: int,
+                       refine: bool | RefineConfig, floor: Floor, floor_z: float | None, smooth_3d: str | None,
+                       progress: dict, seen_before: tuple = (), evidence: dict | None = None
+                       ) -> tuple[dict, AnklePlane | None]:
+        """{track: PreparedTrack} seen by one camera -> {track: LiftResult, or the InputError that stopped it} and the
+        ankle plane they were refined on: observed from every track together and the ``SizeEvidence`` of tracks
+        the camera saw before (``floor_z`` None), or given (``_settle``). ``evidence``, a dict, receives each
+        track's ``SizeEvidence`` (None: it gave none)."""
+        config = self._refine_config(refine, prepared)
+        view = CameraTracks(prepared, camera, progress)
+        self._run_network(view, 0.0, flip_test, chunk)
+        if not refine or not view.lifted():
+            return self._unrefined(view, config, smooth_3d), None
+        plane = self._settle([view], floor_z, seen_before, config, flip_test, chunk)
+        if evidence is not None:
+            evidence.update(view.found)
+        return self._refined(view, plane, config, floor, smooth_3d), plane
+
+    def _refine_config(self, refine: bool | RefineConfig, prepared: dict) -> RefineConfig:
+        skeleton = next(iter(prepared.values())).skeleton if prepared else H36M17
+        return refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document, skeleton)
+
+    def _run_network(self, view: CameraTracks, depth: float, flip_test: bool, chunk: int) -> None:
+        """The view's tracks through the network with its camera's z = 0 moved to ``depth`` (where the floor is
+        thought to be); from the first run (the camera as given) each track's ``SizeEvidence`` of the ankle plane."""
+        camera = view.camera.with_origin_at_height(depth) if depth else view.camera
+        view.depth, view.networks = depth, {}
+        for track, entry in view.prepared.items():
+            try:
+                view.networks[track] = self._network(entry, camera, flip_test, chunk, view.progress[track])
+            except InputError as err:
+                view.networks[track] = err
+        if not depth:
+            view.found = {track: size_evidence(on_observed_rays(joints, camera.center, view.prepared[track].rays),
+                                               camera.center, view.prepared[track].feet_seen
+                                               & view.prepared[track].observed, view.prepared[track].fps)
+                          for track, joints in view.networks.items() if not isinstance(joints, InputError)}
+
+    def _settle(self, views: list[CameraTracks], floor_z: float | None, seen_before: tuple, config: RefineConfig,
+                flip_test: bool, chunk: int) -> AnklePlane:
+        """The ankle plane of ``views`` (one floor): given, or observed from their people and ``seen_before``; where
+        it puts the floor off the camera's z = 0, every view's network is run again with the camera's height over
+        that floor (the network reads the camera's height as given). (Reading people's sizes again from that run
+        moved the plane by under 2 mm on ``level-test``: it is read once.)"""
+        contact = config.contact_ankle_height_m
+        plane = given_ankle_plane(floor_z, contact) if floor_z is not None else observe_ankle_plane(
+            [*seen_before, *(e for view in views for e in view.found.values())], contact, config.body_size_m)
+        depth = plane.floor_z_m
+        for view in views:
+            if view.depth != depth:
+                self._run_network(view, depth, flip_test, chunk)
+        return plane
+
+    def _unrefined(self, view: CameraTracks, config: RefineConfig, smooth_3d: str | None) -> dict:
+        return {track: joints if isinstance(joints, InputError) else self._result(
+            view.prepared[track], joints, network_position_sd(joints, view.camera, config), None, smooth_3d)
+            for track, joints in view.networks.items()}
+
+    def _refined(self, view: CameraTracks, plane: AnklePlane, config: RefineConfig, floor: Floor,
+                 smooth_3d: str | None) -> dict:
+        """A view's tracks refined on ``plane`` (the network having read the camera's height over the floor
+        found: ``_settle``), the feet resting there; the output in the camera file's frame. {track: LiftResult,
+        or the InputError that stopped it}."""
+        depth = view.depth
+        camera, floor = view.camera.with_origin_at_height(depth), floor.lowered(depth)
+        config = dataclasses.replace(config, ankle_plane_sd_m=plane.sd_m)
+        results = {}
+        for track, joints in view.networks.items():
+            entry = view.prepared[track]
+            try:
+                if isinstance(joints, InputError):
+                    raise joints
+                joints, refined = refine_track(joints, camera, entry.fps, entry.rays, entry.observed, config,
+                                               feet_seen=entry.feet_seen, floor=floor)
+            except InputError as err:
+                results[track] = err
+                continue
+            joints = joints + [0.0, 0.0, depth]  # back in the camera file's frame
+            refined = dataclasses.replace(refined, floor_height_m=refined.floor_height_m + depth)
+            results[track] = self._result(entry, joints, refined.position_sd_m,
+                                          {**refined.summary(), "ankle_plane": plane.summary()}, smooth_3d)
+        return results
+
+    @staticmethod
+    def _result(prepared: PreparedTrack, joints: np.ndarray, position_sd: np.ndarray, refinement: dict | None,
+                smooth_3d: str | None) -> LiftResult:
+        return LiftResult(temporal.smooth(joints, smooth_3d, prepared.fps), prepared.missing, prepared.fps,
+                          np.arange(len(joints)), refinement=refinement, position_sd=position_sd)
 
     def _input_skeleton(self, skeleton: Skeleton) -> Skeleton:
         """The model's input layout, after checking that keypoints of ``skeleton`` give its joints."""
@@ -172,29 +239,66 @@ class Lifter:
         return inputs
 
     def lift_tracks(self, tracks: dict, camera: Camera, layout: str = "h36m17", fps: float | None = None,
-                    progress: bool = False, **options) -> LiftedTracks:
+                    progress: bool = False, smooth_2d: str | None = None, smooth_3d: str | None = None,
+                    flip_test: bool = False, chunk: int = 8192, refine: bool | RefineConfig = True,
+                    floor: Floor = FLAT_FLOOR, floor_z: float | None = None, seen_before: tuple = ()) -> LiftedTracks:
         """Several people: {track id: ``TrackDetections`` or (frame indices (N,), keypoints (N, J, 2)[,
-        confidences (N, J)])} -> {track id: LiftResult} in one world frame; ``options`` as for ``lift``. Frames a
-        track skips are filled in like missing joints. A track that cannot be lifted (say, its root never seen)
-        is left out and named in the result's ``unliftable`` with why; only when no track can be lifted is that
-        an error."""
-        results, failures = LiftedTracks(), {}
-        for track, entry in tracks.items():
-            span, pixels, confidences = TrackDetections(*entry).dense()
+        confidences (N, J)])} -> {track id: LiftResult} in one world frame; the options as for ``lift``. Frames a
+        track skips are filled in like missing joints. What the tracks share, where their ankles meet the floor,
+        is observed from all of them together (``LiftedTracks.ankle_plane``) and from the ``SizeEvidence`` of
+        tracks the camera saw before (``seen_before``: live keeps them; ``LiftedTracks.evidence`` gives these
+        tracks'), unless ``floor_z`` gives it. A track that cannot be lifted (say, its root never seen) is left
+        out and named in the result's ``unliftable`` with why; only when no track can be lifted is that an error."""
+        prepared, spans, failures = self._prepare_tracks(tracks, camera, fps, layout, smooth_2d)
+        results = LiftedTracks()
+        lifted, plane = self._lift_prepared(prepared, camera, flip_test, chunk, refine, floor, floor_z, smooth_3d,
+                                            progress_labels(prepared, progress), tuple(seen_before), results.evidence)
+        return gathered(results, tracks, lifted, spans, failures, plane)
+
+    def lift_cameras(self, views: dict, layout: str | dict = "h36m17", fps: float | dict | None = None,
+                     progress: bool = False,
+                     smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
+                     chunk: int = 8192, refine: bool | RefineConfig = True, floor: Floor = FLAT_FLOOR,
+                     floor_z: float | None = None) -> dict:
+        """Several cameras of one site, in one world frame on one floor: {view: (tracks as ``lift_tracks`` takes
+        them, its Camera)} -> {view: LiftedTracks}. Where people's ankles meet that floor is observed from every
+        camera's people together (each camera's tracks tell it from that camera's height); a view none of whose
+        tracks could be lifted maps to the InputError saying why. ``layout`` and ``fps`` may be {view: value}."""
+        passes, config = {}, None
+        for name, (tracks, camera) in views.items():
+            prepared, spans, failures = self._prepare_tracks(
+                tracks, camera, fps[name] if isinstance(fps, dict) else fps,
+                layout[name] if isinstance(layout, dict) else layout, smooth_2d)
+            config = config or self._refine_config(refine, prepared)
+            view = CameraTracks(prepared, camera, progress_labels(prepared, progress))
+            self._run_network(view, 0.0, flip_test, chunk)
+            passes[name] = (tracks, spans, failures, view)
+        seen = [view for *_, view in passes.values()]
+        plane = self._settle(seen, floor_z, (), config, flip_test, chunk) if refine and any(
+            view.lifted() for view in seen) else None
+        out = {}
+        for name, (tracks, spans, failures, view) in passes.items():
+            results = LiftedTracks()
+            results.evidence = view.found
+            lifted = self._unrefined(view, config, smooth_3d) if plane is None else \
+                self._refined(view, plane, config, floor, smooth_3d)
             try:
-                result = self.lift(pixels, camera, confidences, fps, layout,
-                                   progress=f"track {track}" if progress else False, **options)
+                out[name] = gathered(results, tracks, lifted, spans, failures, plane)
+            except InputError as err:
+                out[name] = err
+        return out
+
+    def _prepare_tracks(self, tracks: dict, camera: Camera, fps: float | None, layout: str,
+                        smooth_2d: str | None) -> tuple[dict, dict, dict]:
+        """{track: detections} -> {track: PreparedTrack}, {track: its frame span}, {track: the InputError refusing it}."""
+        prepared, spans, failures = {}, {}, {}
+        for track, entry in tracks.items():
+            spans[track], pixels, confidences = TrackDetections(*entry).dense()
+            try:
+                prepared[track] = self._prepare(pixels, camera, confidences, fps, layout, smooth_2d)
             except InputError as err:
                 failures[track] = err
-                continue
-            results[track] = dataclasses.replace(result, frames=span)
-        results.unliftable = {track: err.message for track, err in failures.items()}
-        if not results and len(failures) == 1:
-            raise next(iter(failures.values()))
-        if not results:
-            raise InputError("no track could be lifted: " + "; ".join(
-                f"track {track}: {why}" for track, why in results.unliftable.items()))
-        return results
+        return prepared, spans, failures
 
     def lift_keypoints(self, keypoints: Keypoints, camera: Camera, options: LiftOptions = LiftOptions(),
                        progress: bool = False) -> World:
@@ -272,39 +376,3 @@ class Lifter:
                wait_for_future: bool = True) -> LiftStream:
         """Lift frame by frame as keypoints arrive (live use); see ``LiftStream``."""
         return LiftStream(self, camera, layout, flip_test, fps, wait_for_future)
-
-
-def chosen_lifter(checkpoint: str | None = None, precision: str = "fp32", layout: str | None = None,
-                  keypoints_path: str | Path | None = None) -> Lifter | None:
-    """``checkpoint`` (or the shipped model for keypoints of ``layout``, else of the file ``keypoints_path``'s
-    layout) in ``precision``; None when neither a checkpoint nor a reduced precision is asked for: then
-    ``lift_file``, ``lift_video`` and ``run_live`` choose the shipped model for their input's layout themselves."""
-    if not checkpoint and check_precision(precision) == "fp32":
-        return None
-    if not checkpoint and layout is None and keypoints_path is not None:
-        layout = read_keypoints(keypoints_path).layout
-    return Lifter.load(checkpoint, layout=layout or "h36m17", precision=precision)
-
-
-def lift_file(keypoints_path: str | Path, camera: Camera, out: str | Path | None, lifter: Lifter | None = None,
-              layout: str | None = None, fps: float | None = None, overwrite: bool = False,
-              read_options: dict | None = None, options: LiftOptions = LiftOptions(),
-              progress: bool = False) -> tuple[Keypoints, World]:
-    """A keypoint file lifted into the world and written to ``out`` (.json/.csv/.npz/.trc/.bvh), as ``ray3d
-    lift`` does, by ``lifter`` (default: the shipped model for the file's layout, ``Lifter.load(layout=...)``):
-    ``layout`` and ``fps`` as the file states them unless given, ``read_options`` for the reader
-    (``subject``, ``action``, ``camera_index`` of a VideoPose3D npz), ``options`` for the lifting (the output
-    smoothed by Savitzky-Golay and written in the world frame unless they say otherwise). Returns what was read
-    and what was written (``out`` None: lifted, not written)."""
-    from ray3d.io.atomic import check_output, refuse_existing
-    from ray3d.io.world import check_world_output, write_world
-
-    if out is not None:
-        check_output(out, (keypoints_path,))
-        check_world_output(out, options.frame)
-        refuse_existing(out, overwrite)
-    keypoints = read_keypoints(keypoints_path, layout, fps, **(read_options or {}))
-    world = (lifter or Lifter.load(layout=keypoints.layout)).lift_keypoints(keypoints, camera, options, progress)
-    if out is not None:
-        write_world(out, world, overwrite=overwrite)
-    return keypoints, world

@@ -29,7 +29,9 @@ class LiftOptions:
     """How keypoints become world joints: ``smooth_2d`` / ``smooth_3d`` the input pixels / output joints in
     time ("savgol", "one-euro" or None / "none"), ``flip_test``, ``refine`` (the track-level refinement: True,
     False or a ``RefineConfig``), the ``frame`` the written joints are in ("world" or "camera") and the ``floor``
-    the refinement rests the feet on (``ray3d.geometry.floor``: z = 0 unless regions are declared)."""
+    the refinement rests the feet on (``ray3d.geometry.floor``: z = 0 unless regions are declared), and
+    ``floor_z``, where the floor lies in the camera's frame (None: observed from the people,
+    ``ray3d.refine.ankle_plane``)."""
 
     smooth_2d: str | None = None
     smooth_3d: str | None = OUTPUT_SMOOTHING
@@ -37,8 +39,13 @@ class LiftOptions:
     refine: bool | RefineConfig = True
     frame: str = "world"
     floor: Floor = FLAT_FLOOR
+    floor_z: float | None = None
 
     def __post_init__(self) -> None:
+        if self.floor_z is not None and (not isinstance(self.floor_z, (int, float)) or not np.isfinite(self.floor_z)
+                                         or abs(self.floor_z) > 5.0):
+            raise InputError(f"floor_z: expected the floor's height in the camera's frame, metres within +/- 5, or "
+                             f"None to observe it; got {self.floor_z!r}", arguments=("floor_z",))
         object.__setattr__(self, "smooth_2d", _smoothing("smooth_2d", self.smooth_2d))
         object.__setattr__(self, "smooth_3d", _smoothing("smooth_3d", self.smooth_3d))
         check_frame(self.frame)
@@ -46,7 +53,7 @@ class LiftOptions:
     def lift_arguments(self) -> dict:
         """The keyword arguments of ``Lifter.lift`` these options set."""
         return {"smooth_2d": self.smooth_2d, "smooth_3d": self.smooth_3d, "flip_test": self.flip_test,
-                "refine": self.refine, "floor": self.floor}
+                "refine": self.refine, "floor": self.floor, "floor_z": self.floor_z}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -6,6 +6,7 @@ Both give the run the same thing: ``next()`` -> (view, ``FrameResult``), and ``f
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import queue
 import threading
@@ -18,6 +19,8 @@ from ray3d.lifting.options import LiftOptions
 from ray3d.live.people import LivePeople, PersonNow, below_the_stream
 from ray3d.live.source import LiveFrame, SourceGroup
 from ray3d.video.tracking import Track
+
+EVIDENCE_KEPT = 500  # people whose sizes tell a live camera's ankle plane (the latest; beyond, no gain)
 
 
 @dataclasses.dataclass
@@ -52,6 +55,9 @@ class Finisher:
                  min_track_s: float):
         self.lifter, self.camera, self.layout, self.fps = lifter, camera, layout, fps
         self.lift_options, self.min_track_s = lift_options, min_track_s
+        # What the people seen so far say of the camera's ankle plane (``ray3d.refine.ankle_plane``), each later
+        # track lifted with it: the estimate refines as people pass.
+        self.evidence: collections.deque = collections.deque(maxlen=EVIDENCE_KEPT)
         self._done: list[Finished] = []
         self._lock = threading.Lock()
         self._queue: queue.Queue = queue.Queue(maxsize=64)
@@ -85,11 +91,14 @@ class Finisher:
             return Finished(track.id, None, f"seen for {seconds:.2f} s (under {self.min_track_s:.2f} s)")
         try:
             lifted = self.lifter.lift_tracks({track.id: track.as_detections()}, self.camera, self.layout,
-                                             self.fps, **self.lift_options.lift_arguments())
+                                             self.fps, seen_before=tuple(self.evidence),
+                                             **self.lift_options.lift_arguments())
         except InputError as err:
             return Finished(track.id, None, err.message)
         except Exception as err:  # one person's failure must not stop the others being written
             return Finished(track.id, None, f"could not be lifted ({type(err).__name__}: {err})")
+        # The camera's ankle plane is observed from everybody it has seen so far (the latest people, bounded).
+        self.evidence.extend(e for e in lifted.evidence.values() if e is not None)
         return Finished(track.id, World(lifted, self.camera, self.lifter.name).in_frame("world"))
 
 
@@ -127,13 +136,14 @@ class LocalCameras:
     """Every camera in this process: the frames of all taken from one ``SourceGroup`` in the order they arrived."""
 
     def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter,
-                 lift_options: LiftOptions, max_gap_s: float, min_track_s: float):
+                 lift_options: LiftOptions | list[LiftOptions], max_gap_s: float, min_track_s: float):
+        """``lift_options``: one for every camera, or each camera's own (its floor), as on Ray."""
         self.group, self.cameras, self.name = group, cameras, group.name
         self.fps = [source.fps for source in group.sources]
         self.names = [camera.name or source.name for camera, source in zip(cameras, group.sources)]
-        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, lift_options, max_gap_s,
-                                   min_track_s)
-                      for c, d, source in zip(cameras, detectors, group.sources)]
+        options = lift_options if isinstance(lift_options, list) else [lift_options] * len(cameras)
+        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, max_gap_s, min_track_s)
+                      for c, d, source, o in zip(cameras, detectors, group.sources, options)]
 
     def next(self) -> tuple[int, FrameResult] | None:
         taken = self.group.next()

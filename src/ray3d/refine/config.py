@@ -67,16 +67,26 @@ class RefineConfig:
     # The floor is tested only where the network places it to within this (1 sd): near, and seen from above.
     floor_test_resolution_m: float = 0.15
     size_cue_margin: float = 0.05            # log size: how much nearer the floor's the size must be to side with it
+    # How well the ankle plane is known (``ray3d.refine.ankle_plane``: observed from the people, or given). Its
+    # error moves every cue together (the feet's and the head's heights over the floor, and the network, which
+    # reads the camera's height over it): a person's distance errs by its share of the drop from the camera to it.
+    ankle_plane_sd_m: float = 0.0
+    # A detector's mid-hips against a skeleton's pelvis (the truth's joint definition), per axis: nothing for
+    # H36M-17 keypoints; ``body.DETECTOR_ROOT_DEFINITION_SD_M`` for a detector's.
+    root_definition_sd_m: float = 0.0
 
     @classmethod
     def for_model(cls, document: dict, layout: str | Skeleton = H36M17, **changes) -> RefineConfig:
         """The defaults (measured on the shipped ``ray3d``) with what a checkpoint document's ``uncertainty``
         says of its own model (its distance errors by distance, what the cues leave of them), for keypoints of
         ``layout`` (a detector's ankle keypoint stands higher than the mocap's ankle joint:
-        ``body.DETECTOR_PLANTED_ANKLE_HEIGHT_M``), and ``changes``."""
+        ``body.DETECTOR_PLANTED_ANKLE_HEIGHT_M``; its hips too, so its size chain is shorter:
+        ``body.DETECTOR_BODY_SIZE_M``; its mid-hips are not a skeleton's pelvis), and ``changes``."""
         measured = model_uncertainty(document)
         if layout_skeleton(layout).name in DETECTOR_LAYOUTS:
             measured["contact_ankle_height_m"] = body.DETECTOR_PLANTED_ANKLE_HEIGHT_M
+            measured["root_definition_sd_m"] = body.DETECTOR_ROOT_DEFINITION_SD_M
+            measured["body_size_m"] = body.DETECTOR_BODY_SIZE_M
         return cls(**{**measured, **changes})
 
     def network_bias_sd(self, distance: np.ndarray) -> np.ndarray:

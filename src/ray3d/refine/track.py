@@ -33,6 +33,21 @@ def joint_directions(camera: Camera, pixels: np.ndarray, skeleton: Skeleton) -> 
     return directions
 
 
+def _observed_rays(joints: np.ndarray, centre: np.ndarray, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(T, 17, 3) joints and their rays' (T, 17, 3) directions (NaN: unmeasured) -> the unit rays (an unmeasured
+    joint's: towards where the network put it) and (T, 17) each joint's distance along its ray."""
+    rays = np.where(np.isfinite(rays).all(-1)[..., None], rays, joints - centre)
+    rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
+    return rays, np.einsum("tjk,tjk->tj", joints - centre, rays)
+
+
+def on_observed_rays(joints: np.ndarray, centre: np.ndarray, rays: np.ndarray) -> np.ndarray:
+    """(T, 17, 3) joints as the network put them -> each moved onto its observed ray (``rays``: (T, 17, 3)
+    directions, NaN where unmeasured) at the network's distance along it: the pose the keypoints show."""
+    rays, along = _observed_rays(np.asarray(joints, dtype=np.float64), centre, rays)
+    return centre + along[..., None] * rays
+
+
 def scale_about(joints: np.ndarray, centre: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """(T, J, 3) joints moved along their rays from ``centre`` by (T,) factors."""
     return centre + scale[:, None, None] * (joints - centre)
@@ -44,12 +59,15 @@ def network_position_sd(joints: np.ndarray, camera: Camera, config: RefineConfig
     distance it predicts (``depth_bias_sd``: mostly shared by a track), and the keypoints' error at the person."""
     distance = np.linalg.norm(np.asarray(joints)[:, 0] - camera.center, axis=-1)
     across = np.full(len(distance), _across_sd(config, np.median(body_sizes(joints))))
-    return np.stack([config.network_bias_sd(distance) * distance, across], axis=-1)
+    along = np.hypot(config.network_bias_sd(distance) * distance, config.root_definition_sd_m)
+    return np.stack([along, across], axis=-1)
 
 
 def _across_sd(config: RefineConfig, body_size: float) -> float:
-    """The root's error across its ray: a share of one keypoint's (a floor of 2 mm for exact 2D and rounding)."""
-    return max(ROOT_KEYPOINT_SHARE * config.keypoint_error * body_size, 0.002)
+    """The root's error across its ray: a share of one keypoint's (a floor of 2 mm for exact 2D and rounding) and
+    how far the keypoints' mid-hips stand from a skeleton's pelvis (``root_definition_sd_m``)."""
+    return float(np.hypot(max(ROOT_KEYPOINT_SHARE * config.keypoint_error * body_size, 0.002),
+                          config.root_definition_sd_m))
 
 
 def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarray | None = None,
@@ -86,9 +104,7 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
         if np.shape(rays) != joints.shape:
             raise InputError(f"refine: rays must be shaped like the joints {joints.shape}, got {np.shape(rays)}")
         measured = np.isfinite(rays).all(-1)
-        rays = np.where(measured[..., None], rays, joints - centre)
-        rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
-        along = np.einsum("tjk,tjk->tj", joints - centre, rays)
+        rays, along = _observed_rays(joints, centre, rays)
         # A network that put a person at (or behind) the camera says nothing of where they are: such frames take
         # the track's typical distances and follow their neighbours.
         degenerate = along[:, 0] < NEAREST_M
@@ -119,6 +135,8 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
         refined = refined + pull[..., None] * (foot - refined)
     distance = np.linalg.norm(refined[:, 0] - centre, axis=-1)
     feet = lowest_ankles(refined)
+    # The drop from the camera to the plane the feet rest on, by which an error of that plane scales the distance.
+    drop = np.maximum(centre[2] - floor.height(feet[:, :2]) - config.contact_ankle_height_m, 0.1)
     under = floor.height(feet[:, :2])
     contact = floored & (np.abs(feet[:, 2] - under - config.contact_ankle_height_m - x[problem.offset_column])
                          < 2 * config.ankle_height_sd_m)
@@ -129,7 +147,9 @@ def refine_track(joints: np.ndarray, camera: Camera, fps: float, rays: np.ndarra
     stature = body.stature(refined, sizes_up, config.contact_ankle_height_m - body.PLANTED_ANKLE_HEIGHT_M)
     return refined, Refinement(
         scale=scale, contact=contact, floor_cue=floored, floor_height_m=floor_height,
-        position_sd_m=np.stack([np.hypot(log_sd, config.residual_distance_sd) * distance,
+        position_sd_m=np.stack([np.linalg.norm([np.hypot(log_sd, config.residual_distance_sd) * distance,
+                                                np.full(count, config.root_definition_sd_m),
+                                                config.ankle_plane_sd_m * distance / drop], axis=0),
                                 np.full(count, _across_sd(config, body_size))], axis=-1),
         cue_shares=problem.cue_shares(x),
         body_size_m=body_size, stature_m=stature,
