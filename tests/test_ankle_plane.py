@@ -225,3 +225,35 @@ def test_cameras_of_one_site_share_one_floor_observed_from_all_their_people(dete
         e is not None for view in lifted.values() for e in view.evidence.values())
     alone = detector_lifter.lift_tracks(*views["a"], "coco17", 30.0, floor_z=plane.floor_z_m)
     np.testing.assert_allclose(alone[0].joints, lifted["a"][0].joints, atol=1e-9)
+
+
+def test_two_cameras_seeing_people_at_once_triangulate_the_plane_whatever_their_sizes(detector_lifter):
+    """Two cameras of one site (z = 0 0.15 m above the floor in both files) see the same walkers at once, who are
+    all a fifth smaller than the prior: sizes alone would put the floor wrong; their ankles' rays crossing put
+    it where the detector's planted ankles stand."""
+    from ray3d.refine.ankle_plane import seen_twice
+
+    front = Camera.from_pose([0.0, 0.0, 1.2], 0.0, np.radians(8.0), 0.0, 640.0, 640.0, 640.0, 360.0, (1280, 720))
+    side = Camera.from_pose([4.0, -4.5, 1.5], np.pi / 2, np.radians(10.0), 0.0, 640.0, 640.0, 640.0, 360.0,
+                            (1280, 720))
+    rng = np.random.default_rng(5)
+    clip = demo_clip()[:90:2].astype(np.float64)
+    clip[..., :2] -= clip[:1, :1, :2]
+    layout = layout_skeleton("coco17")
+    views = {"front": ({}, front.with_origin_at_height(0.15)), "side": ({}, side.with_origin_at_height(0.15))}
+    for k in range(4):
+        pose = scale_bones(clip, np.full(clip.shape[:2], 0.8)) + [rng.uniform(3.5, 4.5), rng.uniform(-0.5, 0.5), 0.0]
+        for name, camera in (("front", front), ("side", side)):
+            views[name][0][k] = (np.arange(len(pose)), emulated_detections(pose, camera, rng, layout, 1.0))
+    lifted = detector_lifter.lift_cameras(views, "coco17", 30.0)
+    plane = lifted["front"].ankle_plane
+    sizes_alone = detector_lifter.lift_tracks(*views["front"], "coco17", 30.0).ankle_plane
+    assert plane.seen_twice == 4 and "seen by two cameras at once" in plane.message()
+    # The detector's planted ankle stands about 0.12 m over the floor, which lies 0.15 m below the files' z = 0.
+    assert abs(plane.height_m - (0.12 - 0.15)) < 0.04 and plane.sd_m < 0.03
+    assert abs(plane.height_m - (0.12 - 0.15)) < abs(sizes_alone.height_m - (0.12 - 0.15))
+    # Two tracks that are not one person give nothing.
+    tracks = views["front"][0]
+    rays = [np.tile(front.pixels_to_world_directions(np.array([[640.0, 500.0]])), (40, 17, 1))] * 2
+    assert seen_twice((front.center, side.center), (rays[0], rays[1]), (np.ones((40, 17), bool),) * 2, 30.0) is None
+    assert len(tracks) == 4

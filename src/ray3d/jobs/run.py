@@ -74,8 +74,9 @@ def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -
 
 def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     """Every keypoint file of a several-camera job lifted as one site's cameras (``Lifter.lift_cameras``): one
-    world frame, one floor, where people's ankles meet it observed from every camera's people together. Not
-    written; fuse them with ``fuse_and_write``."""
+    world frame, one floor, where people's ankles meet it observed from every camera's people together (and
+    triangulated where two see one at once, unless the files' clocks are to be found). Not written; fuse them with
+    ``fuse_and_write``."""
     from ray3d.errors import InputError
     from ray3d.io.keypoints import read_keypoints
     from ray3d.lifting.lifter import Lifter
@@ -90,7 +91,7 @@ def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     lifted = lifter.lift_cameras({k: (keypoints.by_track(), camera) for k, (keypoints, camera)
                                   in enumerate(zip(files, cameras))}, layouts,
                                  {k: keypoints.fps for k, keypoints in enumerate(files)}, progress,
-                                 **job.lift_options(0).lift_arguments())
+                                 one_clock=not job.find_offsets, **job.lift_options(0).lift_arguments())
     results = []
     for k, (path, keypoints, camera) in enumerate(zip(job.inputs, files, cameras)):
         if isinstance(lifted[k], InputError):

@@ -31,7 +31,7 @@ from ray3d.refine import (AnklePlane, RefineConfig, given_ankle_plane, network_p
                           on_observed_rays, refine_track, size_evidence)
 from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, prepare_track
 from ray3d.lifting.stream import LiftStream
-from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, progress_labels
+from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, people_seen_twice, progress_labels
 from ray3d.skeleton import H36M17, Skeleton, conversion_matrix
 
 SMALL_BATCHES_BEFORE_TRACING = 3
@@ -177,14 +177,16 @@ class Lifter:
                           for track, joints in view.networks.items() if not isinstance(joints, InputError)}
 
     def _settle(self, views: list[CameraTracks], floor_z: float | None, seen_before: tuple, config: RefineConfig,
-                flip_test: bool, chunk: int) -> AnklePlane:
-        """The ankle plane of ``views`` (one floor): given, or observed from their people and ``seen_before``; where
+                flip_test: bool, chunk: int, crossings: list = ()) -> AnklePlane:
+        """The ankle plane of ``views`` (one floor): given, or observed from their people, ``seen_before`` and the
+        ``crossings`` of people two cameras saw at once (``people_seen_twice``); where
         it puts the floor off the camera's z = 0, every view's network is run again with the camera's height over
         that floor (the network reads the camera's height as given). (Reading people's sizes again from that run
         moved the plane by under 2 mm on ``level-test``: it is read once.)"""
         contact = config.contact_ankle_height_m
         plane = given_ankle_plane(floor_z, contact) if floor_z is not None else observe_ankle_plane(
-            [*seen_before, *(e for view in views for e in view.found.values())], contact, config.body_size_m)
+            [*seen_before, *(e for view in views for e in view.found.values())], contact, config.body_size_m,
+            tuple(crossings))
         depth = plane.floor_z_m
         for view in views:
             if view.depth != depth:
@@ -259,11 +261,13 @@ class Lifter:
                      progress: bool = False,
                      smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
                      chunk: int = 8192, refine: bool | RefineConfig = True, floor: Floor = FLAT_FLOOR,
-                     floor_z: float | None = None) -> dict:
+                     floor_z: float | None = None, one_clock: bool = True) -> dict:
         """Several cameras of one site, in one world frame on one floor: {view: (tracks as ``lift_tracks`` takes
         them, its Camera)} -> {view: LiftedTracks}. Where people's ankles meet that floor is observed from every
-        camera's people together (each camera's tracks tell it from that camera's height); a view none of whose
-        tracks could be lifted maps to the InputError saying why. ``layout`` and ``fps`` may be {view: value}."""
+        camera's people together (each camera's tracks tell it from that camera's height) and, where the views'
+        frame ids are ``one_clock`` and two cameras see a person at once, from their ankles triangulated; a view
+        none of whose tracks could be lifted maps to the InputError saying why. ``layout`` and ``fps`` may be
+        {view: value}."""
         passes, config = {}, None
         for name, (tracks, camera) in views.items():
             prepared, spans, failures = self._prepare_tracks(
@@ -274,7 +278,8 @@ class Lifter:
             self._run_network(view, 0.0, flip_test, chunk)
             passes[name] = (tracks, spans, failures, view)
         seen = [view for *_, view in passes.values()]
-        plane = self._settle(seen, floor_z, (), config, flip_test, chunk) if refine and any(
+        crossings = people_seen_twice([(view, spans) for _, spans, _, view in passes.values()]) if one_clock else []
+        plane = self._settle(seen, floor_z, (), config, flip_test, chunk, crossings) if refine and any(
             view.lifted() for view in seen) else None
         out = {}
         for name, (tracks, spans, failures, view) in passes.items():

@@ -4,10 +4,14 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
+
+import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.refine import AnklePlane
+from ray3d.refine.ankle_plane import SeenTwice, seen_twice
 
 
 class LiftedTracks(dict):
@@ -61,3 +65,28 @@ class CameraTracks:
 
     def lifted(self) -> bool:
         return any(not isinstance(joints, InputError) for joints in self.networks.values())
+
+
+def people_seen_twice(views: list[tuple[CameraTracks, dict]]) -> list[SeenTwice]:
+    """Every pair of tracks of two cameras (each a ``CameraTracks`` and {track: its frame ids}, on one clock) that
+    is one person seen by both at once: where their planted ankles stand, triangulated (``seen_twice``). Any two
+    rays of two cameras pass near each other somewhere, so each track is paired at most once per other camera,
+    with the track whose pelvis rays pass nearest its own."""
+    found = []
+    for (first, first_spans), (second, second_spans) in itertools.combinations(views, 2):
+        candidates = []
+        for (a, entry_a), (b, entry_b) in itertools.product(first.prepared.items(), second.prepared.items()):
+            shared, rows_a, rows_b = np.intersect1d(first_spans[a], second_spans[b], return_indices=True)
+            if len(shared) == 0:
+                continue
+            crossing = seen_twice((first.camera.center, second.camera.center),
+                                  (entry_a.rays[rows_a], entry_b.rays[rows_b]),
+                                  (~entry_a.missing[rows_a], ~entry_b.missing[rows_b]), entry_a.fps)
+            if crossing is not None:
+                candidates.append((crossing.pelvis_gap_m, a, b, crossing))
+        paired = set()
+        for _, a, b, crossing in sorted(candidates, key=lambda candidate: candidate[0]):
+            if ("first", a) not in paired and ("second", b) not in paired:
+                paired |= {("first", a), ("second", b)}
+                found.append(crossing)
+    return found

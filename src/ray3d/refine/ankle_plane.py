@@ -16,6 +16,10 @@ Each track gives that equation with the spread of adults' sizes and of one track
 detector's joints sit from the prior's mean (``POPULATION_MEAN_SD``), which many people do not average away; and
 the plane has a prior of its own, the expected contact height over z = 0 give or take what users' calibrations are
 off by (``PRIOR_SD_M``). One person for a few seconds barely moves it; ten or more place it to a few centimetres.
+
+Cameras of one site share one floor, and where two see a person at once their ankle keypoints' rays cross where the
+ankles are: triangulated, a planted ankle's height is the plane itself, to a few centimetres (``seen_twice``),
+whatever the people's sizes.
 """
 
 from __future__ import annotations
@@ -43,6 +47,13 @@ MIN_DROP_M = 0.05        # the lowest ankle must stand this far below the camera
 CONFIDENT_SHARE = 0.5    # observed: the people halved the prior's sd
 GIVEN_SD_M = 0.03        # a floor the user gives: the detector's contact height is still a spread of its own
 LARGEST_OFFSET_M = 5.0   # a floor further than this from a camera's z = 0 is no calibration's, nor an estimate's
+# Two cameras' rays of one person: the pelvis rays of one person pass within this of each other (a detector's
+# hips, two calibrations); an ankle's two rays within this are taken to cross at it; cameras looking along one
+# line (rays within 10 degrees) do not triangulate; a triangulated height is no better than the calibrations.
+SAME_PERSON_GAP_M = 0.3
+CROSSING_GAP_M = 0.15
+MIN_CROSSING_SINE = np.sin(np.radians(10.0))
+TRIANGULATION_SD_M = 0.02
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,8 +97,8 @@ def size_evidence(joints: np.ndarray, centre: np.ndarray, usable: np.ndarray, fp
 class AnklePlane:
     """Where a camera's people's ankle keypoints meet the floor: ``height_m`` over the camera file's z = 0, with
     one sd ``sd_m``; ``contact_m`` is where a floor at z = 0 would put it (the detector's planted ankle);
-    ``source``: "observed" (from ``people`` tracks over ``seconds``), "prior" (nobody to observe it from) or
-    "given" (the user's floor)."""
+    ``source``: "observed" (from ``people`` tracks over ``seconds``, ``seen_twice`` of them by two cameras at
+    once), "prior" (nobody to observe it from) or "given" (the user's floor)."""
 
     height_m: float
     sd_m: float
@@ -95,6 +106,7 @@ class AnklePlane:
     source: str
     people: int = 0
     seconds: float = 0.0
+    seen_twice: int = 0
 
     @property
     def floor_z_m(self) -> float:
@@ -115,7 +127,8 @@ class AnklePlane:
             return f"{where}, as given); applied"
         if self.source == "prior":
             return f"{where}: assumed, nobody seen standing long enough to observe it); applied"
-        seen = f"{self.people} {'person' if self.people == 1 else 'people'} over {self.seconds:.0f} s"
+        seen = f"{self.people} {'person' if self.people == 1 else 'people'} over {self.seconds:.0f} s" + (
+            f", {self.seen_twice} seen by two cameras at once" if self.seen_twice else "")
         if self.confident:
             return f"{where}, from {seen}); applied"
         return f"{where}, from {seen}: too little to tell it well, the prior +/- {PRIOR_SD_M:.2f} m weighed in); applied"
@@ -124,13 +137,13 @@ class AnklePlane:
     def from_summary(cls, summary: dict) -> AnklePlane:
         """The plane a world file's ``summary`` records."""
         return cls(summary["height_m"], summary["sd_m"], summary["contact_m"], summary["source"], summary["people"],
-                   summary["seconds"])
+                   summary["seconds"], summary.get("seen_twice", 0))
 
     def summary(self) -> dict:
         """Its record in world files."""
         return {"height_m": round(self.height_m, 4), "sd_m": round(self.sd_m, 4), "floor_z_m": round(self.floor_z_m, 4),
                 "contact_m": round(self.contact_m, 4), "source": self.source, "confident": self.confident,
-                "people": self.people, "seconds": round(self.seconds, 2)}
+                "people": self.people, "seconds": round(self.seconds, 2), "seen_twice": self.seen_twice}
 
 
 def given_ankle_plane(floor_z_m: float, contact_m: float) -> AnklePlane:
@@ -142,15 +155,74 @@ def given_ankle_plane(floor_z_m: float, contact_m: float) -> AnklePlane:
     return AnklePlane(float(floor_z_m) + contact_m, GIVEN_SD_M, contact_m, "given")
 
 
+@dataclasses.dataclass(frozen=True)
+class SeenTwice:
+    """One person seen by two cameras at once: the height of their planted ankle keypoints, triangulated
+    (``height_m`` over the cameras' common z = 0, one sd ``sd_m``), over ``seconds`` seen by both."""
+
+    height_m: float
+    sd_m: float
+    seconds: float
+    pelvis_gap_m: float = 0.0  # how near the two pelvis rays pass (median): which pairing of two cameras' tracks
+
+
+def seen_twice(centres: tuple[np.ndarray, np.ndarray], rays: tuple[np.ndarray, np.ndarray],
+               seen: tuple[np.ndarray, np.ndarray], fps: float) -> SeenTwice | None:
+    """Two cameras' (3,) ``centres`` and one track of each over the same (T,) frames: (T, 17, 3) world directions
+    of their H36M-17 joints' rays and (T, 17) whether each joint was measured -> where the person's planted ankles
+    stand, from the rays' crossings: per frame the lower of the two ankles (each where the rays pass within
+    ``CROSSING_GAP_M``), the median over the frames. None when the tracks are not one person (their pelvis rays
+    pass further apart than ``SAME_PERSON_GAP_M`` in most frames), the cameras look along one line there, or
+    they share under ``MIN_SECONDS`` of both ankles."""
+    def crossing(joint: int) -> tuple[np.ndarray, np.ndarray]:
+        """(T, 3) the midpoint of the two rays' nearest points and (T,) their gap (NaN: unmeasured, parallel or
+        behind a camera)."""
+        d_a, d_b = rays[0][:, joint], rays[1][:, joint]
+        offset = centres[0] - centres[1]
+        cosine = np.einsum("ti,ti->t", d_a, d_b)
+        spread = 1 - cosine ** 2
+        along_a = np.einsum("ti,i->t", d_a, offset)
+        along_b = np.einsum("ti,i->t", d_b, offset)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s = (cosine * along_b - along_a) / spread
+            t = (along_b - cosine * along_a) / spread
+        near_a, near_b = centres[0] + s[:, None] * d_a, centres[1] + t[:, None] * d_b
+        usable = seen[0][:, joint] & seen[1][:, joint] & (spread > MIN_CROSSING_SINE ** 2) & (s > 0) & (t > 0)
+        gap = np.where(usable, np.linalg.norm(near_a - near_b, axis=-1), np.nan)
+        return np.where(usable[:, None], (near_a + near_b) / 2, np.nan), gap
+
+    _, pelvis_gap = crossing(body.PELVIS)
+    both = np.isfinite(pelvis_gap)
+    if both.sum() < MIN_SECONDS * fps or np.median(pelvis_gap[both]) > SAME_PERSON_GAP_M:
+        return None
+    ankles = [crossing(joint) for joint in body.ANKLES]
+    heights = np.stack([np.where(gap <= CROSSING_GAP_M, point[:, 2], np.nan) for point, gap in ankles], axis=-1)
+    lowest = heights.min(axis=-1)  # NaN unless both ankles crossed
+    lowest = lowest[np.isfinite(lowest)]
+    if len(lowest) < MIN_SECONDS * fps:
+        return None
+    spread = 1.4826 * np.median(np.abs(lowest - np.median(lowest)))
+    seconds = len(lowest) / fps
+    return SeenTwice(float(np.median(lowest)), float(np.hypot(spread / np.sqrt(max(seconds * 5, 1.0)),
+                                                              TRIANGULATION_SD_M)), float(seconds),
+                     float(np.median(pelvis_gap[both])))
+
+
 def observe_ankle_plane(evidence: list[SizeEvidence | None], contact_m: float,
-                        body_size_m: float = body.ADULT_BODY_SIZE_M) -> AnklePlane:
+                        body_size_m: float = body.ADULT_BODY_SIZE_M, crossings: tuple = ()) -> AnklePlane:
     """The ankle plane of one floor from every track's ``size_evidence`` (None: a track that gave none), people's
-    size chain being ``body_size_m`` on average, against the prior ``contact_m`` +/- ``PRIOR_SD_M``; the people's
-    estimate is robust (a track more than three of its sds off the rest, a child or a detector's failure, is left
-    out)."""
+    size chain being ``body_size_m`` on average, and the ankles two cameras saw at once (``crossings``: each a
+    ``SeenTwice``), against the prior ``contact_m`` +/- ``PRIOR_SD_M``. The people's sizes are weighed robustly (a
+    track more than three of its sds off the rest, a child or a detector's failure, is left out)."""
     given = [e for e in evidence if e is not None]
+    crossings = [c for c in crossings if c is not None]
+    information = 1 / PRIOR_SD_M ** 2 + sum(1 / c.sd_m ** 2 for c in crossings)
+    weighed = contact_m / PRIOR_SD_M ** 2 + sum(c.height_m / c.sd_m ** 2 for c in crossings)
     if not given:
-        return AnklePlane(contact_m, PRIOR_SD_M, contact_m, "prior")
+        if not crossings:
+            return AnklePlane(contact_m, PRIOR_SD_M, contact_m, "prior")
+        return AnklePlane(float(weighed / information), float(information ** -0.5), contact_m, "observed",
+                          seconds=float(sum(c.seconds for c in crossings)), seen_twice=len(crossings))
     centre = np.array([e.centre_z for e in given])
     target = np.array([e.implied_log_drop(body_size_m) for e in given])
     sd = np.hypot(PERSON_SIZE_SD, 0.06 / np.sqrt(np.array([e.seconds for e in given])))
@@ -164,10 +236,9 @@ def observe_ankle_plane(evidence: list[SizeEvidence | None], contact_m: float,
     slope = 1 / (centre[kept] - plane)           # d log(centre_z - plane) / d plane, in magnitude
     weight = 1 / sd[kept] ** 2
     variance = 1 / np.sum(weight * slope ** 2) + (POPULATION_MEAN_SD / np.average(slope, weights=weight)) ** 2
-    posterior = 1 / (1 / variance + 1 / PRIOR_SD_M ** 2)
-    height = posterior * (plane / variance + contact_m / PRIOR_SD_M ** 2)
-    return AnklePlane(float(height), float(np.sqrt(posterior)), contact_m, "observed", int(kept.sum()),
-                      float(sum(e.seconds for e, k in zip(given, kept) if k)))
+    information, weighed = information + 1 / variance, weighed + plane / variance
+    return AnklePlane(float(weighed / information), float(information ** -0.5), contact_m, "observed",
+                      int(kept.sum()), float(sum(e.seconds for e, k in zip(given, kept) if k)), len(crossings))
 
 
 def _fit(centre: np.ndarray, target: np.ndarray, sd: np.ndarray) -> float:
