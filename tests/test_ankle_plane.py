@@ -177,17 +177,20 @@ def test_ray3d_lift_says_where_the_floor_was_found_and_reads_the_camera_files_fl
     seen = np.isfinite(pixels).all(-1)
     write_keypoints_json(keypoints, Keypoints(np.nan_to_num(pixels), seen.astype(float), frames, ids, "coco17", 30.0,
                                               "test"))
-    assert main(["lift", "--keypoints", str(keypoints), "--camera", str(camera_path), "--out", str(tmp_path / "w.json")]) == 0
+    assert main(["lift", "--keypoints", str(keypoints), "--camera", str(camera_path),
+                 "--out", str(tmp_path / "w.json")]) == 0
     notes = [line for line in capsys.readouterr().err.splitlines() if "ankles meet" in line]
     assert len(notes) == 1 and "below its z = 0" in notes[0] and "applied" in notes[0]
     world = json.loads((tmp_path / "w.json").read_text())
     assert world["tracks"]["0"]["refinement"]["ankle_plane"]["source"] == "observed"
     document = json.loads(camera_path.read_text())
     camera_path.write_text(json.dumps({**document, "floor_z_m": -0.15}))
-    assert main(["lift", "--keypoints", str(keypoints), "--camera", str(camera_path), "--out", str(tmp_path / "g.json")]) == 0
+    assert main(["lift", "--keypoints", str(keypoints), "--camera", str(camera_path),
+                 "--out", str(tmp_path / "g.json")]) == 0
     assert "as given" in capsys.readouterr().err
     camera_path.write_text(json.dumps({**document, "floor_z_m": "low"}))
-    assert main(["lift", "--keypoints", str(keypoints), "--camera", str(camera_path), "--out", str(tmp_path / "b.json")]) == 2
+    assert main(["lift", "--keypoints", str(keypoints), "--camera", str(camera_path),
+                 "--out", str(tmp_path / "b.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "floor_z_m" in err[0] and "camera.json" in err[0]
 

@@ -596,3 +596,28 @@ def test_upright_crops_map_the_body_axis_to_the_crop_vertical():
     np.testing.assert_allclose(m @ [*hips[0], 1.0], [INPUT_SIZE / 2, INPUT_SIZE / 2], atol=1e-9)
     np.testing.assert_allclose(head, [INPUT_SIZE / 2, INPUT_SIZE / 2 - 100], atol=1e-9)
     assert upright_rotation(hips, hips + [[0.0, -50.0]])[0] == pytest.approx(0.0)
+
+
+def test_two_videos_of_one_site_are_lifted_on_one_floor_found_where_both_see_people(scene, tmp_path):
+    """``lift_videos``: the same walk filmed from the front and the side (frames in step), each followed as
+    ``lift_video`` follows it, lifted together: one ankle plane for both, their ankles triangulated where both see
+    a person, close to where the mocap's planted ankles stand over the floor; each video's outputs written."""
+    from ray3d.geometry.camera import focal_from_hfov
+    from ray3d.video import lift_videos
+
+    _, people, pixels, hidden = scene
+    focal = focal_from_hfov(SIZE[0], 70.0)
+    side = Camera.from_pose([7.0, -11.0, 4.0], np.pi / 2, np.radians(14.0), 0.0, focal, focal, 320.0, 240.0, SIZE)
+    side_pixels = [side.project(p) for p in people]
+    side_video = _render(tmp_path / "side.mp4", side_pixels)
+    front_video = _render(tmp_path / "front.mp4", pixels, hidden)
+    results = lift_videos([(front_video, CAMERA, tmp_path / "front", StubDetector(pixels, hidden)),
+                           (side_video, side, tmp_path / "side", StubDetector(side_pixels))], Lifter.load(),
+                          progress=False)
+    planes = [next(iter(r.world.tracks.values())).refinement["ankle_plane"] for r in results]
+    assert planes[0] == planes[1] and planes[0]["seen_twice"] == 3
+    assert planes[0]["floor_z_m"] == pytest.approx(0.0, abs=0.03) and planes[0]["sd_m"] < 0.03
+    assert all(r.files["world"].is_file() and r.files["overlay"].is_file() for r in results)
+    alone = lift_video(front_video, CAMERA, tmp_path / "alone", StubDetector(pixels, hidden), Lifter.load(),
+                       progress=False)
+    assert next(iter(alone.world.tracks.values())).refinement["ankle_plane"]["seen_twice"] == 0

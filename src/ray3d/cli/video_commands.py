@@ -15,7 +15,7 @@ def video(args: argparse.Namespace) -> int:
     from ray3d.cli.site_commands import refuse_site_outputs, report_site
     from ray3d.io.atomic import refuse_existing
     from ray3d.io.site_files import read_site
-    from ray3d.jobs import fuse_and_write, run_input
+    from ray3d.jobs import fuse_and_write, run_input, run_videos_together
 
     job = job_from_args(args, args.input, "videos", "video")
     several = len(job.inputs) > 1
@@ -29,9 +29,11 @@ def video(args: argparse.Namespace) -> int:
             raise InputError("--format: several cameras' people are fused into a .json world file", ("format",))
         for path in (fused_path, viewer_path):
             refuse_existing(path, args.force)
+    # Several cameras of one site are lifted together, on one floor.
+    results = run_videos_together(job, [args.out / f"camera{k + 1}_{path.stem}" for k, path in enumerate(job.inputs)]) \
+        if several else [run_input(job, 0, args.out)]
     worlds = []
-    for k, path in enumerate(job.inputs):
-        result = run_input(job, k, args.out / f"camera{k + 1}_{path.stem}" if several else args.out)
+    for path, result in zip(job.inputs, results):
         _print_video(path, args.detector, result)
         worlds.append(result.world)
     if several:

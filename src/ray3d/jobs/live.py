@@ -36,8 +36,9 @@ def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None) -
 
     lifter = lifter or Lifter.load(layout=detectors[0].layout)
     lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source is running)
-    return LiveInputs(LocalCameras(group, cameras, detectors, lifter, [job.lift_options(k) for k in range(len(cameras))],
-                                   job.video.max_gap_s, job.video.min_track_s))
+    options = [job.lift_options(k) for k in range(len(cameras))]  # each camera on its own floor, as on Ray
+    return LiveInputs(LocalCameras(group, cameras, detectors, lifter, options, job.video.max_gap_s,
+                                   job.video.min_track_s))
 
 
 def open_stream(job: Job, k: int, paced: bool | None = None, stall_timeout_s: float = 10.0, first_index: int = 0):

@@ -72,6 +72,19 @@ def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -
     return InputResult(world.in_frame("world"), camera, frames, files, keypoints=keypoints)
 
 
+def run_videos_together(job: Job, outs: list[str | Path], progress: bool = True) -> list[InputResult]:
+    """Every video of a several-camera job into its folder of ``outs``, its people followed as ``run_input``
+    follows them and lifted with every other camera's on the site's one floor (``video.lift_videos``)."""
+    from ray3d.video import lift_videos
+
+    opened = [video_input(job, k) for k in range(len(job.inputs))]
+    results = lift_videos([(info, camera, out, detector) for (info, camera, detector), out in zip(opened, outs)],
+                          job.lifter(opened[0][2].layout), job.lift_options(0), job.video, job.world_format,
+                          job.overlay, job.overwrite, progress, one_clock=not job.find_offsets)
+    return [InputResult(result.world, camera, result.frames, result.files, video=result)
+            for result, (_, camera, _) in zip(results, opened)]
+
+
 def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     """Every keypoint file of a several-camera job lifted as one site's cameras (``Lifter.lift_cameras``): one
     world frame, one floor, where people's ankles meet it observed from every camera's people together (and

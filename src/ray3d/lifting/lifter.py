@@ -295,7 +295,8 @@ class Lifter:
 
     def _prepare_tracks(self, tracks: dict, camera: Camera, fps: float | None, layout: str,
                         smooth_2d: str | None) -> tuple[dict, dict, dict]:
-        """{track: detections} -> {track: PreparedTrack}, {track: its frame span}, {track: the InputError refusing it}."""
+        """{track: detections} -> {track: PreparedTrack}, {track: its frame span}, {track: the InputError refusing
+        it}."""
         prepared, spans, failures = {}, {}, {}
         for track, entry in tracks.items():
             spans[track], pixels, confidences = TrackDetections(*entry).dense()

@@ -52,9 +52,9 @@ def gathered(results: LiftedTracks, tracks: dict, lifted: dict, spans: dict, fai
 
 @dataclasses.dataclass
 class CameraTracks:
-    """One camera's tracks on their way through the network (``Lifter``): ``networks`` {track: (T, 17, 3) joints in the frame
-    of the camera with its z = 0 moved to ``depth``, or the InputError that stopped it} and ``found`` {track: its
-    ``SizeEvidence`` of the ankle plane, None where it gave none}."""
+    """One camera's tracks on their way through the network (``Lifter``): ``networks`` {track: (T, 17, 3)
+    joints in the frame of the camera with its z = 0 moved to ``depth``, or the InputError that stopped it} and
+    ``found`` {track: its ``SizeEvidence`` of the ankle plane, None where it gave none}."""
 
     prepared: dict
     camera: Camera

@@ -54,6 +54,7 @@ SAME_PERSON_GAP_M = 0.3
 CROSSING_GAP_M = 0.15
 MIN_CROSSING_SINE = np.sin(np.radians(10.0))
 TRIANGULATION_SD_M = 0.02
+LEG_HEIGHT_M = (0.4, 1.4)  # a standing person's pelvis over their lowest ankle (a child to the tallest adults)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,7 +132,8 @@ class AnklePlane:
             f", {self.seen_twice} seen by two cameras at once" if self.seen_twice else "")
         if self.confident:
             return f"{where}, from {seen}); applied"
-        return f"{where}, from {seen}: too little to tell it well, the prior +/- {PRIOR_SD_M:.2f} m weighed in); applied"
+        return (f"{where}, from {seen}: too little to tell it well, the prior +/- {PRIOR_SD_M:.2f} m weighed in); "
+                "applied")
 
     @classmethod
     def from_summary(cls, summary: dict) -> AnklePlane:
@@ -169,15 +171,15 @@ class SeenTwice:
 def seen_twice(centres: tuple[np.ndarray, np.ndarray], rays: tuple[np.ndarray, np.ndarray],
                seen: tuple[np.ndarray, np.ndarray], fps: float) -> SeenTwice | None:
     """Two cameras' (3,) ``centres`` and one track of each over the same (T,) frames: (T, 17, 3) world directions
-    of their H36M-17 joints' rays and (T, 17) whether each joint was measured -> where the person's planted ankles
-    stand, from the rays' crossings: per frame the lower of the two ankles (each where the rays pass within
-    ``CROSSING_GAP_M``), the median over the frames. None when the tracks are not one person (their pelvis rays
-    pass further apart than ``SAME_PERSON_GAP_M`` in most frames), the cameras look along one line there, or
-    they share under ``MIN_SECONDS`` of both ankles."""
+    (any length) of their H36M-17 joints' rays and (T, 17) whether each joint was measured -> where the person's
+    planted ankles stand, from the rays' crossings: per frame the lower of the two ankles (each where the rays pass
+    within ``CROSSING_GAP_M``), the median over the frames. None when the tracks are not one person (their pelvis
+    rays pass further apart than ``SAME_PERSON_GAP_M`` in most frames, or cross where no pelvis stands over those
+    ankles), the cameras look along one line there, or they share under ``MIN_SECONDS`` of both ankles."""
     def crossing(joint: int) -> tuple[np.ndarray, np.ndarray]:
         """(T, 3) the midpoint of the two rays' nearest points and (T,) their gap (NaN: unmeasured, parallel or
         behind a camera)."""
-        d_a, d_b = rays[0][:, joint], rays[1][:, joint]
+        d_a, d_b = (ray[:, joint] / np.linalg.norm(ray[:, joint], axis=-1, keepdims=True) for ray in rays)
         offset = centres[0] - centres[1]
         cosine = np.einsum("ti,ti->t", d_a, d_b)
         spread = 1 - cosine ** 2
@@ -191,15 +193,17 @@ def seen_twice(centres: tuple[np.ndarray, np.ndarray], rays: tuple[np.ndarray, n
         gap = np.where(usable, np.linalg.norm(near_a - near_b, axis=-1), np.nan)
         return np.where(usable[:, None], (near_a + near_b) / 2, np.nan), gap
 
-    _, pelvis_gap = crossing(body.PELVIS)
+    pelvis, pelvis_gap = crossing(body.PELVIS)
     both = np.isfinite(pelvis_gap)
     if both.sum() < MIN_SECONDS * fps or np.median(pelvis_gap[both]) > SAME_PERSON_GAP_M:
         return None
     ankles = [crossing(joint) for joint in body.ANKLES]
     heights = np.stack([np.where(gap <= CROSSING_GAP_M, point[:, 2], np.nan) for point, gap in ankles], axis=-1)
     lowest = heights.min(axis=-1)  # NaN unless both ankles crossed
-    lowest = lowest[np.isfinite(lowest)]
-    if len(lowest) < MIN_SECONDS * fps:
+    crossed = np.isfinite(lowest) & np.isfinite(pelvis[:, 2])
+    legs = pelvis[crossed, 2] - lowest[crossed]
+    lowest = lowest[crossed]
+    if len(lowest) < MIN_SECONDS * fps or not LEG_HEIGHT_M[0] <= np.median(legs) <= LEG_HEIGHT_M[1]:
         return None
     spread = 1.4826 * np.median(np.abs(lowest - np.median(lowest)))
     seconds = len(lowest) / fps
@@ -248,4 +252,5 @@ def _fit(centre: np.ndarray, target: np.ndarray, sd: np.ndarray) -> float:
     def cost(plane: float) -> float:
         return float(np.sum(((np.log(centre - plane) - target) / sd) ** 2))
 
-    return float(minimize_scalar(cost, bounds=(-LARGEST_OFFSET_M, highest), method="bounded", options={"xatol": 1e-4}).x)
+    return float(minimize_scalar(cost, bounds=(-LARGEST_OFFSET_M, highest), method="bounded",
+                                 options={"xatol": 1e-4}).x)

@@ -198,35 +198,67 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
     (Savitzky-Golay smoothing of the joints by default: it removes a detector's jitter without lag). The world
     file holds the joints in ``options.frame``; the viewer and overlay draw the world.
     """
-    info = video_info(video)
-    camera = camera_for_video(camera, info)
-    targets = _targets(Path(out_dir), world_format, overlay, overwrite)
-    check_world_output(targets["world"], options.frame)
-    clock = [time.perf_counter()]
-    people = track_video(info, camera, detector, video_options, progress)
-    clock.append(time.perf_counter())
-    lifter = lifter or Lifter.load(layout=people.layout)
-    try:
-        lifted = lifter.lift_tracks(people.tracks, camera, people.layout, people.fps, **options.lift_arguments())
-    except InputError as err:
-        raise InputError(f"{info.path}: {err.message}") from None
+    return lift_videos([(video, camera, out_dir, detector)], lifter, options, video_options, world_format, overlay,
+                       overwrite, progress)[0]
+
+
+def lift_videos(inputs: list[tuple], lifter: Lifter | None = None, options: LiftOptions = LiftOptions(),
+                video_options: VideoOptions = VideoOptions(), world_format: str = ".json", overlay: bool = True,
+                overwrite: bool = False, progress: bool = True, one_clock: bool = True) -> list[VideoResult]:
+    """Several videos of one site, each (video, camera, out_dir, detector) as ``lift_video`` takes them: everybody
+    in each followed, then everybody lifted together on the site's one floor (``Lifter.lift_cameras``: where
+    people's ankles meet it observed from every camera's people, and triangulated where two cameras see a person
+    at once if the videos' frames are ``one_clock``), then each video's outputs written. The seconds of the
+    lifting are those of all the videos together."""
+    started = [(video_info(video), camera, out_dir, detector) for video, camera, out_dir, detector in inputs]
+    started = [(info, camera_for_video(camera, info), Path(out_dir), detector)
+               for info, camera, out_dir, detector in started]
+    targets = [_targets(out_dir, world_format, overlay, overwrite) for _, _, out_dir, _ in started]
+    for target in targets:
+        check_world_output(target["world"], options.frame)
+    followed, took = [], []
+    for info, camera, _, detector in started:
+        clock = time.perf_counter()
+        followed.append(track_video(info, camera, detector, video_options, progress))
+        took.append(time.perf_counter() - clock)
+    clock = time.perf_counter()
+    lifter = lifter or Lifter.load(layout=followed[0].layout)
+    lifted = lifter.lift_cameras({k: (people.tracks, camera) for k, (people, (_, camera, _, _))
+                                  in enumerate(zip(followed, started))},
+                                 {k: people.layout for k, people in enumerate(followed)},
+                                 {k: people.fps for k, people in enumerate(followed)}, one_clock=one_clock,
+                                 **options.lift_arguments())
+    lifting = time.perf_counter() - clock
+    results = []
+    for k, ((info, camera, out_dir, _), people, target) in enumerate(zip(started, followed, targets)):
+        if isinstance(lifted[k], InputError):
+            raise InputError(f"{info.path}: {lifted[k].message}") from None
+        clock = time.perf_counter()
+        result = _write_video(info, camera, out_dir, target, people, lifted[k], lifter.name, options, video_options,
+                              overwrite, progress)
+        results.append(dataclasses.replace(result, seconds={"people": took[k], "lifting": lifting,
+                                                            "writing": time.perf_counter() - clock}))
+    return results
+
+
+def _write_video(info: VideoInfo, camera: Camera, out_dir: Path, targets: dict, people: TrackedPeople, lifted,
+                 model: str, options: LiftOptions, video_options: VideoOptions, overwrite: bool,
+                 progress: bool) -> VideoResult:
+    """One video's people, lifted, written: world, detections, viewer and overlay."""
     dropped = {**people.dropped, **lifted.unliftable}
-    world = World(lifted, camera, lifter.name, unliftable=lifted.unliftable, rejoined=people.rejoined(),
+    world = World(lifted, camera, model, unliftable=lifted.unliftable, rejoined=people.rejoined(),
                   in_part=people.in_part(camera.image_size))
     keypoints = people.keypoints()
-    clock.append(time.perf_counter())
-    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
     write_world(targets["world"], world.in_frame(options.frame), overwrite=overwrite)
     write_keypoints_json(targets["keypoints"], keypoints, overwrite)
     write_viewer(targets["viewer"], world.tracks, people.fps, camera, title=f"ray3d: {info.path.name}",
                  overwrite=overwrite)
-    if overlay:
+    if "overlay" in targets:
         write_overlay(info, targets["overlay"], keypoints, world, video_options.start, people.frames_read, overwrite,
                       progress)
-    clock.append(time.perf_counter())
-    seconds = dict(zip(("people", "lifting", "writing"), np.diff(clock).tolist()))
     worlds = dict.fromkeys(export_paths(targets["world"], world).values())  # BVH: one file per track
     files = {**targets, "world": next(iter(worlds))} if len(worlds) == 1 else \
         {**{f"world {p.stem.removeprefix('world_')}": p for p in worlds},
          **{k: v for k, v in targets.items() if k != "world"}}
-    return VideoResult(keypoints, world, people.frames_read, dropped, files, seconds)
+    return VideoResult(keypoints, world, people.frames_read, dropped, files, {})
