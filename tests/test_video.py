@@ -598,7 +598,8 @@ def test_upright_crops_map_the_body_axis_to_the_crop_vertical():
     assert upright_rotation(hips, hips + [[0.0, -50.0]])[0] == pytest.approx(0.0)
 
 
-def test_two_videos_of_one_site_are_lifted_on_one_floor_found_where_both_see_people(scene, tmp_path):
+def test_two_videos_of_one_site_are_lifted_on_one_floor_found_where_both_see_people(scene, tmp_path, monkeypatch,
+                                                                                    capsys):
     """``lift_videos``: the same walk filmed from the front and the side (frames in step), each followed as
     ``lift_video`` follows it, lifted together: one ankle plane for both, their ankles triangulated where both see
     a person, close to where the mocap's planted ankles stand over the floor; each video's outputs written."""
@@ -621,3 +622,15 @@ def test_two_videos_of_one_site_are_lifted_on_one_floor_found_where_both_see_peo
     alone = lift_video(front_video, CAMERA, tmp_path / "alone", StubDetector(pixels, hidden), Lifter.load(),
                        progress=False)
     assert next(iter(alone.world.tracks.values())).refinement["ankle_plane"]["seen_twice"] == 0
+    # The command line: ray3d video with both videos and their cameras says so, and fuses one world.
+    monkeypatch.setitem(DETECTORS, "stub", lambda camera: StubDetector(
+        side_pixels if camera.name == "side" else pixels, () if camera.name == "side" else hidden))
+    cameras = []
+    for name, camera in (("front", CAMERA), ("side", side)):
+        cameras += ["--camera", str(tmp_path / f"{name}.json")]
+        (tmp_path / f"{name}.json").write_text(json.dumps({**camera.to_dict(), "name": name}))
+    assert main(["video", str(front_video), str(side_video), *cameras, "--detector", "stub",
+                 "--out", str(tmp_path / "site")]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "ankles meet" in line]
+    assert len(notes) == 2 and all("3 seen by two cameras at once" in line for line in notes)
+    assert len(read_world(tmp_path / "site" / "world.json").tracks) == 3
