@@ -12,7 +12,18 @@ from matplotlib.path import Path as PolygonPath
 from ray3d.errors import InputError
 
 PLANARITY_TOLERANCE_M = 0.02  # vertex heights further than this from one plane are not one region
+LARGEST_FLOOR_Z_M = 5.0  # a floor further than this from a camera's z = 0 is no calibration's, nor an estimate's
 FOOT_LENGTH_M = 0.25  # the floor under an ankle is felt over a foot's length
+
+
+def checked_floor_z(value, where: str = "floor_z", arguments: tuple[str, ...] = ("floor_z",)) -> float:
+    """Where the floor people stand on lies in a camera's frame (metres; 0: at its z = 0), refused in one
+    ``InputError`` naming ``where`` unless a finite number within ``LARGEST_FLOOR_Z_M``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(value) or abs(value) > LARGEST_FLOOR_Z_M:
+        raise InputError(f"{where}: expected the floor's height in the camera's frame, metres within "
+                         f"+/- {LARGEST_FLOOR_Z_M:g}; got {value!r}", arguments=arguments)
+    return float(value)
 
 
 def checked_polygon(polygon, where: str, arguments: tuple[str, ...] = ()) -> np.ndarray:

@@ -16,7 +16,7 @@ import yaml
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.geometry.arrays import numeric_array
-from ray3d.geometry.floor import FLAT_FLOOR, Floor, FloorRegion
+from ray3d.geometry.floor import FLAT_FLOOR, Floor, FloorRegion, checked_floor_z
 from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
 
@@ -305,10 +305,7 @@ def read_floor(path: str | Path) -> Floor:
 def floor_of_camera_file(camera: str | Path | None) -> Floor:
     """The floor a camera file declares (``read_floor``), or the plain floor z = 0 when it declares none (or the
     camera is not a JSON file)."""
-    if camera is None or not str(camera).lower().endswith(".json") or not Path(camera).is_file():
-        return FLAT_FLOOR
-    document = read_json(Path(camera))
-    return read_floor(camera) if isinstance(document, dict) and FLOOR_KEY in document else FLAT_FLOOR
+    return read_floor(camera) if FLOOR_KEY in _our_camera_document(camera) else FLAT_FLOOR
 
 
 FLOOR_Z_KEY = "floor_z_m"
@@ -318,13 +315,13 @@ def floor_z_of_camera_file(camera: str | Path | None) -> float | None:
     """Where a camera file of ours says the floor people stand on lies in its frame (``"floor_z_m"``: a
     calibration whose z = 0 is a board on a table says -0.75), None when it does not say (then it is observed
     from the people: ``ray3d.refine.ankle_plane``)."""
+    document = _our_camera_document(camera)
+    return checked_floor_z(document[FLOOR_Z_KEY], f"{camera}: {FLOOR_Z_KEY}", ()) if FLOOR_Z_KEY in document else None
+
+
+def _our_camera_document(camera: str | Path | None) -> dict:
+    """A camera file of ours (JSON) as read, for what it declares beside the camera; {} for anything else."""
     if camera is None or not str(camera).lower().endswith(".json") or not Path(camera).is_file():
-        return None
+        return {}
     document = read_json(Path(camera))
-    if not isinstance(document, dict) or FLOOR_Z_KEY not in document:
-        return None
-    value = document[FLOOR_Z_KEY]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or abs(value) > 5:
-        raise InputError(f"{camera}: {FLOOR_Z_KEY}: expected the floor's height in the camera's frame, metres within "
-                         f"+/- 5; got {value!r}")
-    return float(value)
+    return document if isinstance(document, dict) else {}

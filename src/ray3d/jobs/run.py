@@ -97,10 +97,7 @@ def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     files = [read_keypoints(path, job.layout, job.fps, **job.read_options) for path in job.inputs]
     cameras = [choice.camera() for choice in job.cameras]
     layouts = {k: keypoints.layout for k, keypoints in enumerate(files)}
-    if len(set(layouts.values())) > 1 and job.checkpoint is None:
-        lifter = Lifter.load(layout=files[0].layout)  # the shipped model reads every detector's layout
-    else:
-        lifter = job.lifter(files[0].layout, job.inputs[0]) or Lifter.load(layout=files[0].layout)
+    lifter = job.lifter(files[0].layout) or Lifter.load(layout=files[0].layout)
     lifted = lifter.lift_cameras({k: (keypoints.by_track(), camera) for k, (keypoints, camera)
                                   in enumerate(zip(files, cameras))}, layouts,
                                  {k: keypoints.fps for k, keypoints in enumerate(files)}, progress,

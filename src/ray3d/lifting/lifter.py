@@ -117,9 +117,9 @@ class Lifter:
             scores = [None] * len(keypoints) if confidences is None else confidences
             return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress,
                               floor, floor_z) for k, c in zip(keypoints, scores)]
-        prepared = self._prepare(keypoints, camera, confidences, fps, layout, smooth_2d)
-        lifted, _ = self._lift_prepared({0: prepared}, camera, flip_test, chunk, refine, floor, floor_z,
-                                        smooth_3d, {0: progress})
+        view = CameraTracks({0: self._prepare(keypoints, camera, confidences, fps, layout, smooth_2d)}, camera,
+                            {0: progress})
+        (lifted,), _ = self._lift_views([view], flip_test, chunk, refine, floor, floor_z, smooth_3d)
         if isinstance(lifted[0], InputError):
             raise lifted[0]
         return lifted[0]
@@ -138,23 +138,22 @@ class Lifter:
         joints = self._lift_pixels(pixels, camera, flip_test, chunk, progress, scores)
         return temporal.resample_back(joints, MODEL_FPS, fps, len(prepared.pixels)) if resampled else joints
 
-    def _lift_prepared(self, prepared: dict, camera: Camera, flip_test: bool, chunk: int,
-                       refine: bool | RefineConfig, floor: Floor, floor_z: float | None, smooth_3d: str | None,
-                       progress: dict, seen_before: tuple = (), evidence: dict | None = None
-                       ) -> tuple[dict, AnklePlane | None]:
-        """{track: PreparedTrack} seen by one camera -> {track: LiftResult, or the InputError that stopped it} and the
-        ankle plane they were refined on: observed from every track together and the ``SizeEvidence`` of tracks
-        the camera saw before (``floor_z`` None), or given (``_settle``). ``evidence``, a dict, receives each
-        track's ``SizeEvidence`` (None: it gave none)."""
-        config = self._refine_config(refine, prepared)
-        view = CameraTracks(prepared, camera, progress)
-        self._run_network(view, 0.0, flip_test, chunk)
-        if not refine or not view.lifted():
-            return self._unrefined(view, config, smooth_3d), None
-        plane = self._settle([view], floor_z, seen_before, config, flip_test, chunk)
-        if evidence is not None:
-            evidence.update(view.found)
-        return self._refined(view, plane, config, floor, smooth_3d), plane
+    def _lift_views(self, views: list[CameraTracks], flip_test: bool, chunk: int, refine: bool | RefineConfig,
+                    floor: Floor, floor_z: float | None, smooth_3d: str | None, seen_before: tuple = (),
+                    spans: list[dict] | None = None) -> tuple[list[dict], AnklePlane | None]:
+        """Cameras of one floor, each's tracks on their way (``CameraTracks``) -> for each {track: LiftResult, or
+        the InputError that stopped it}, and the ankle plane they were refined on: given (``floor_z``), or observed
+        from every track, the ``SizeEvidence`` of tracks seen before and, with each view's {track: frame ids} on one
+        clock (``spans``), the people two cameras saw at once (``_settle``). Each view's ``found`` keeps its
+        tracks' evidence."""
+        for view in views:
+            self._run_network(view, 0.0, flip_test, chunk)
+        config = self._refine_config(refine, next((v.prepared for v in views if v.prepared), {}))
+        if not refine or not any(view.lifted() for view in views):
+            return [self._unrefined(view, config, smooth_3d) for view in views], None
+        crossings = people_seen_twice(list(zip(views, spans))) if spans else []
+        plane = self._settle(views, floor_z, seen_before, config, flip_test, chunk, crossings)
+        return [self._refined(view, plane, config, floor, smooth_3d) for view in views], plane
 
     def _refine_config(self, refine: bool | RefineConfig, prepared: dict) -> RefineConfig:
         skeleton = next(iter(prepared.values())).skeleton if prepared else H36M17
@@ -252,10 +251,10 @@ class Lifter:
         tracks'), unless ``floor_z`` gives it. A track that cannot be lifted (say, its root never seen) is left
         out and named in the result's ``unliftable`` with why; only when no track can be lifted is that an error."""
         prepared, spans, failures = self._prepare_tracks(tracks, camera, fps, layout, smooth_2d)
-        results = LiftedTracks()
-        lifted, plane = self._lift_prepared(prepared, camera, flip_test, chunk, refine, floor, floor_z, smooth_3d,
-                                            progress_labels(prepared, progress), tuple(seen_before), results.evidence)
-        return gathered(results, tracks, lifted, spans, failures, plane)
+        view = CameraTracks(prepared, camera, progress_labels(prepared, progress))
+        (lifted,), plane = self._lift_views([view], flip_test, chunk, refine, floor, floor_z, smooth_3d,
+                                            tuple(seen_before))
+        return gathered(LiftedTracks(view.found), tracks, lifted, spans, failures, plane)
 
     def lift_cameras(self, views: dict, layout: str | dict = "h36m17", fps: float | dict | None = None,
                      progress: bool = False,
@@ -268,27 +267,20 @@ class Lifter:
         frame ids are ``one_clock`` and two cameras see a person at once, from their ankles triangulated; a view
         none of whose tracks could be lifted maps to the InputError saying why. ``layout`` and ``fps`` may be
         {view: value}."""
-        passes, config = {}, None
+        passes = {}
         for name, (tracks, camera) in views.items():
             prepared, spans, failures = self._prepare_tracks(
                 tracks, camera, fps[name] if isinstance(fps, dict) else fps,
                 layout[name] if isinstance(layout, dict) else layout, smooth_2d)
-            config = config or self._refine_config(refine, prepared)
             view = CameraTracks(prepared, camera, progress_labels(prepared, progress))
-            self._run_network(view, 0.0, flip_test, chunk)
             passes[name] = (tracks, spans, failures, view)
-        seen = [view for *_, view in passes.values()]
-        crossings = people_seen_twice([(view, spans) for _, spans, _, view in passes.values()]) if one_clock else []
-        plane = self._settle(seen, floor_z, (), config, flip_test, chunk, crossings) if refine and any(
-            view.lifted() for view in seen) else None
+        lifted, plane = self._lift_views([view for *_, view in passes.values()], flip_test, chunk, refine, floor,
+                                         floor_z, smooth_3d,
+                                         spans=[spans for _, spans, _, _ in passes.values()] if one_clock else None)
         out = {}
-        for name, (tracks, spans, failures, view) in passes.items():
-            results = LiftedTracks()
-            results.evidence = view.found
-            lifted = self._unrefined(view, config, smooth_3d) if plane is None else \
-                self._refined(view, plane, config, floor, smooth_3d)
+        for (name, (tracks, spans, failures, view)), outcome in zip(passes.items(), lifted):
             try:
-                out[name] = gathered(results, tracks, lifted, spans, failures, plane)
+                out[name] = gathered(LiftedTracks(view.found), tracks, outcome, spans, failures, plane)
             except InputError as err:
                 out[name] = err
         return out

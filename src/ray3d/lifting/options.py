@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 
 from ray3d.errors import InputError
-from ray3d.geometry.floor import FLAT_FLOOR, Floor
+from ray3d.geometry.floor import FLAT_FLOOR, Floor, checked_floor_z
 from ray3d.io.world import check_frame
 from ray3d.refine import RefineConfig
 from ray3d.temporal import OUTPUT_SMOOTHING, SMOOTHING_METHODS
@@ -42,10 +42,8 @@ class LiftOptions:
     floor_z: float | None = None
 
     def __post_init__(self) -> None:
-        if self.floor_z is not None and (not isinstance(self.floor_z, (int, float)) or not np.isfinite(self.floor_z)
-                                         or abs(self.floor_z) > 5.0):
-            raise InputError(f"floor_z: expected the floor's height in the camera's frame, metres within +/- 5, or "
-                             f"None to observe it; got {self.floor_z!r}", arguments=("floor_z",))
+        if self.floor_z is not None:
+            object.__setattr__(self, "floor_z", checked_floor_z(self.floor_z))
         object.__setattr__(self, "smooth_2d", _smoothing("smooth_2d", self.smooth_2d))
         object.__setattr__(self, "smooth_3d", _smoothing("smooth_3d", self.smooth_3d))
         check_frame(self.frame)

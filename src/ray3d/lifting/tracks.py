@@ -18,11 +18,12 @@ class LiftedTracks(dict):
     """{track id: LiftResult} of the tracks lifted, ``unliftable``: {track id: why} of those that could not be,
     and ``ankle_plane``: where their ankles meet the floor (``ray3d.refine.AnklePlane``; None unrefined)."""
 
-    def __init__(self) -> None:
+    def __init__(self, evidence: dict | None = None) -> None:
         super().__init__()
         self.unliftable: dict = {}
         self.ankle_plane: AnklePlane | None = None
-        self.evidence: dict = {}  # {track id: its ``SizeEvidence`` of the ankle plane, None where it gave none}
+        # {track id: its ``SizeEvidence`` of the ankle plane, None where it gave none}
+        self.evidence: dict = evidence if evidence is not None else {}
 
 
 def progress_labels(prepared: dict, shown: bool) -> dict:

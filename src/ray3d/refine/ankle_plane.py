@@ -31,7 +31,7 @@ from scipy.optimize import minimize_scalar
 
 from ray3d import body
 from ray3d.body import body_sizes, lowest_ankle_height
-from ray3d.errors import InputError
+from ray3d.geometry.floor import LARGEST_FLOOR_Z_M, checked_floor_z
 
 # A camera file's z = 0 lies within about 0.15 m of the floor when nothing else is known (users' calibrations on
 # boards and steps are off by 0.1-0.15 m: issue 59).
@@ -46,7 +46,6 @@ MIN_SECONDS = 0.5        # a track with less upright, feet-seen footage gives no
 MIN_DROP_M = 0.05        # the lowest ankle must stand this far below the camera for its ray to meet the floor
 CONFIDENT_SHARE = 0.5    # observed: the people halved the prior's sd
 GIVEN_SD_M = 0.03        # a floor the user gives: the detector's contact height is still a spread of its own
-LARGEST_OFFSET_M = 5.0   # a floor further than this from a camera's z = 0 is no calibration's, nor an estimate's
 # Two cameras' rays of one person: the pelvis rays of one person pass within this of each other (a detector's
 # hips, two calibrations); an ankle's two rays within this are taken to cross at it; cameras looking along one
 # line (rays within 10 degrees) do not triangulate; a triangulated height is no better than the calibrations.
@@ -150,11 +149,8 @@ class AnklePlane:
 
 def given_ankle_plane(floor_z_m: float, contact_m: float) -> AnklePlane:
     """The plane of a floor the user states at ``floor_z_m`` in the camera file's frame."""
-    if isinstance(floor_z_m, bool) or not isinstance(floor_z_m, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(floor_z_m) or abs(floor_z_m) > LARGEST_OFFSET_M:
-        raise InputError(f"floor_z: expected the floor's height in the camera's frame, metres within +/- 5; "
-                         f"got {floor_z_m!r}", arguments=("floor_z",))
-    return AnklePlane(float(floor_z_m) + contact_m, GIVEN_SD_M, contact_m, "given")
+    floor_z_m = checked_floor_z(floor_z_m)
+    return AnklePlane(floor_z_m + contact_m, GIVEN_SD_M, contact_m, "given")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -247,10 +243,10 @@ def observe_ankle_plane(evidence: list[SizeEvidence | None], contact_m: float,
 
 def _fit(centre: np.ndarray, target: np.ndarray, sd: np.ndarray) -> float:
     """The plane height whose log drop from every camera centre best matches the tracks' (weighted)."""
-    highest = min(float(centre.min()) - MIN_DROP_M, LARGEST_OFFSET_M)
+    highest = min(float(centre.min()) - MIN_DROP_M, LARGEST_FLOOR_Z_M)
 
     def cost(plane: float) -> float:
         return float(np.sum(((np.log(centre - plane) - target) / sd) ** 2))
 
-    return float(minimize_scalar(cost, bounds=(-LARGEST_OFFSET_M, highest), method="bounded",
+    return float(minimize_scalar(cost, bounds=(-LARGEST_FLOOR_Z_M, highest), method="bounded",
                                  options={"xatol": 1e-4}).x)

@@ -210,9 +210,10 @@ def lift_videos(inputs: list[tuple], lifter: Lifter | None = None, options: Lift
     people's ankles meet it observed from every camera's people, and triangulated where two cameras see a person
     at once if the videos' frames are ``one_clock``), then each video's outputs written. The seconds of the
     lifting are those of all the videos together."""
-    started = [(video_info(video), camera, out_dir, detector) for video, camera, out_dir, detector in inputs]
-    started = [(info, camera_for_video(camera, info), Path(out_dir), detector)
-               for info, camera, out_dir, detector in started]
+    started = []
+    for video, camera, out_dir, detector in inputs:
+        info = video_info(video)
+        started.append((info, camera_for_video(camera, info), Path(out_dir), detector))
     targets = [_targets(out_dir, world_format, overlay, overwrite) for _, _, out_dir, _ in started]
     for target in targets:
         check_world_output(target["world"], options.frame)
