@@ -78,6 +78,23 @@ def duration(text: str) -> float:
         raise argparse.ArgumentTypeError(str(err)) from None
 
 
+def until(text: str) -> float:
+    """``--until``'s value: a duration (``8h``, ``30min``) or a date and time (ISO 8601) -> seconds from now."""
+    import datetime
+
+    try:
+        return duration(text)
+    except argparse.ArgumentTypeError:
+        pass
+    try:
+        moment = datetime.datetime.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a duration (8h, 30min, 90s) nor an ISO 8601 date and "
+                                         "time (2026-12-07T08:00:00)") from None
+    now = datetime.datetime.now(moment.tzinfo)
+    return (moment - now).total_seconds()
+
+
 def wall_clock(text: str):
     import datetime
 

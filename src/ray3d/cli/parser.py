@@ -15,7 +15,8 @@ from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
 from ray3d.cli import video_commands as video_handlers
 from ray3d.cli.arguments import (add_camera_arguments, add_data_dir, add_force, add_lens_arguments,
-                                 add_lifting_arguments, add_precision, add_time_buckets)
+                                 add_lifting_arguments, add_precision, add_time_buckets, until,
+                                 wall_clock)
 
 
 def _import_common(parser: argparse.ArgumentParser) -> None:
@@ -215,6 +216,15 @@ def build_parser() -> argparse.ArgumentParser:
     live.add_argument("--port", type=int, default=8765, help="the page's port (default 8765; 0: any free one)")
     live.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
     live.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
+    live.add_argument("--store", help="the site's store: every event, position and person, appended by each run "
+                                      "(default OUT/site.db, SQLite; or postgresql://USER@HOST/DB; docs/live.md)")
+    live.add_argument("--mqtt", help="publish events and zone occupancy to an MQTT broker, mqtt://HOST[:PORT]/PREFIX, "
+                                     "with Home Assistant discovery")
+    live.add_argument("--until", type=until, help="end the run on purpose after a duration (8h, 30min) or at a "
+                                                  "date and time (ISO 8601); exit 0")
+    live.add_argument("--reconnect-max", type=float, default=30.0, help="a network stream that stalls or breaks "
+                      "off is opened again, tries 1 s apart doubling up to this many seconds (default 30; 0: end "
+                      "the run instead, exit 3 / 4)")
     live.add_argument("--quiet", action="store_true", help="no events on stdout (they are still in events.jsonl)")
     add_time_buckets(live)
     live.add_argument("--address", help="run each camera in a Ray actor: local (a local Ray started for the run), "
@@ -255,7 +265,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     site = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
                                             "(lines crossed, zones entered and left) and per-track and per-place tables")
-    site.add_argument("world", type=Path, help="a world file (.json/.csv/.npz) of ray3d lift or ray3d video")
+    site.add_argument("world", type=Path, nargs="?", help="a world file (.json/.csv/.npz) of ray3d lift or ray3d "
+                      "video (or --store)")
+    site.add_argument("--store", help="report on a site's store instead (ray3d live's OUT/site.db, or "
+                                      "postgresql://...): every run, with the record's gaps")
+    site.add_argument("--from", dest="from_time", type=wall_clock, help="with --store: from this date and time "
+                      "(ISO 8601; default the record's first)")
+    site.add_argument("--to", dest="to_time", type=wall_clock, help="with --store: to this date and time (ISO 8601; "
+                      "default the record's last)")
     site.add_argument("--site", required=True, type=Path,
                       help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
     site.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "

@@ -42,11 +42,45 @@ def report_site(world, site, out_dir: Path, title: str, overwrite: bool, every_s
 
 
 def site(args: argparse.Namespace) -> int:
+    from ray3d.errors import InputError
     from ray3d.io.site_files import read_site
     from ray3d.io.world import read_world
 
+    if (args.world is None) == (args.store is None):
+        raise InputError("give a world file or --store (one of them)")
+    if args.store is not None:
+        return store_report(args, read_site)
+    if args.from_time is not None or args.to_time is not None:
+        raise InputError("--from / --to: they choose a period of a --store")
     refuse_site_outputs(args.out, (args.world, args.site), args.force, args.every)
     plan = read_site(args.site)  # a bad site file is refused before the world file is read
     report_site(read_world(args.world), plan, args.out, f"{args.world.name} on {args.site.name}", args.force,
                 args.every, args.start_time)
+    return 0
+
+
+def store_report(args: argparse.Namespace, read_site) -> int:
+    """``ray3d site --store``: the record over --from .. --to, and its gaps said."""
+    from ray3d.errors import InputError
+    from ray3d.site.record import analyse_record, record_outputs
+    from ray3d.store import read_record
+
+    if args.start_time is not None:
+        raise InputError("--start-time: a store's record carries its own clock; give --from / --to")
+    for path in record_outputs(args.out, args.every is not None):
+        refuse_existing(check_output(path, (args.site,)), args.force)
+    plan = read_site(args.site)
+    low, high = (None if t is None else t.timestamp() for t in (args.from_time, args.to_time))
+    if low is not None and high is not None and not high > low:
+        raise InputError("--to: it must come after --from")
+    record = read_record(args.store, low, high)
+    places, paths = analyse_record(record, plan, args.out, args.every, f"{record.location} on {args.site.name}",
+                                   args.force)
+    for row in places:
+        tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
+                 else f"{row['forward']} forward, {row['back']} back")
+        print(f"{row['kind']} {row['place']}: {tally}")
+    down = sum(g["to_at"] - g["from_at"] for g in record.gaps)
+    print(f"{len(record.events)} events of {len(record.people)} people over {len(record.runs)} run(s); "
+          f"{len(record.gaps)} gap(s) in the record ({down:.1f} s) -> {args.out}: {', '.join(p.name for p in paths)}")
     return 0

@@ -73,7 +73,9 @@ class LiveFusion:
     ``finished(view, track)`` when a camera's tracker lets a track go; ``ended(time_s)`` -> the world people
     gone for good (every track finished, and ``handover_s`` passed)."""
 
-    def __init__(self, cameras: list[Camera], frame_period_s: float, handover_s: float = 2.0, decide_s: float = 0.1):
+    def __init__(self, cameras: list[Camera], frame_period_s: float, handover_s: float = 2.0, decide_s: float = 0.1,
+                 id_prefix: str = ""):
+        self.id_prefix = id_prefix  # before each world person's number (a run's: unique across a store's runs)
         self.centres = [camera.center for camera in cameras]
         self.handover_s, self.decide_updates = handover_s, max(3, int(round(decide_s / frame_period_s)))
         self.recent_s = 1.5 * frame_period_s  # seen now: every camera's latest frame, whatever their phases
@@ -125,7 +127,7 @@ class LiveFusion:
             self._people[track.person].members.add(key)
 
     def _new_person(self) -> str:
-        person, self._next_person = str(self._next_person), self._next_person + 1
+        person, self._next_person = f"{self.id_prefix}{self._next_person}", self._next_person + 1
         self._people[person] = _WorldPerson()
         return person
 

@@ -29,8 +29,9 @@ class LiveInputs:
         return isinstance(self.followed, RayCameras)
 
 
-def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None) -> LiveInputs:
-    """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process."""
+def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None, id_prefix: str = "") -> LiveInputs:
+    """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process
+    (``id_prefix`` before every track id: a store's run number)."""
     from ray3d.lifting.lifter import Lifter
     from ray3d.live.cameras import LocalCameras
 
@@ -38,36 +39,68 @@ def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None) -
     lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source is running)
     options = [job.lift_options(k) for k in range(len(cameras))]  # each camera on its own floor, as on Ray
     return LiveInputs(LocalCameras(group, cameras, detectors, lifter, options, job.video.max_gap_s,
-                                   job.video.min_track_s))
+                                   job.video.min_track_s, id_prefix))
 
 
-def open_stream(job: Job, k: int, paced: bool | None = None, stall_timeout_s: float = 10.0, first_index: int = 0):
+def start_record(job: Job, store, command: str, site=None, start_time=None):
+    """The store's record of this run begun (``store.RunRecorder``: ``store`` a file, SQLite, or a
+    ``postgresql://`` URL): the run numbered, the gaps since the last one, where each file input is taken up.
+    ``start_time`` (a ``datetime``): the wall-clock time of the inputs' frame 0 (default: now, or the clock of the
+    run that began a file taken up)."""
+    from ray3d.store import RunRecorder
+
+    document = None
+    if site is not None:
+        document = {"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
+                    "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()} for l in site.lines]}
+    sources = [str(source) for source in job.inputs]
+    return RunRecorder(store, command, sources, [Path(s).is_file() for s in sources], document,
+                       start_time.timestamp() if start_time is not None else None)
+
+
+def open_stream(job: Job, k: int, paced: bool | None = None, stall_timeout_s: float = 10.0, first_index: int = 0,
+                reconnect_max_s: float | None = None):
     """Input ``k`` of ``job`` opened as a stream (from frame ``first_index`` on, where it is a file), with its camera
     for the stream's image size and a detector that keeps up (``jobs.run.camera_and_detector``): (``FrameSource``,
-    ``Camera``, detector), in this process or in a Ray actor."""
-    from ray3d.live.source import FrameSource
+    ``Camera``, detector), in this process or in a Ray actor. With ``reconnect_max_s``, a stream that is not a
+    file is opened again whenever it stalls or breaks off (``live.source.ReconnectingSource``: tries from 1 s
+    apart, doubling up to that many seconds)."""
+    import sys
+
+    from ray3d.live.source import FrameSource, ReconnectingSource
     from ray3d.video import VideoInfo
 
-    source = FrameSource.open(job.inputs[k], job.video.fps, paced, stall_timeout_s, first_index=first_index)
+    if reconnect_max_s is not None and not Path(str(job.inputs[k])).is_file():
+        source = ReconnectingSource(job.inputs[k], job.video.fps, stall_timeout_s,
+                                    backoff_s=min(1.0, reconnect_max_s), max_backoff_s=reconnect_max_s,
+                                    report=lambda line: print(line, file=sys.stderr, flush=True))
+    else:
+        source = FrameSource.open(job.inputs[k], job.video.fps, paced, stall_timeout_s, first_index=first_index)
     camera, detector = camera_and_detector(job, k, VideoInfo(source.name, 0, source.fps, source.image_size), live=True)
     detector.prepare([])
     return source, camera, detector
 
 
 def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0, address: str | None = None,
-              workers: int | None = None, cpus_per_camera: float = 1.0) -> LiveInputs:
+              workers: int | None = None, cpus_per_camera: float = 1.0, recorder=None,
+              reconnect_max_s: float | None = None) -> LiveInputs:
     """Open every input of ``job`` as a stream (``open_stream``: a file, a device number, a URL; ``paced``: played
-    at its own rate, the default for files). With ``address`` (``"local"``: a local Ray with ``workers`` CPUs
+    at its own rate, the default for files; ``reconnect_max_s``: streams opened again when they stall or break
+    off). With ``address`` (``"local"``: a local Ray with ``workers`` CPUs
     started for the job; ``"auto"``, ``"ray://HOST:PORT"``: a running cluster) each stream is opened, and its
-    people found, in a Ray actor reserving ``cpus_per_camera``."""
+    people found, in a Ray actor reserving ``cpus_per_camera``. With a ``recorder`` (``store.RunRecorder``), a
+    file is taken up where the store's record of it ends, and track ids carry the run's number."""
+    firsts = [r.first_index for r in recorder.resumes] if recorder else [0] * len(job.inputs)
+    prefix = recorder.id_prefix if recorder else ""
     if address:
         from ray3d.jobs.cluster import start_ray
         from ray3d.live.cluster import RayCameras
 
         ray, started = start_ray(address, workers, "live jobs on a cluster")
-        arguments = [dict(opened=functools.partial(open_stream, job, k, paced, stall_timeout_s),
-                          lifter=job.lifter, lift_options=job.lift_options(k),
-                          max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s)
+        arguments = [dict(opened=functools.partial(open_stream, job, k, paced, stall_timeout_s,
+                                                   reconnect_max_s=reconnect_max_s),
+                          lifter=job.lifter, lift_options=job.lift_options(k), first_index=firsts[k],
+                          id_prefix=prefix, max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s)
                      for k in range(len(job.inputs))]
         played = [paced is not False] * len(job.inputs)  # an unpaced file waits for its reader; the rest play on
         try:
@@ -79,24 +112,27 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
             raise
     from ray3d.live.source import SourceGroup
 
-    opened = [open_stream(job, k, paced, stall_timeout_s) for k in range(len(job.inputs))]
+    opened = [open_stream(job, k, paced, stall_timeout_s, firsts[k], reconnect_max_s) for k in range(len(job.inputs))]
     detectors = [detector for _, _, detector in opened]
     return local_inputs(job, SourceGroup([source for source, _, _ in opened]), [camera for _, camera, _ in opened],
-                        detectors, job.lifter(detectors[0].layout))
+                        detectors, job.lifter(detectors[0].layout), prefix)
 
 
 def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, options=None,
                  stop: threading.Event | None = None, started=lambda url: None,
-                 offsets_s: list[float] | None = None):
-    """Follow ``inputs`` (``open_live``) until they end, stall, break off or ``stop`` is set (``live.runner.follow``);
-    then fuse several cameras' world files into ``out_dir``/world.json and write the site's report in
-    ``out_dir``/site. Returns the ``LiveSummary``, its ``files`` naming every output."""
+                 offsets_s: list[float] | None = None, recorder=None, mqtt=None):
+    """Follow ``inputs`` (``open_live``) until they end, stall, break off or ``stop`` is set (``live.runner.follow``:
+    with the store's ``recorder`` and ``mqtt``, a ``live.mqtt.MqttPublisher``); then fuse several cameras' world
+    files into ``out_dir``/world.json and write the site's report in ``out_dir``/site (a run continuing a store's
+    record: in ``out_dir``/run<N>/, nothing written before is replaced). Returns the ``LiveSummary``, its
+    ``files`` naming every output."""
     from ray3d.io.world import read_world, write_world
     from ray3d.live.runner import LiveOptions, follow
 
     out_dir = Path(out_dir)
     several = len(inputs.followed.cameras) > 1
-    fused_path = out_dir / "world.json"
+    ends_in = out_dir / f"run{recorder.run}" if recorder is not None and recorder.continues else out_dir
+    fused_path = ends_in / "world.json"
     try:
         if several and fused_path.exists():  # refused before the stream, not after it
             from ray3d.errors import InputError
@@ -105,7 +141,7 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
             inputs.followed.finish()
             raise InputError(f"{fused_path}: exists; ray3d live never writes over an output", ("out",))
         options = options or LiveOptions()
-        summary = follow(inputs.followed, out_dir, site, options, stop, started, offsets_s)
+        summary = follow(inputs.followed, out_dir, site, options, stop, started, offsets_s, recorder, mqtt)
     finally:
         if inputs.ray is not None:
             inputs.ray.shutdown()
@@ -113,6 +149,7 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
     if several and written:
         offsets = offsets_s or [0.0] * len(inputs.followed.cameras)
         worlds = [read_world(path) for path, _ in written]
+        ends_in.mkdir(parents=True, exist_ok=True)
         if len(worlds) == 1:
             write_world(fused_path, worlds[0])
             summary.tracks = len(worlds[0].tracks)
@@ -123,8 +160,8 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
     if site is not None and (site.zones or site.lines) and summary.files["world"].exists():
         from ray3d.site.report import analyse_site
 
-        analyse_site(read_world(summary.files["world"]), site, out_dir / "site",
+        analyse_site(read_world(summary.files["world"]), site, ends_in / "site",
                      title=f"ray3d live: {inputs.followed.name}", every_s=options.every_s,
                      start_time=options.start_time)
-        summary.files["site"] = out_dir / "site"
+        summary.files["site"] = ends_in / "site"
     return summary

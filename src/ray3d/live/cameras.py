@@ -37,7 +37,8 @@ class Finished:
 class FrameResult:
     """One processed frame of one camera: its ``index``, when it ``arrived`` (this process's monotonic clock),
     the people in it, the tracks let go with it (``ended``), the tracks lifted offline since the last result
-    (``done``) and, from a camera in another process, its frames read, dropped and people postponed so far."""
+    (``done``), from a camera in another process its frames read, dropped and people postponed so far, and the
+    ``gap`` (Unix times) its stream left just before it, where it was reopened."""
 
     index: int
     arrived: float
@@ -45,6 +46,7 @@ class FrameResult:
     ended: list[str]
     done: list[Finished]
     counts: tuple[int, int, int] | None = None
+    gap: tuple[float, float] | None = None
 
 
 class Finisher:
@@ -107,9 +109,12 @@ class CameraPeople:
 
     def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int | None,
                  lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = ""):
-        """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it."""
-        self.people = LivePeople(camera, detector, lifter, fps, lift_options.floor, max_gap_s, deadline_frames=keep,
-                                 id_prefix=id_prefix)
+        """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it;
+        ``id_prefix``: written before each of its track ids (a run's number)."""
+        self._following = dict(camera=camera, detector=detector, lifter=lifter, fps=fps, floor=lift_options.floor,
+                               max_gap_s=max_gap_s, deadline_frames=keep)
+        self.id_prefix, self.gaps = id_prefix, 0
+        self.people = LivePeople(**self._following, id_prefix=id_prefix)
         self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s)
         self.detector = detector
 
@@ -118,10 +123,23 @@ class CameraPeople:
         return getattr(self.detector, "postponed", 0)
 
     def process(self, frame: LiveFrame) -> FrameResult:
+        cut = self._after_gap() if frame.gap is not None else []
         persons, finished = self.people.update(frame)
         for track in finished:
             self.finisher.put(track)
-        return FrameResult(frame.index, frame.arrived, persons, [t.id for t in finished], self.finisher.take())
+        return FrameResult(frame.index, frame.arrived, persons, [t.id for t in cut + finished],
+                           self.finisher.take(), gap=frame.gap)
+
+    def _after_gap(self) -> list:
+        """The stream was down: everybody followed before it is let go (nobody is followed, or counted, across a
+        gap) and the tracks after it are numbered apart."""
+        self.people.close()
+        cut = self.people.in_view()
+        for track in cut:
+            self.finisher.put(track)
+        self.gaps += 1
+        self.people = LivePeople(**self._following, id_prefix=f"{self.id_prefix}g{self.gaps}-")
+        return cut
 
     def finish(self) -> tuple[list[tuple[str, int]], list[Finished]]:
         """Everybody still in view let go: (track, last frame) of each, and every track lifted not yet taken."""
@@ -136,14 +154,17 @@ class LocalCameras:
     """Every camera in this process: the frames of all taken from one ``SourceGroup`` in the order they arrived."""
 
     def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter,
-                 lift_options: LiftOptions | list[LiftOptions], max_gap_s: float, min_track_s: float):
-        """``lift_options``: one for every camera, or each camera's own (its floor), as on Ray."""
+                 lift_options: LiftOptions | list[LiftOptions], max_gap_s: float, min_track_s: float,
+                 id_prefix: str = ""):
+        """``lift_options``: one for every camera, or each camera's own (its floor), as on Ray; ``id_prefix``:
+        before every track id (a run's number: ids unique across the runs of a store)."""
         self.group, self.cameras, self.name = group, cameras, group.name
         self.fps = [source.fps for source in group.sources]
+        self.sources = [source.name for source in group.sources]
         self.names = [camera.name or source.name for camera, source in zip(cameras, group.sources)]
         options = lift_options if isinstance(lift_options, list) else [lift_options] * len(cameras)
-        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, max_gap_s, min_track_s)
-                      for c, d, source, o in zip(cameras, detectors, group.sources, options)]
+        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, max_gap_s, min_track_s,
+                                   id_prefix) for c, d, source, o in zip(cameras, detectors, group.sources, options)]
 
     def next(self) -> tuple[int, FrameResult] | None:
         taken = self.group.next()

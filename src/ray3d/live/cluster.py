@@ -84,6 +84,7 @@ class _Worker:
     in_view: set = dataclasses.field(default_factory=set)
     counts: tuple = (0, 0, 0)      # this incarnation's frames read, dropped, people postponed
     before: tuple = (0, 0, 0)      # those of the incarnations that died
+    run_prefix: str = ""           # the run's track id prefix, before each restart's
 
 
 class RayCameras:
@@ -96,8 +97,9 @@ class RayCameras:
                  cpus_per_camera: float = 1.0, restarts: int = 3,
                  report: Callable[[str], None] = lambda line: print(line, file=sys.stderr)):
         self.ray, self.restarts, self.report = ray, restarts, report
+        self.sources = [str(source) for source in sources]
         self._remote = ray.remote(num_cpus=cpus_per_camera, max_restarts=0, max_concurrency=2)(CameraWorker)
-        self.workers = [_Worker(dict(a), self._remote.remote(**a), str(source), on)
+        self.workers = [_Worker(dict(a), self._remote.remote(**a), str(source), on, run_prefix=a.get("id_prefix", ""))
                         for a, source, on in zip(arguments, sources, played)]
         described = [self._described(worker) for worker in self.workers]
         self.cameras = [camera for camera, _, _ in described]
@@ -174,7 +176,7 @@ class RayCameras:
             # A stream, or a file played at its rate, went on meanwhile; a file read as fast as it decodes waited.
             missed = int(round((time.monotonic() - worker.last_seen) * self.fps[view])) if worker.played else 0
             first = max(arguments.get("first_index", 0), worker.last_index + 1 + missed)
-            arguments.update(first_index=first, id_prefix=f"r{worker.restarts}-")
+            arguments.update(first_index=first, id_prefix=f"{worker.run_prefix}r{worker.restarts}-")
             worker.actor = self._remote.remote(**arguments)
             self._in_flight[worker.actor.step.remote()] = view
             line = (f"{worker.name}: its camera worker stopped after frame {worker.last_index} and was started "

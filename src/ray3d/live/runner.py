@@ -32,11 +32,11 @@ from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.lifting.options import LiftOptions, VideoOptions
-from ray3d.site.analytics import TimeBuckets
+from ray3d.site.analytics import TimeBuckets, stature_class
 from ray3d.site.events import SiteMonitor
 from ray3d.site.places import Site
 
-ENDINGS = ("ended", "stalled", "broke off", "stopped")
+ENDINGS = ("ended", "stalled", "broke off", "stopped", "until")
 LATEST_EVENTS = 20  # events the page shows
 RECENT_BUCKETS = 12  # time buckets the page shows
 
@@ -57,6 +57,7 @@ class LiveOptions:
     trail_s: float = 10.0
     every_s: float | None = None  # the counts per time bucket of this length, on the page and in the report
     start_time: datetime.datetime | None = None  # the stream's first frame, for wall-clock buckets
+    until_s: float | None = None  # end the run on purpose after this many seconds ("until")
 
 
 @dataclasses.dataclass
@@ -143,8 +144,8 @@ class _Views:
     """What the cameras give, brought together: each camera's finished people appended to its world file; with
     several, their people joined into world people (``LiveFusion``) on the first camera's clock."""
 
-    def __init__(self, cameras, out_dir: Path, offsets_s: list[float] | None):
-        self.cameras, self.several = cameras, len(cameras.cameras) > 1
+    def __init__(self, cameras, out_dir: Path, offsets_s: list[float] | None, recorder=None):
+        self.cameras, self.several, self.recorder = cameras, len(cameras.cameras) > 1, recorder
         self.fps = cameras.fps[0]
         count = len(cameras.cameras)
         self.offsets_s = list(offsets_s) if offsets_s is not None else [0.0] * count
@@ -153,11 +154,13 @@ class _Views:
         self.world_paths = [out_dir / "world.csv"] if not self.several else \
             [out_dir / f"camera{k + 1}_{_file_name(name)}" / "world.csv" for k, name in enumerate(cameras.names)]
         for path in self.world_paths:
-            if path.exists():
+            if path.exists() and not (recorder and recorder.continues):
                 raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
             path.parent.mkdir(parents=True, exist_ok=True)
-        self.fusion = LiveFusion(cameras.cameras, 1.0 / min(cameras.fps)) if self.several else None
+        self.fusion = LiveFusion(cameras.cameras, 1.0 / min(cameras.fps),
+                                 id_prefix=recorder.id_prefix if recorder else "") if self.several else None
         self.written, self.left_out = 0, {}
+        self.label = " + ".join(str(name) for name in cameras.names)  # who saw the world's people
         self._pending: tuple | None = None  # several cameras: the frame whose views are still coming in
 
     def take(self, view: int, result: FrameResult) -> tuple[tuple | None, list[PersonNow], list[str]]:
@@ -165,6 +168,10 @@ class _Views:
         camera's clock and its people; None while it is not), the people now and those who left. With several
         cameras a frame is settled when the next begins: by then every camera's view of it is in."""
         self._write(view, result.done)
+        if self.recorder is not None:
+            self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
+            if result.gap is not None:
+                self.recorder.gap(self.cameras.names[view], *result.gap, "the stream was down")
         if not self.several:
             return (result.index, result.persons), result.persons, result.ended
         time_s = result.index / self.cameras.fps[view] - self.offsets_s[view]
@@ -193,13 +200,26 @@ class _Views:
             leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self.fusion.ended(np.inf, seen=True)]
         return self._pending, leaving
 
+    def time_s(self, view: int, index: int) -> float:
+        """A frame of camera ``view`` on the first camera's clock (seconds)."""
+        return index / self.cameras.fps[view] - self.offsets_s[view]
+
     def _write(self, view: int, done: list) -> None:
         for finished in done:
             if finished.world is None:
                 self.left_out[f"{view + 1}:{finished.track}" if self.several else finished.track] = finished.why
-            else:
-                append_world_csv(self.world_paths[view], finished.world)
-                self.written += 1
+                continue
+            append_world_csv(self.world_paths[view], finished.world)
+            self.written += 1
+            if self.recorder is not None:
+                track = next(iter(finished.world.tracks.values()))
+                refinement = track.refinement or {}
+                stature = refinement.get("stature_m")
+                self.recorder.person(finished.track, self.time_s(view, int(track.frames[0])),
+                                     self.time_s(view, int(track.frames[-1])), stature,
+                                     stature_class(stature, refinement.get("stature_interval_m")),
+                                     len(finished.world.rejoined.get(finished.track, ()) if finished.world.rejoined
+                                         else ()), self.cameras.names[view])
 
 
 def _file_name(name: str) -> str:
@@ -238,21 +258,23 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
 
 def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),
            stop: threading.Event | None = None, started=lambda url: None,
-           offsets_s: list[float] | None = None) -> LiveSummary:
+           offsets_s: list[float] | None = None, recorder=None, mqtt=None) -> LiveSummary:
     """The loop of ``run_live`` over cameras already following their streams (``live.cameras.LocalCameras`` in
     this process, ``live.cluster.RayCameras`` on Ray): their people joined, the site's events, the event log,
-    the webhook, the page and each camera's world file."""
+    the webhook, MQTT (``mqtt``: a ``live.mqtt.MqttPublisher``), the page, each camera's world file and the
+    site's store (``recorder``: a ``store.RunRecorder``; a run that continues a store's record appends to the
+    event log and the world files its earlier runs wrote)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     events_path = out_dir / "events.jsonl"
-    if events_path.exists():
+    if events_path.exists() and not (recorder and recorder.continues):
         cameras.close()
         cameras.finish()
         raise InputError(f"{events_path}: exists; ray3d live never writes over an output", ("out",))
     stop = stop or threading.Event()
     site = site or Site()
     try:
-        views = _Views(cameras, out_dir, offsets_s)
+        views = _Views(cameras, out_dir, offsets_s, recorder)
     except InputError:
         cameras.close()
         cameras.finish()
@@ -275,13 +297,28 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     def emit(events: list[dict]) -> None:
         nonlocal events_count
         log.write(events)
+        if recorder is not None:
+            recorder.events(events)
         if buckets is not None:
             buckets.add(events)
         if webhook:
             webhook.post(events)
+        if mqtt is not None:
+            mqtt.publish(events, monitor)
         latest.extend(events)
         events_count += len(events)
 
+    reached = threading.Event()
+    timer = None
+    if options.until_s is not None:
+        def end_on_purpose() -> None:
+            reached.set()
+            stop.set()
+            cameras.close()
+
+        timer = threading.Timer(max(0.0, options.until_s), end_on_purpose)
+        timer.daemon = True
+        timer.start()
     try:
         if server:
             started(server.start())
@@ -301,6 +338,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     break
                 view, result = taken
                 settled, persons, leaving = views.take(view, result)
+                if recorder is not None and settled is not None and settled[0] > last_index:
+                    recorder.positions(settled[0] / views.fps, settled[1], views.label)
                 events = _monitored(monitor, settled, buckets) if settled is not None and settled[0] > last_index else []
                 last_index = max(last_index, settled[0] if settled is not None else last_index)
                 for person in leaving:
@@ -322,15 +361,25 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": cameras.dropped,
                     "read": cameras.read}, buckets))
     finally:
+        if timer is not None:
+            timer.cancel()
+        if reached.is_set():
+            ending, why = "until", f"{cameras.name}: ended after {options.until_s:g} s, as asked"
         cameras.close()
         settled, leaving = views.finish()
         if settled is not None and settled[0] > last_index:
+            if recorder is not None:
+                recorder.positions(settled[0] / views.fps, settled[1], views.label)
             emit(_monitored(monitor, settled, buckets))
         for person, _ in leaving:
             emit(monitor.ended(person))
         log.close()
         if webhook:
             webhook.close()
+        if mqtt is not None:
+            mqtt.close()
+        if recorder is not None:
+            recorder.close(ending)
         if server:
             server.stop()
     files = {"events": events_path, "world": views.world_paths[0], "worlds": views.world_paths}

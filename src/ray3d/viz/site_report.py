@@ -93,3 +93,64 @@ def write_site_report(path: str | Path, events: list[dict], places: list[dict], 
             .replace("__COLOURS__", json.dumps({kind.name: kind.colour for kind in EVENT_KINDS.values()}))
             .replace("__FPS__", json.dumps(float(fps))).replace("__EVENTS__", json.dumps(events).replace("</", "<\\/")))
     return write_text(path, page, overwrite)
+
+
+_RECORD_TEMPLATE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
+<style>
+ body { font-family: sans-serif; margin: 16px; background: #fafafa; }
+ img { max-width: 48%; border: 1px solid #ddd; background: #fff; margin-right: 1%; vertical-align: top; }
+ table { border-collapse: collapse; margin: 8px 0 16px; font-size: 13px; }
+ td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
+ td.n { text-align: right; font-variant-numeric: tabular-nums; }
+ .note { color: #555; }
+</style></head>
+<body>
+<h1>__TITLE__</h1>
+<p class="note">__NOTE__</p>
+<h2>Places</h2>
+__PLACES__
+<h2>Events by kind</h2>
+__KINDS__
+<h2>Floor plan</h2>
+<img id="plan" alt="floor plan: time spent" src="data:image/png;base64,__PLAN__">
+__BY_TIME__
+<h2>Gaps in the record</h2>
+__GAPS__
+</body></html>
+"""
+
+
+def _numbers_table(rows: list[dict]) -> str:
+    """A table whose numbers are right-aligned, as given (already rounded)."""
+    if not rows:
+        return "<p class='note'>none</p>"
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in columns)
+
+    def cell(value) -> str:
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        return f"<td class='n'>{value}</td>" if number else \
+            f"<td>{html.escape('' if value is None else str(value))}</td>"
+
+    body = "".join("<tr>" + "".join(cell(row.get(c)) for c in columns) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def write_record_report(path: str | Path, title: str, note: str, places: list[dict], kinds: dict[str, int],
+                        gaps: list[dict], plan_png: Path, by_time_png: Path | None, buckets: list[dict] | None,
+                        overwrite: bool = False) -> Path:
+    """A store's report at ``path`` (``ray3d.site.record``): the places' counts, the events by kind, the floor
+    plan, the chart and table by time (when given) and the gaps, self-contained."""
+    def embedded(png: Path) -> str:
+        return base64.b64encode(Path(png).read_bytes()).decode("ascii")
+
+    by_time = "" if buckets is None else (
+        f"<h2>By time</h2><img id='by-time' alt='counts and occupancy by time' style='max-width: 98%' "
+        f"src='data:image/png;base64,{embedded(by_time_png)}'>{_numbers_table(buckets)}")
+    page = (_RECORD_TEMPLATE.replace("__TITLE__", html.escape(title)).replace("__NOTE__", html.escape(note))
+            .replace("__PLACES__", _numbers_table(places))
+            .replace("__KINDS__", _numbers_table([{"event": k, "count": n} for k, n in kinds.items()]))
+            .replace("__PLAN__", embedded(plan_png)).replace("__BY_TIME__", by_time)
+            .replace("__GAPS__", _numbers_table(gaps)))
+    return write_text(path, page, overwrite)

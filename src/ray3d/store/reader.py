@@ -1,0 +1,71 @@
+"""A site store read back over a period (``read_record``): its runs, events, positions, people and gaps, what
+``ray3d site --store`` reports on."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.store.database import connect, is_postgresql, shown
+
+
+@dataclasses.dataclass
+class StoredRecord:
+    """What a store holds from ``from_at`` to ``to_at`` (Unix seconds): ``events`` (each as written, with its
+    ``at`` and ``run``), ``positions`` (N,) structured: at, x, y, sd_along, sd_across, person, camera; ``people``
+    rows; ``gaps`` (camera, from_at, to_at, why, run) overlapping the period; ``runs``."""
+
+    location: str
+    from_at: float
+    to_at: float
+    runs: list[dict]
+    events: list[dict]
+    positions: dict[str, np.ndarray]
+    people: list[dict]
+    gaps: list[dict]
+
+
+def read_record(location, from_at: float | None = None, to_at: float | None = None) -> StoredRecord:
+    """The store at ``location`` (a file or a ``postgresql://`` URL) over [``from_at``, ``to_at``) (Unix seconds;
+    None: from its first record / to its last)."""
+    from pathlib import Path
+
+    if not is_postgresql(location) and not Path(location).is_file():
+        raise InputError(f"store: {location}: no such store", ("store",))
+    database = connect(location)
+    try:
+        low = -math.inf if from_at is None else float(from_at)
+        high = math.inf if to_at is None else float(to_at)
+        bounds = (max(low, -1e300), min(high, 1e300))
+        runs = [dict(zip(("run", "started_at", "command", "sources", "site", "ended_at", "ending", "first_at",
+                          "last_at"), row))
+                for row in database.rows("SELECT run, started_at, command, sources, site, ended_at, ending, first_at, "
+                                         "last_at FROM runs ORDER BY run")]
+        events = []
+        for run, at, body in database.rows("SELECT run, at, body FROM events WHERE at >= ? AND at < ? "
+                                           "ORDER BY at, run, seq", bounds):
+            events.append({**json.loads(body), "at": float(at), "run": int(run)})
+        rows = database.rows("SELECT at, x, y, sd_along, sd_across, person, camera FROM positions "
+                             "WHERE at >= ? AND at < ? ORDER BY at", bounds)
+        numbers = np.array([r[:5] for r in rows], dtype=float).reshape(-1, 5)
+        positions = {"at": numbers[:, 0], "x": numbers[:, 1], "y": numbers[:, 2], "sd_along": numbers[:, 3],
+                     "sd_across": numbers[:, 4], "person": np.array([r[5] for r in rows], dtype=object),
+                     "camera": np.array([r[6] for r in rows], dtype=object)}
+        people = [dict(zip(("person", "run", "first_at", "last_at", "stature_m", "stature_class", "rejoins",
+                            "camera"), row))
+                  for row in database.rows("SELECT person, run, first_at, last_at, stature_m, stature_class, "
+                                           "rejoins, camera FROM people WHERE last_at >= ? AND first_at < ? "
+                                           "ORDER BY first_at", bounds)]
+        gaps = [dict(zip(("camera", "from_at", "to_at", "why", "run"), row))
+                for row in database.rows("SELECT camera, from_at, to_at, why, run FROM gaps "
+                                         "WHERE to_at >= ? AND from_at < ? ORDER BY from_at", bounds)]
+    finally:
+        database.close()
+    recorded = [*positions["at"], *(e["at"] for e in events)]
+    first = low if math.isfinite(low) else min(recorded, default=0.0)
+    last = high if math.isfinite(high) else max(recorded, default=first)
+    return StoredRecord(shown(location), float(first), float(last), runs, events, positions, people, gaps)

@@ -1,0 +1,44 @@
+"""The site store's tables, one schema for SQLite and PostgreSQL, its version and the steps from each older
+version to the next (``MIGRATIONS``). Times are Unix seconds (``at``); a run's stream clock (``time_s``) is kept
+beside them as the events carry it.
+
+- ``runs``: one row per ``ray3d live`` process on the store: when it started, what it followed, how it ended
+  (NULL while it runs, or when it was killed) and the span of stream time it recorded (``first_at`` to
+  ``last_at``, the newest moment committed).
+- ``events``: every site event as it happened (its JSON as written to events.jsonl), numbered within its run.
+- ``positions``: each person's floor point once per second of stream time, with its standard deviation along and
+  across the camera's ray and the camera(s) that saw it.
+- ``people``: one row per person (ids unique across runs): first and last seen, stature, class, re-joins.
+- ``gaps``: where the record has none: a camera's stream down, or the service down between two runs.
+- ``progress``: per input, the last frame recorded, and the wall-clock time of its frame 0: a file followed again
+  is taken up where it was left, on the same clock."""
+
+from __future__ import annotations
+
+SCHEMA_VERSION = 1
+
+# ``{id}``: the dialect's auto-numbered primary key (SQLite's rowid alias; PostgreSQL's identity column).
+TABLES = (
+    "CREATE TABLE IF NOT EXISTS store_meta (name TEXT PRIMARY KEY, value TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS runs (run {id}, started_at DOUBLE PRECISION NOT NULL, command TEXT NOT NULL, "
+    "sources TEXT NOT NULL, site TEXT, ended_at DOUBLE PRECISION, ending TEXT, first_at DOUBLE PRECISION, "
+    "last_at DOUBLE PRECISION)",
+    "CREATE TABLE IF NOT EXISTS events (run INTEGER NOT NULL, seq INTEGER NOT NULL, at DOUBLE PRECISION NOT NULL, "
+    "time_s DOUBLE PRECISION NOT NULL, kind TEXT NOT NULL, person TEXT NOT NULL, body TEXT NOT NULL, "
+    "PRIMARY KEY (run, seq))",
+    "CREATE INDEX IF NOT EXISTS events_at ON events (at)",
+    "CREATE TABLE IF NOT EXISTS positions (run INTEGER NOT NULL, person TEXT NOT NULL, "
+    "at DOUBLE PRECISION NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, "
+    "sd_along DOUBLE PRECISION, sd_across DOUBLE PRECISION, camera TEXT NOT NULL)",
+    "CREATE INDEX IF NOT EXISTS positions_at ON positions (at)",
+    "CREATE TABLE IF NOT EXISTS people (person TEXT PRIMARY KEY, run INTEGER NOT NULL, "
+    "first_at DOUBLE PRECISION NOT NULL, last_at DOUBLE PRECISION NOT NULL, stature_m DOUBLE PRECISION, "
+    "stature_class TEXT NOT NULL, rejoins INTEGER NOT NULL, camera TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS gaps (run INTEGER NOT NULL, camera TEXT NOT NULL, "
+    "from_at DOUBLE PRECISION NOT NULL, to_at DOUBLE PRECISION NOT NULL, why TEXT NOT NULL)",
+    "CREATE TABLE IF NOT EXISTS progress (source TEXT PRIMARY KEY, run INTEGER NOT NULL, frame INTEGER NOT NULL, "
+    "at DOUBLE PRECISION NOT NULL, origin DOUBLE PRECISION NOT NULL)",
+)
+
+# version -> the statements that take a store of that version to the next. Version 1 is the first.
+MIGRATIONS: dict[int, tuple[str, ...]] = {}
