@@ -1,7 +1,7 @@
 """A soak of ``ray3d live``: a video looped at its own rate for a long time (30 minutes by default), the page
 served and read by a client as a browser would. Every 10 s it notes the process's resident memory and the
 live path's queues; at the end it checks that every event was written (the log's lines against the runner's
-count) and reports the memory after the first minute, its largest rise after that, and the frames dropped.
+count, and the store's rows: OUT/site.db, SQLite, as ``ray3d live`` writes it) and reports the memory after the first minute, its largest rise after that, and the frames dropped.
 
     python benchmarks/live_soak.py ../shared/data/real-video/vtest.avi \\
         --camera ../shared/data/real-video/vtest_camera.json --site benchmarks/vtest_site.json \\
@@ -23,6 +23,7 @@ from ray3d.io.camera_files import read_camera
 from ray3d.io.site_files import read_site
 from ray3d.live.runner import LiveOptions, run_live
 from ray3d.live.source import FrameSource, _opened
+from ray3d.store import RunRecorder, read_record
 from ray3d.video import make_detector
 
 
@@ -82,16 +83,19 @@ def main() -> None:
         threading.Thread(target=_read_feed, args=(url, stop, snapshots), daemon=True).start()
 
     threading.Thread(target=sample, daemon=True).start()
+    recorder = RunRecorder(args.out / "site.db", "live_soak", [source.name], [False])
     summary = run_live(source, camera, args.out, detector, site=read_site(args.site) if args.site else None,
-                       options=LiveOptions(port=0), started=started)
+                       options=LiveOptions(port=0), started=started, recorder=recorder)
     stop.set()
     written = len((args.out / "events.jsonl").read_text().splitlines())
+    stored = len(read_record(args.out / "site.db").events)
     after_minute = [s["rss_mb"] for s in samples if s["t_s"] >= 60]
     print(json.dumps({
         "ending": summary.why, "minutes": round((time.monotonic() - start) / 60, 1), "read": summary.read,
         "processed": summary.processed, "dropped_percent": round(100 * summary.dropped / max(summary.read, 1), 2),
         "latency_ms": {"median": float(np.median(summary.latency_ms)), "p99": float(np.percentile(summary.latency_ms, 99))},
-        "events": summary.events, "events_written": written, "tracks": summary.tracks,
+        "events": summary.events, "events_written": written, "events_in_the_store": stored,
+        "store_rows_lost": recorder.lost, "store_written": recorder.written, "tracks": summary.tracks,
         "left_out": len(summary.left_out), "snapshots_read_by_the_page_client": snapshots[0],
         "rss_mb_at_1_min": after_minute[0] if after_minute else None,
         "rss_mb_largest_rise_after_1_min": round(max(after_minute) - after_minute[0], 1) if after_minute else None,

@@ -15,8 +15,7 @@ from ray3d.cli import live_commands as live_handlers
 from ray3d.cli import site_commands as site_handlers
 from ray3d.cli import video_commands as video_handlers
 from ray3d.cli.arguments import (add_camera_arguments, add_data_dir, add_force, add_lens_arguments,
-                                 add_lifting_arguments, add_precision, add_time_buckets, until,
-                                 wall_clock)
+                                 add_lifting_arguments, add_precision, add_time_buckets)
 
 
 def _import_common(parser: argparse.ArgumentParser) -> None:
@@ -188,50 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_force(fuse, "replace --out if it exists")
     fuse.set_defaults(handler=fusion_handlers.fuse)
 
-    live = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
-                                            "a growing world file, a page on localhost (pip install 'ray3d[video,live]')")
-    live.add_argument("source", nargs="+", help="a video file (played at its own rate), a camera device number, or a "
-                                                "stream URL OpenCV opens (rtsp://, http://); several: one per "
-                                                "calibrated camera, their people followed as one world")
-    add_camera_arguments(live, image_size_note=" (default: the stream's)", several=True)
-    live.add_argument("--offsets", help="several sources: seconds each one's clock is ahead of the first's, comma "
-                                        "separated (the first 0; default all 0: sources in step)")
-    live.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, world.csv (several "
-                                                              "sources: camera<k>_<name>/world.csv, then world.json) "
-                                                              "and site/")
-    live.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
-    live.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
-    live.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")
-    live.add_argument("--unpaced", action="store_true", help="read a file as fast as it is processed, every frame, not at its "
-                      "rate")
-    live.add_argument("--stall-timeout", type=float, default=5.0,
-                      help="seconds without a frame before the stream counts as stalled (default 5; exit code 3)")
-    live.add_argument("--max-gap", type=float, default=0.5,
-                      help="seconds a person may go undetected and keep their track (default 0.5)")
-    live.add_argument("--min-track", type=float, default=1.0,
-                      help="tracks shorter than this (seconds) stay out of the world file (default 1)")
-    live.add_argument("--no-page", action="store_true", help="serve no page")
-    live.add_argument("--host", default="127.0.0.1", help="address the page listens on (default 127.0.0.1; any "
-                      "other needs --token)")
-    live.add_argument("--port", type=int, default=8765, help="the page's port (default 8765; 0: any free one)")
-    live.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
-    live.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
-    live.add_argument("--store", help="the site's store: every event, position and person, appended by each run "
-                                      "(default OUT/site.db, SQLite; or postgresql://USER@HOST/DB; docs/live.md)")
-    live.add_argument("--mqtt", help="publish events and zone occupancy to an MQTT broker, mqtt://HOST[:PORT]/PREFIX, "
-                                     "with Home Assistant discovery")
-    live.add_argument("--until", type=until, help="end the run on purpose after a duration (8h, 30min) or at a "
-                                                  "date and time (ISO 8601); exit 0")
-    live.add_argument("--reconnect-max", type=float, default=30.0, help="a network stream that stalls or breaks "
-                      "off is opened again, tries 1 s apart doubling up to this many seconds (default 30; 0: end "
-                      "the run instead, exit 3 / 4)")
-    live.add_argument("--quiet", action="store_true", help="no events on stdout (they are still in events.jsonl)")
-    add_time_buckets(live)
-    live.add_argument("--address", help="run each camera in a Ray actor: local (a local Ray started for the run), "
-                      "auto or ray://HOST:10001 (a running cluster); default: every camera in this process")
-    live.add_argument("--workers", type=int, help="with --address local: the local Ray's CPUs (default all)")
-    add_lifting_arguments(live)
-    live.set_defaults(handler=live_handlers.live)
+    live_handlers.add_parser(commands)
 
     batch = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
                                               "cluster or a local Ray (pip install 'ray3d[cluster]')")
@@ -263,23 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_force(viz, "replace existing outputs")
     viz.set_defaults(handler=handlers.viz)
 
-    site = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
-                                            "(lines crossed, zones entered and left) and per-track and per-place tables")
-    site.add_argument("world", type=Path, nargs="?", help="a world file (.json/.csv/.npz) of ray3d lift or ray3d "
-                      "video (or --store)")
-    site.add_argument("--store", help="report on a site's store instead (ray3d live's OUT/site.db, or "
-                                      "postgresql://...): every run, with the record's gaps")
-    site.add_argument("--from", dest="from_time", type=wall_clock, help="with --store: from this date and time "
-                      "(ISO 8601; default the record's first)")
-    site.add_argument("--to", dest="to_time", type=wall_clock, help="with --store: to this date and time (ISO 8601; "
-                      "default the record's last)")
-    site.add_argument("--site", required=True, type=Path,
-                      help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
-    site.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "
-                                                             "places.csv")
-    add_time_buckets(site)
-    add_force(site, "replace existing tables")
-    site.set_defaults(handler=site_handlers.site)
+    site_handlers.add_parser(commands)
 
     bench = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
     bench_commands = bench.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)

@@ -121,6 +121,10 @@ class LivePeople:
             overdue = min(due, key=lambda f: f.next_refinement)
             self._refining = self._refiner.submit(self._refine, overdue, np.stack([raw for _, raw in overdue.history]))
             overdue.next_refinement = frame.index + self.refine_every
+            if self.deadline_s is None:
+                # A stream that waits for us (a file read as fast as it is processed) has no deadline to keep:
+                # the answer is awaited, so that the same file gives the same people and events every time.
+                self._refining.result()
         people = []
         for (track_id, following), raw in zip(waiting, answers):
             joints = scale_about(raw[None], self.camera.center, np.array([following.scale]))[0]

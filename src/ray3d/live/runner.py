@@ -235,14 +235,15 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
              site: Site | None = None, options: LiveOptions = LiveOptions(),
              lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
              started=lambda url: None, offsets_s: list[float] | None = None,
-             video_options: VideoOptions = VideoOptions()) -> LiveSummary:
+             video_options: VideoOptions = VideoOptions(), recorder=None) -> LiveSummary:
     """Follow ``source`` until it ends, stalls, breaks off or ``stop`` is set; write ``out_dir``/events.jsonl
     and world.csv. ``started(url)`` is called once the page listens.
 
     Several cameras: ``source``, ``camera`` and ``detector`` are lists, one each per camera (``offsets_s``: how
     far each camera's clock is ahead of the first's, 0 by default); each camera's people are written to
     ``out_dir``/camera<k>_<name>/world.csv, the events and the page are of the world's people (``LiveFusion``);
-    ``ray3d.jobs.live.run_live_job`` fuses those files at the end."""
+    ``ray3d.jobs.live.run_live_job`` fuses those files at the end. ``recorder``: the site's store
+    (``store.RunRecorder``; its run's number prefixes every track id)."""
     sources = source.sources if isinstance(source, SourceGroup) else _several(source)
     cameras, detectors = _several(camera), _several(detector)
     if not len(sources) == len(cameras) == len(detectors):
@@ -252,8 +253,8 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
     group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
     followed = LocalCameras(group, cameras, detectors, lifter, lift_options, video_options.max_gap_s,
-                            video_options.min_track_s)
-    return follow(followed, out_dir, site, options, stop, started, offsets_s)
+                            video_options.min_track_s, recorder.id_prefix if recorder else "")
+    return follow(followed, out_dir, site, options, stop, started, offsets_s, recorder)
 
 
 def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),

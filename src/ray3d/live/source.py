@@ -43,9 +43,18 @@ def _device_or_location(source: str) -> int | str:
     return int(source) if source.isdigit() else source
 
 
-def _opened(source: str, skip: int = 0) -> tuple[cv2.VideoCapture, np.ndarray, float]:
-    """The capture, its first frame (BGR; ``skip`` frames on) and its frame rate (0 when it does not say)."""
-    capture = cv2.VideoCapture(_device_or_location(source))
+def _opened(source: str, skip: int = 0, read_timeout_s: float | None = None) -> tuple[cv2.VideoCapture, np.ndarray,
+                                                                                     float]:
+    """The capture, its first frame (BGR; ``skip`` frames on) and its frame rate (0 when it does not say). A
+    network stream gives up a read after ``read_timeout_s`` (OpenCV's default: 30 s), so that a reader of a stream
+    gone silent ends soon after it is closed."""
+    location = _device_or_location(source)
+    if read_timeout_s is not None and isinstance(location, str) and "://" in location:
+        timeout_ms = int(max(1.0, read_timeout_s) * 1000)
+        capture = cv2.VideoCapture(location, cv2.CAP_ANY, [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, max(timeout_ms, 10_000),
+                                                           cv2.CAP_PROP_READ_TIMEOUT_MSEC, timeout_ms])
+    else:
+        capture = cv2.VideoCapture(location)
     if not capture.isOpened():
         capture.release()
         raise InputError(f"{source}: cannot be opened as a video file, camera device or stream", ("source",))
@@ -119,7 +128,7 @@ class FrameSource:
         file is read from that frame on: a stream taken up again where it was left)."""
         source = str(source)
         is_file = Path(source).is_file()
-        capture, first, reported = _opened(source, first_index if is_file else 0)
+        capture, first, reported = _opened(source, first_index if is_file else 0, None if is_file else stall_s + 1.0)
         return cls(_frames_of(capture, first), fps or reported, source, is_file if paced is None else paced, stall_s,
                    (first.shape[1], first.shape[0]), keep, first_index, waits=is_file and paced is False)
 
@@ -181,6 +190,10 @@ class FrameSource:
         """Stop reading (the reader thread ends with its next frame)."""
         _close_and_wake(self)
         self._tell()
+
+    def join(self, timeout_s: float) -> None:
+        """Wait up to ``timeout_s`` for the reader thread to end (after ``close``)."""
+        self._reader.join(timeout_s)
 
 
 class SourceGroup:
@@ -254,6 +267,8 @@ class ReconnectingSource:
         self.fps, self.image_size = self._current.fps, self._current.image_size
         self._current.on_change = self._tell
         self._last_index, self._last_wall, self._gap = -1, time.time(), None
+        self._opened_at = time.time()  # the stall clock starts again with each opening
+        self._let_go: list[FrameSource] = []  # streams closed while down, their readers still in a read
         self._keeper = threading.Thread(target=self._keep_open, name="reconnect", daemon=True)
         self._keeper.start()
 
@@ -271,7 +286,7 @@ class ReconnectingSource:
         """Why the stream is down (None while it is not)."""
         if current._ended and not current._waiting:
             return f"it broke off ({current._failure})" if current._failure else "it ended"
-        if time.time() - self._last_wall > self.stream_stall_s and not current._waiting:
+        if time.time() - max(self._last_wall, self._opened_at) > self.stream_stall_s and not current._waiting:
             return f"no frame for {self.stream_stall_s:g} s"
         return None
 
@@ -287,6 +302,7 @@ class ReconnectingSource:
                     continue
                 down, self._current = self._current, None
             down.close()
+            self._let_go.append(down)
             self._done_read, self._done_dropped = self._done_read + down.read, self._done_dropped + down.dropped
             self.report(f"{self.name}: the stream is down ({why}); opening it again (every "
                         f"{self.backoff_s:g}-{self.max_backoff_s:g} s); nobody is followed across the gap")
@@ -307,6 +323,7 @@ class ReconnectingSource:
                         opened.close()
                         return
                     self._gap = (self._last_wall, None)
+                    self._opened_at = time.time()
                     self._current = opened
                     opened.on_change = self._tell
                 self.report(f"{self.name}: the stream is back after {time.time() - self._last_wall:.1f} s "
@@ -342,6 +359,7 @@ class ReconnectingSource:
             return frame
 
     def close(self) -> None:
+        """Stop reading; returns once every reader has ended (each within the stream's read timeout)."""
         with self._changed:
             self._closed = True
             current = self._current
@@ -349,3 +367,6 @@ class ReconnectingSource:
         if current is not None:
             current.close()
         self._tell()
+        self._keeper.join(self.stream_stall_s + 15.0)
+        for source in [*self._let_go, *([current] if current is not None else [])]:
+            source.join(self.stream_stall_s + 2.0)

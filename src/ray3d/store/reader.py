@@ -69,3 +69,41 @@ def read_record(location, from_at: float | None = None, to_at: float | None = No
     first = low if math.isfinite(low) else min(recorded, default=0.0)
     last = high if math.isfinite(high) else max(recorded, default=first)
     return StoredRecord(shown(location), float(first), float(last), runs, events, positions, people, gaps)
+
+
+COPIED_TABLES = {"runs": ("run", "started_at", "command", "sources", "site", "ended_at", "ending", "first_at",
+                          "last_at"),
+                 "events": ("run", "seq", "at", "time_s", "kind", "person", "body"),
+                 "positions": ("run", "person", "at", "x", "y", "sd_along", "sd_across", "camera"),
+                 "people": ("person", "run", "first_at", "last_at", "stature_m", "stature_class", "rejoins",
+                            "camera"),
+                 "gaps": ("run", "camera", "from_at", "to_at", "why"),
+                 "progress": ("source", "run", "frame", "at", "origin")}
+
+
+def copy_record(source, target) -> dict[str, int]:
+    """Every row of the store at ``source`` into a new, empty store at ``target`` (say from SQLite to PostgreSQL
+    as a site grows), in one transaction; the rows copied per table. A ``target`` holding runs is refused."""
+    from pathlib import Path
+
+    if not is_postgresql(source) and not Path(source).is_file():
+        raise InputError(f"store: {source}: no such store", ("store",))
+    reading, writing = connect(source), connect(target)
+    try:
+        if writing.rows("SELECT COUNT(*) FROM runs")[0][0]:
+            raise InputError(f"copy_to: {shown(target)}: holds a record already; copy into an empty store",
+                             ("copy_to",))
+        copied = {}
+        for table, columns in COPIED_TABLES.items():
+            rows = reading.rows(f"SELECT {', '.join(columns)} FROM {table}")
+            writing.many(f"INSERT INTO {table} ({', '.join(columns)}) VALUES ({', '.join('?' * len(columns))})",
+                         [tuple(row) for row in rows])
+            copied[table] = len(rows)
+        if writing.postgresql:  # run numbers go on after the copied ones
+            writing.execute("SELECT setval(pg_get_serial_sequence('runs', 'run'), "
+                            "(SELECT COALESCE(MAX(run), 0) + 1 FROM runs), false)")
+        writing.commit()
+        return copied
+    finally:
+        reading.close()
+        writing.close()
