@@ -23,7 +23,7 @@ from ray3d.demo import demo_clip
 from ray3d.batch import read_manifest
 from ray3d.checkpoints import load_model, resolve
 from ray3d.io.camera_files import read_camera, read_floor, save_cameras
-from ray3d.io.site_files import read_site
+from ray3d.site.files import read_site
 from ray3d.io.floor_points import read_floor_points
 from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
 from ray3d.data.bvh import read_bvh

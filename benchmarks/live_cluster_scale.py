@@ -60,7 +60,7 @@ def joining_cost(cameras: int, people: int = 12, frames: int = 300) -> dict:
     from ray3d import cameras as shipped
     from ray3d.demo import demo_clip
     from ray3d.fusion.live import LiveFusion
-    from ray3d.live.people import PersonNow
+    from ray3d.geometry.uncertainty import PersonNow
     from ray3d.site import Site, SiteMonitor
     from ray3d.site.places import CountingLine, Zone
 

@@ -24,7 +24,7 @@ from fusion_mocap import (FPS, cameras, crossing_people, identity_switches, scen
 
 from ray3d import Lifter  # noqa: E402
 from ray3d.fusion.live import LiveFusion  # noqa: E402
-from ray3d.live.people import PersonNow  # noqa: E402
+from ray3d.geometry.uncertainty import PersonNow  # noqa: E402
 from ray3d.refine import RefineConfig, network_position_sd  # noqa: E402
 
 

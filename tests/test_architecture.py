@@ -248,3 +248,37 @@ def test_every_record_of_where_a_person_stands_is_the_one_positioned_record():
         {("ray3d.geometry.uncertainty", "Positioned")}
     assert len(records) >= 4
     assert {m for m in MODULES if m != "ray3d.geometry.uncertainty" and _calls(MODULES[m], "along_ray")} == set()
+
+
+def _room(module: str) -> str:
+    """A module's room: its folder under ``ray3d`` (``site`` for ``ray3d.site.events``), or the module itself."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
+
+
+def test_no_two_rooms_import_each_other():
+    """Folder-level cycles, counting every import (those inside functions too): a room that imports another
+    which imports it back is one room in two places."""
+    rooms: dict[str, set[str]] = {}
+    for module, imported in GRAPH.items():
+        rooms.setdefault(_room(module), set()).update(_room(m) for m in imported if m != "ray3d")
+    for room in rooms:
+        rooms[room].discard(room)
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(room: str) -> list[str] | None:
+        state[room] = 1
+        stack.append(room)
+        for child in sorted(rooms.get(room, ())):
+            if state.get(child) == 1:
+                return stack[stack.index(child):] + [child]
+            if child not in state and (cycle := visit(child)):
+                return cycle
+        stack.pop()
+        state[room] = 2
+        return None
+
+    for room in sorted(rooms):
+        if room not in state:
+            assert (cycle := visit(room)) is None, " -> ".join(cycle)

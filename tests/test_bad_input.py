@@ -378,7 +378,7 @@ def _valid_files(folder) -> dict:
     batch manifests (CSV, JSON) and world files (JSON, CSV)."""
     from ray3d.batch import read_manifest
     from ray3d.io.camera_files import read_floor
-    from ray3d.io.site_files import read_site
+    from ray3d.site.files import read_site
     from ray3d.io.world import LiftResult, World, write_world
 
     site = {"zones": [{"name": "room", "polygon": [[0, 0], [4, 0], [4, 3]], "max_occupancy": 2}],

@@ -303,7 +303,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
 
 def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camera_sees_at_once():
     from ray3d.fusion.live import LiveFusion
-    from ray3d.live.people import PersonNow
+    from ray3d.geometry.uncertainty import PersonNow
 
     facing = cameras.h36m("S9", "55011271")
     fusion = LiveFusion([CAMERA, facing], frame_period_s=0.1)

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from ray3d import InputError, cameras
 from ray3d.io.world import LiftResult, World
-from ray3d.io.site_files import read_site
+from ray3d.site.files import read_site
 from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
 
 from browser import console_errors, needs_chromium, screenshot

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from ray3d import InputError
-from ray3d.live.people import PersonNow
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.store import RunRecorder, read_record
 from ray3d.store import schema
 

@@ -243,7 +243,7 @@ def _entry(path: Path, number: int, row: dict, names: dict) -> Entry:
     except InputError as err:
         raise InputError(f"{where}: camera: {err.message}") from None
     if "site" in options:
-        from ray3d.io.site_files import read_site
+        from ray3d.site.files import read_site
 
         try:
             read_site(options["site"])

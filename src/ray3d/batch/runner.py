@@ -74,7 +74,7 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
         result = run_input(job, 0, out, progress=False)
         world, frames = result.world, result.frames
         if "site" in entry.options:
-            from ray3d.io.site_files import read_site
+            from ray3d.site.files import read_site
             from ray3d.site.report import analyse_site
 
             analyse_site(world, read_site(entry.options["site"]), temporary / "site",

@@ -43,7 +43,7 @@ def report_site(world, site, out_dir: Path, title: str, overwrite: bool, every_s
 
 def site(args: argparse.Namespace) -> int:
     from ray3d.errors import InputError
-    from ray3d.io.site_files import read_site
+    from ray3d.site.files import read_site
     from ray3d.io.world import read_world
 
     if (args.world is None) == (args.store is None):

@@ -14,7 +14,7 @@ def video(args: argparse.Namespace) -> int:
     from ray3d.cli.fusion_commands import print_fusion
     from ray3d.cli.site_commands import refuse_site_outputs, report_site
     from ray3d.io.atomic import refuse_existing
-    from ray3d.io.site_files import read_site
+    from ray3d.site.files import read_site
     from ray3d.jobs import fuse_and_write, run_input, run_videos_together
 
     job = job_from_args(args, args.input, "videos", "video")

@@ -21,7 +21,7 @@ import numpy as np
 from ray3d.fusion.tracks import GATE_FLOOR_M, gate_m, handover_reach_m
 from ray3d.geometry.uncertainty import information_weighted, root_spread
 from ray3d.geometry import Camera
-from ray3d.live.people import PersonNow
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.temporal import velocity
 
 

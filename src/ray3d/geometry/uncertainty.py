@@ -5,6 +5,8 @@ clock) and the ray-shaped covariances it implies, which fusing several cameras' 
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 POSE_SD_M = 0.04      # a lifted joint's error about the person's root, each axis
@@ -51,7 +53,7 @@ def information_weighted(joints: np.ndarray, covariances: np.ndarray,
 class Positioned:
     """A person's world joints ``joints`` (..., J, 3) with ``position_sd`` (..., 2), the root's standard deviation
     along the camera's ray through it and across that ray (None: not stated). The one record of where a person
-    stands and how sure that is: a person over time (``io.world.LiftResult``), now (``live.people.PersonNow``), one
+    stands and how sure that is: a person over time (``io.world.LiftResult``), now (``PersonNow``, below), one
     camera's track on a shared clock (``fusion.tracks.CameraTrack``). ``rows`` selects along the first axis."""
 
     joints: np.ndarray
@@ -76,3 +78,14 @@ class Positioned:
         """(..., 2, 2) the root's floor point's covariance from a camera at ``centre`` (its floor point): long
         along the ray, narrow across it."""
         return along_ray(self.joints[rows][..., 0, :2], np.asarray(centre)[:2], self.stated_sd(rows))
+
+
+@dataclasses.dataclass(frozen=True)
+class PersonNow(Positioned):
+    """One person in the frame a live run just processed: their track id, world joints (17, 3), the root's
+    standard deviation along and across its ray (2,) and their stature so far (None before the first refinement)."""
+
+    track: str
+    joints: np.ndarray
+    position_sd: np.ndarray
+    stature_m: float | None

@@ -16,7 +16,8 @@ from ray3d.geometry import Camera
 from ray3d.io.world import World
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions
-from ray3d.live.people import LivePeople, PersonNow, below_the_stream
+from ray3d.geometry.uncertainty import PersonNow
+from ray3d.live.people import LivePeople, below_the_stream
 from ray3d.live.source import LiveFrame, SourceGroup
 from ray3d.video.tracking import Track
 

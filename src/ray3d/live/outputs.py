@@ -1,4 +1,4 @@
-"""Where live events go besides the page and their JSON-lines file (``io.site_files.EventLines``): a webhook
+"""Where live events go besides the page and their JSON-lines file (``site.files.EventLines``): a webhook
 (HTTP POST of each event as JSON, retried, from a bounded queue on a thread of its own, so a receiver that refuses
 or hangs never slows the stream: what it cannot take is counted)."""
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.geometry.uncertainty import Positioned
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.stream import LiftStream, lift_streams
@@ -33,17 +33,6 @@ from ray3d.video.tracking import FloorTracker, Track
 
 
 RUNNER_SHARE = 0.1  # of a frame's period, kept for the events, the outputs and the page after the people
-
-
-@dataclasses.dataclass(frozen=True)
-class PersonNow(Positioned):
-    """One person in the frame just processed: their track id, world joints (17, 3), the root's standard
-    deviation along and across its ray (2,) and their stature so far (None before the first refinement)."""
-
-    track: str
-    joints: np.ndarray
-    position_sd: np.ndarray
-    stature_m: float | None
 
 
 @dataclasses.dataclass

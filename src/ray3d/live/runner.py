@@ -24,10 +24,10 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.io.world import append_world_csv
 from ray3d.lifting.lifter import Lifter
-from ray3d.io.site_files import EventLines
+from ray3d.site.files import EventLines
 from ray3d.live.outputs import Webhook
 from ray3d.live.cameras import FrameResult, LocalCameras
-from ray3d.live.people import PersonNow
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled

@@ -91,7 +91,7 @@ def analyse_record(record, site: Site, out_dir: str | Path, every_s: float | Non
                    title: str = "ray3d site record", overwrite: bool = False) -> tuple[list[dict], list[Path]]:
     """A ``StoredRecord`` on a ``Site``: the per-place counts and the files written in ``out_dir``
     (``record_outputs``)."""
-    from ray3d.io.site_files import write_csv
+    from ray3d.site.files import write_csv
     from ray3d.viz.plots import plot_by_time, plot_floor_plan
     from ray3d.viz.site_report import write_record_report
 

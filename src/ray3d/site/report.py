@@ -18,7 +18,7 @@ BY_TIME = "by-time.csv"  # with ``every_s``: the counts per time bucket
 
 def site_outputs(out_dir: str | Path, by_time: bool = False) -> list[Path]:
     """Every file ``analyse_site`` writes in ``out_dir`` (``by_time``: with time buckets)."""
-    from ray3d.io.site_files import SITE_TABLES
+    from ray3d.site.files import SITE_TABLES
 
     return [Path(out_dir) / name for name in (*PAGES, *SITE_TABLES, *PLOTS, *((BY_TIME,) if by_time else ()))]
 
@@ -29,9 +29,9 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     ``out_dir`` (``site_outputs``: the report, the viewer, every table and both plots; with ``every_s``, the
     counts per bucket of that many seconds in ``by-time.csv`` and the report, wall-clock from ``start_time``, a
     ``datetime``, when given)."""
-    from ray3d.io.site_files import write_csv, write_site_tables
+    from ray3d.site.files import write_csv, write_site_tables
     from ray3d.site.analytics import by_time, heat_map, occupancy, person_frames, track_summaries, zone_summaries
-    from ray3d.site.events import site_events
+    from ray3d.site.events import EVENT_KINDS, site_events
     from ray3d.viz.html_viewer import write_viewer
     from ray3d.viz.plots import plot_floor_plan, plot_occupancy
     from ray3d.viz.site_report import write_site_report
@@ -54,6 +54,7 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     people = plot_occupancy(times, counts, out_dir / PLOTS[1], overwrite)
     viewer = write_viewer(out_dir / PAGES[1], world.tracks, world.fps, world.camera, title=f"{title}: every track",
                           overwrite=overwrite, more_cameras=world.cameras[1:])
-    report = write_site_report(out_dir / PAGES[0], events, places, floor_plan, people, world.fps, title=title,
-                               note=PRIVACY, overwrite=overwrite, buckets=buckets)
+    report = write_site_report(out_dir / PAGES[0], events, places, floor_plan, people, world.fps,
+                               {kind.name: kind.colour for kind in EVENT_KINDS.values()}, title=title, note=PRIVACY,
+                               overwrite=overwrite, buckets=buckets)
     return events, places, [report, viewer, *tables, floor_plan, people]

@@ -11,7 +11,6 @@ import json
 from pathlib import Path
 
 from ray3d.io.atomic import write_text
-from ray3d.site.events import EVENT_KINDS
 
 
 _TEMPLATE = """<!doctype html>
@@ -79,10 +78,11 @@ def _table(rows: list[dict]) -> str:
 
 
 def write_site_report(path: str | Path, events: list[dict], places: list[dict], plan_png: Path, occupancy_png: Path,
-                      fps: float, title: str = "ray3d site report", note: str = "", overwrite: bool = False,
-                      buckets: list[dict] | None = None) -> Path:
-    """The report at ``path``, the two plots embedded in it (and the counts per time bucket, when given); its
-    events link to ``viewer.html`` beside it."""
+                      fps: float, colours: dict[str, str], title: str = "ray3d site report", note: str = "",
+                      overwrite: bool = False, buckets: list[dict] | None = None) -> Path:
+    """The report at ``path``, the two plots embedded in it (and the counts per time bucket, when given), each
+    kind of event on the timeline in its colour (``colours``: {event name: CSS colour}); its events link to
+    ``viewer.html`` beside it."""
     def embedded(png: Path) -> str:
         return base64.b64encode(Path(png).read_bytes()).decode("ascii")
 
@@ -90,7 +90,7 @@ def write_site_report(path: str | Path, events: list[dict], places: list[dict], 
             .replace("__PLAN__", embedded(plan_png)).replace("__OCCUPANCY__", embedded(occupancy_png))
             .replace("__PLACES__", _table(places))
             .replace("__BY_TIME__", f"<h2>By time</h2>{_table(buckets)}" if buckets else "")
-            .replace("__COLOURS__", json.dumps({kind.name: kind.colour for kind in EVENT_KINDS.values()}))
+            .replace("__COLOURS__", json.dumps(colours))
             .replace("__FPS__", json.dumps(float(fps))).replace("__EVENTS__", json.dumps(events).replace("</", "<\\/")))
     return write_text(path, page, overwrite)
 
