@@ -149,12 +149,12 @@ def test_export_onnx_without_the_extra_says_what_to_install(tmp_path, monkeypatc
 
 
 def test_an_internal_error_is_one_line_with_exit_code_1_and_a_traceback_only_with_debug(monkeypatch, capsys):
-    from ray3d.cli import commands
+    from ray3d.cli import model_commands
 
     def broken(args):
         raise RuntimeError("something inside broke")
 
-    monkeypatch.setattr(commands, "models", broken)
+    monkeypatch.setattr(model_commands, "models", broken)
     assert main(["models"]) == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "internal error: RuntimeError: something inside broke" in err
@@ -438,3 +438,54 @@ def test_paths_the_system_refuses_and_numbers_beyond_any_float_are_one_line(tmp_
                       '"tvec": [0, 0, 4], "image_width": 1' + "0" * 400 + ', "image_height": 1000}')
     with pytest.raises(InputError, match="image_width"):
         read_camera(camera)
+
+
+def test_the_python_api_answers_bad_arguments_like_the_command_line(tmp_path):
+    """Every bad argument an ``InputError`` naming it and the problem: never a bare ValueError, an IndexError, an
+    OverflowError or an allocation of terabytes."""
+    from ray3d import Camera, cameras
+    from ray3d.demo import demo_clip
+    from ray3d.io.world import World, read_world, write_world
+    from ray3d.lifting.lifter import Lifter
+
+    camera = cameras.h36m("S9", "54138969")
+    document = camera.to_dict()
+    pixels = camera.project(demo_clip()[:30])
+    lifter = Lifter.load()
+    cases = [
+        (lambda: Camera.from_dict({**document, "fx": "abc"}), "camera field fx: not numeric"),
+        (lambda: Camera.from_dict({**document, "cx": 10 ** 400}), "camera field cx: a number too large"),
+        (lambda: Camera.from_dict([1, 2, 3]), "camera: expected a JSON object"),
+        (lambda: lifter.lift([["a", "b"]] * 17, camera), "keypoints: not numeric"),
+        (lambda: lifter.lift([[[1, 2]] * 17, [[1, 2]] * 16], camera), "keypoints: rows of different lengths"),
+        (lambda: lifter.lift(pixels, camera, chunk=0), "chunk: frames per network call"),
+        (lambda: lifter.lift_tracks({0: (["a", "b", "c"], pixels[:3])}, camera, "h36m17", 50),
+         r"tracks\[0\]: frame ids: not numeric"),
+        (lambda: lifter.lift_tracks({0: (np.zeros(0, int), pixels[:0])}, camera, "h36m17", 50),
+         r"tracks\[0\]: no frames"),
+        (lambda: lifter.lift_tracks({0: (np.array([0, 10 ** 12]), pixels[:2])}, camera, "h36m17", 50),
+         r"tracks\[0\]: frame ids from 0 to 1000000000000 span"),
+        (lambda: lifter.lift_tracks({0: (np.arange(30), pixels)}, Camera.from_dict({**document, "fy": 10 ** 400}),
+                                    "h36m17", 50), "camera field fy: a number too large"),
+    ]
+    for call, message in cases:
+        with pytest.raises(InputError, match=message):
+            call()
+    # A world file of the schema's older form (each track only its frames and joints) is read, the fields added
+    # since absent; one without a field every version wrote is refused naming it.
+    world = World({"0": lifter.lift(pixels, camera, fps=50.0)}, camera, lifter.name)
+    write_world(tmp_path / "w.json", world)
+    full = json.loads((tmp_path / "w.json").read_text())
+    for entry in full["tracks"].values():
+        for field in list(entry):
+            if field not in ("frames", "joints"):
+                del entry[field]
+    (tmp_path / "old.json").write_text(json.dumps(full))
+    old = read_world(tmp_path / "old.json")
+    np.testing.assert_allclose(old.tracks["0"].joints, world.tracks["0"].joints, atol=1e-5)  # 5 decimals kept
+    assert not old.tracks["0"].interpolated.any() and old.tracks["0"].refinement is None
+    del full["tracks"]["0"]["frames"]
+    (tmp_path / "broken.json").write_text(json.dumps(full))
+    with pytest.raises(InputError, match=r"broken.json: tracks\['0'\]: not a world file written by ray3d: "
+                                         r"missing field\(s\) frames"):
+        read_world(tmp_path / "broken.json")

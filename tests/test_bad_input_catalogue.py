@@ -121,7 +121,7 @@ CASES = {
     "camera: dist of 2": (lambda t: _lift(_npz(t), camera=_camera_json(t, dist=[0.1, 0.2])), "dist"),
     "camera: negative width": (lambda t: _lift(_npz(t), camera=_camera_json(t, width=-1000)), "width"),
     "camera: NaN focal": (lambda t: _lift(_npz(t), camera=_write(t, "c.json", json.dumps(
-        CAMERA.to_dict()).replace('"fx": 1145.04940458804', '"fx": NaN'))), "K: contains NaN"),
+        CAMERA.to_dict()).replace('"fx": 1145.04940458804', '"fx": NaN'))), "camera field fx: contains NaN"),
     "camera: YAML without camera_matrix": (lambda t: _lift(_npz(t), camera=_write(
         t, "c.yaml", "%YAML:1.0\nimage_width: 10\n")), "camera_matrix"),
     "camera: unknown bundled camera": (lambda t: _lift(_npz(t), camera="h36m:S99:1"), "S99"),

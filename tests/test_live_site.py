@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ray3d import cameras
 from ray3d.io.world import read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup
@@ -257,7 +256,7 @@ def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_wit
     from ray3d.jobs.live import local_inputs, run_live_job
     from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
-    from ray3d.live.source import ReconnectingSource
+    from ray3d.live.reconnect import ReconnectingSource
 
     monkeypatch.setenv("OPENCV_FFMPEG_CAPTURE_OPTIONS", "rtsp_transport;udp")  # this server has no TCP transport
     stream = RtspStream(CAMERA.image_size, FPS)

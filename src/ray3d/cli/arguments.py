@@ -131,3 +131,15 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
                detector=getattr(args, "detector", None), video=video, world_format=getattr(args, "format", ".json"),
                overlay=not (getattr(args, "no_overlay", False) or getattr(args, "privacy", False)),
                find_offsets=getattr(args, "find_offsets", False), overwrite=getattr(args, "force", False))
+
+
+def parse_offsets(text: str | None) -> list[float] | None:
+    """``--offsets``: seconds separated by commas (None where not given)."""
+    from ray3d.errors import InputError
+
+    if not text:
+        return None
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"--offsets: expected seconds separated by commas, got {text!r}") from None

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.cli.commands import write_json
+from ray3d.cli.printing import write_json
 from ray3d.errors import InputError
 
 
@@ -155,3 +155,93 @@ def speed(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, result, args.force)
     return 0
+
+
+def add_parser(commands) -> None:
+    """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
+    from pathlib import Path
+
+    from ray3d.checkpoints import DETECTOR_MODEL
+    from ray3d.cli.arguments import (add_data_dir, add_force)
+    from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
+
+    bench_parser = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
+    bench_commands_parser = bench_parser.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
+    robustness_parser = bench_commands_parser.add_parser("robustness", help="the paper's robustness sweeps (CSV, markdown, PNG)")
+    robustness_parser.add_argument("--out", required=True, type=Path, help="folder for the sweep files")
+    robustness_parser.add_argument("--models", nargs="+", default=["ray3d", "videopose3d", "rie", "rfrh"],
+                            help="shipped names, checkpoint paths or rfrh, optionally LABEL=MODEL (default: the "
+                                 "shipped ones and rfrh)")
+    robustness_parser.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
+    robustness_parser.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
+    robustness_parser.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
+    add_data_dir(robustness_parser)
+    robustness_parser.set_defaults(handler=robustness)
+    calibration_parser = bench_commands_parser.add_parser("calibration", help="camera estimation from a walking person: errors "
+                                                                "and their cost to Ray3D (CSV, JSON, markdown)")
+    calibration_parser.add_argument("--out", required=True, type=Path, help="folder for calibration.{csv,json,md}")
+    calibration_parser.add_argument("--pairs", type=int, default=12, help="random (camera, walking clip) pairs")
+    calibration_parser.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
+    calibration_parser.add_argument("--people", type=int, default=1,
+                             help="walking clips seen at once by each camera, fitted jointly (default 1)")
+    calibration_parser.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    calibration_parser.add_argument("--seed", type=int, default=0)
+    calibration_parser.add_argument("--split", choices=["train", "validation", "test"], default="test",
+                             help="whose walking clips (default: the test performers)")
+    add_data_dir(calibration_parser)
+    calibration_parser.set_defaults(handler=calibration)
+    real_parser = bench_commands_parser.add_parser("real-video", help="physical checks (feet on the floor, stature, walking speed, "
+                                                        "bones, skating, jitter) on a video and on emulated detections")
+    real_parser.add_argument("--out", required=True, type=Path, help="folder for real-video.{json,md}")
+    real_parser.add_argument("--video", type=Path, help="a video of people walking on a floor (needs --camera)")
+    real_parser.add_argument("--keypoints", type=Path, help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
+    real_parser.add_argument("--camera", help="the video's camera file")
+    real_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    real_parser.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
+    real_parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the lifted joints in time")
+    real_parser.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    real_parser.add_argument("--pairs", type=int, default=12, help="emulated (test clip, camera) pairs (default 12)")
+    real_parser.add_argument("--emulated-layout", choices=["h36m17", "coco17"],
+                      help="what the emulated detector reports (default: what the model reads, H36M-17 or COCO-17)")
+    real_parser.add_argument("--seed", type=int, default=0)
+    add_data_dir(real_parser)
+    real_parser.set_defaults(handler=real_video)
+    near_parser = bench_commands_parser.add_parser("real-near", help="near, low real cameras against 3D truth: each view of "
+                                     "../shared/data/real-near through ray3d video's finder and lifter")
+    near_parser.add_argument("--data", type=Path, default=Path("../shared/data/real-near"),
+                      help="the real-near folder (default ../shared/data/real-near)")
+    near_parser.add_argument("--out", required=True, type=Path, help="folder for real-near.{json,md}")
+    near_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    near_parser.add_argument("--checkpoint", default=DETECTOR_MODEL, help=f"the model that lifts (default {DETECTOR_MODEL})")
+    near_parser.add_argument("--views", nargs="+", help="which cameras (default: cam01 cam02 cam03 cam04)")
+    near_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
+                      help="give each camera with its z = 0 this far above the floor (a calibration board on a "
+                           "table; negative: below), default 0")
+    near_parser.set_defaults(handler=real_near)
+    level_parser = bench_commands_parser.add_parser("level", help="low, nearly level cameras (the level-test set) through an "
+                                      "emulated detector with real detectors' joint offsets, beside the floor guess")
+    level_parser.add_argument("--out", required=True, type=Path, help="folder for level.{json,md}")
+    level_parser.add_argument("--checkpoint", default=DETECTOR_MODEL, help=f"the model that lifts (default {DETECTOR_MODEL})")
+    level_parser.add_argument("--clips-per-camera", type=int, default=1, help="test clips per camera (default 1)")
+    level_parser.add_argument("--max-frames", type=int, default=300, help="frames of each clip, at 30 frames/s (default 300)")
+    level_parser.add_argument("--seed", type=int, default=0)
+    level_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
+                       help="give the lifter and the guess each camera with its z = 0 this far above the floor (a "
+                            "calibration board on a table; negative: below), default 0")
+    level_parser.add_argument("--camera-step", type=int, default=1, metavar="N", help="every Nth camera of the set (default 1)")
+    level_parser.add_argument("--floor-z", type=float, metavar="M", help="tell the lifter the floor lies here in the given "
+                       "camera's frame (0: its z = 0 assumed to be the floor; default: observed from the people)")
+    add_data_dir(level_parser)
+    level_parser.set_defaults(handler=level)
+    speed_bench_parser = bench_commands_parser.add_parser("speed", help="inference and training speed of every model preset")
+    speed_bench_parser.add_argument("--json", type=Path, help="write the results here")
+    speed_bench_parser.add_argument("--models", nargs="+", help="presets to measure (default: ray3d ray3d-paper; all: every preset)")
+    speed_bench_parser.add_argument("--rounds", type=int, default=7,
+                             help="interleaved rounds: every figure and bound timed once per round (median)")
+    speed_bench_parser.add_argument("--batch", type=int, default=1024, help="windows per inference batch")
+    speed_bench_parser.add_argument("--train-batch", type=int, default=1024)
+    speed_bench_parser.add_argument("--video", type=Path, help="also time ray3d video on this video (the video extra)")
+    speed_bench_parser.add_argument("--camera", type=Path, help="the video's camera file")
+    speed_bench_parser.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
+    add_force(speed_bench_parser, "replace --json if it exists")
+    speed_bench_parser.set_defaults(handler=speed)

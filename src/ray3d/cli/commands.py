@@ -4,196 +4,17 @@ came back. Library modules are imported inside the handlers so that ``ray3d --he
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
-from ray3d.body import PLAUSIBLE_STATURE_M
-from ray3d.cli.arguments import job_from_args
 from ray3d.errors import InputError
-from ray3d.io.atomic import check_output, refuse_existing
-
-
-def write_json(path: Path, document: dict, overwrite: bool) -> None:
-    from ray3d.io.atomic import atomic_path
-
-    with atomic_path(path, overwrite=overwrite) as temporary:
-        temporary.write_text(json.dumps(document, indent=1))
-    print(f"wrote {path}")
+from ray3d.io.atomic import check_output
 
 
 def demo(args: argparse.Namespace) -> int:
     from ray3d.demo import format_report, run_demo
 
     print(format_report(run_demo(args.out, args.checkpoint, frames=args.frames)))
-    return 0
-
-
-def data_info(args: argparse.Namespace) -> int:
-    from ray3d.data import motion
-    from ray3d.data.virtual_cameras import SET_NAMES, grid
-
-    data_dir = motion.resolve_data_dir(args.data_dir)
-    info = motion.summary(motion.load_shipped(data_dir))
-    print(f"motion data: {data_dir}")
-    print(f"  {info['clips']} clips, {info['frames']:,} frames, {info['minutes']:.1f} minutes (H36M-17, 60 fps)")
-    for title, key in (("split (by performer)", "splits"), ("performer", "performers"), ("body", "bodies")):
-        print(f"\n  {title:<22}{'clips':>7}{'frames':>10}{'minutes':>9}")
-        for name, row in sorted(info[key].items()):
-            print(f"  {name:<22}{row['clips']:>7}{row['frames']:>10,}{row['minutes']:>9.1f}")
-    print("\n  test performers: " + ", ".join(motion.SPLITS["test"]) + "; validation: "
-          + ", ".join(motion.SPLITS["validation"]))
-    print("\ncamera sets (before the in-image filter): "
-          + ", ".join(f"{name} {len(grid(name))}" for name in SET_NAMES))
-    return 0
-
-
-def _write_imported(args: argparse.Namespace, clips, files: list[Path], source: str) -> int:
-    from ray3d.data.importers import clips_to_motion_set
-
-    motion = clips_to_motion_set(clips, [f.stem for f in files], args.subject, source)
-    motion.save(args.out, overwrite=args.force)
-    minutes = motion.num_frames / args.fps / 60
-    print(f"wrote {args.out}: {motion.num_clips} clip(s), {motion.num_frames} frames ({minutes:.2f} min) at "
-          f"{args.fps:g} fps; floor offsets {', '.join(f'{c.floor_offset_m:+.3f}' for c in clips)} m")
-    return 0
-
-
-def import_bvh(args: argparse.Namespace) -> int:
-    from ray3d.data.importers import import_bvh as read
-
-    clips = [read(f, args.fps, args.drop_frames, not args.no_floor, args.units) for f in args.files]
-    return _write_imported(args, clips, args.files, "user_bvh")
-
-
-def import_amc(args: argparse.Namespace) -> int:
-    from ray3d.data.importers import import_amc as read
-
-    clips = [read(args.asf, f, args.fps, args.native_fps, args.drop_frames, not args.no_floor) for f in args.amc]
-    return _write_imported(args, clips, args.amc, "user_amc")
-
-
-def cameras(args: argparse.Namespace) -> int:
-    from ray3d.data import motion
-    from ray3d.data.virtual_cameras import cameras_seeing, grid
-    from ray3d.io.camera_files import save_cameras
-
-    if args.no_filter:
-        cams, note = grid(args.set), "not filtered"
-    else:
-        clips = motion.load_shipped(args.data_dir, args.split)
-        cams = cameras_seeing(args.set, clips)
-        note = f"kept cameras that see every joint of all {clips.num_clips} {args.split} clips (centred)"
-    save_cameras(args.out, cams, overwrite=args.force, set=args.set, filter=note)
-    print(f"wrote {args.out}: {len(cams)} of {len(grid(args.set))} '{args.set}' cameras ({note})")
-    return 0
-
-
-def samples_speed(args: argparse.Namespace) -> int:
-    from ray3d.data import motion
-    from ray3d.data.samples import THROUGHPUT_CASES, measure_throughput
-    from ray3d.temporal import Window
-
-    train = motion.load_shipped(args.data_dir, "train")
-    print(f"training-sample generator: batch {args.batch} windows of {args.frames} frames, median of {args.repeats}")
-    for name, config in THROUGHPUT_CASES.items():
-        result = measure_throughput(train, config, Window(args.frames), args.batch, args.repeats)
-        print(f"  {name:<36}{result['ms_per_batch']:8.1f} ms/batch{result['samples_per_s']:10,.0f} samples/s")
-    return 0
-
-
-def train(args: argparse.Namespace) -> int:
-    from ray3d.train import train as run, training_config
-
-    config = training_config(args.config, args.preset, epochs=args.epochs, batches_per_epoch=args.batches_per_epoch,
-                             batch_size=args.batch_size, seed=args.seed, threads=args.threads, data_dir=args.data_dir)
-    best = run(config, args.out, resume=args.resume, progress=not args.quiet)["best"]
-    if best is None:  # a data-parallel worker other than rank 0: it neither validates nor reports
-        return 0
-    print(f"best epoch {best['epoch']}: validation Abs-MPJPE {best['abs_mpjpe_mm']:.1f} mm, MPJPE "
-          f"{best['mpjpe_mm']:.1f} mm, MRPE {best['mrpe_mm']:.1f} mm -> {Path(args.out) / 'best.safetensors'}")
-    return 0
-
-
-def evaluate(args: argparse.Namespace) -> int:
-    from ray3d.evaluate import METRICS, evaluate as run, evaluation_cameras, evaluation_motion
-
-    if args.json is not None:  # refused before any work, not after it
-        refuse_existing(check_output(args.json), args.force)
-    datasets = tuple(args.datasets.split(",")) if args.datasets else None
-    clips, source = evaluation_motion(args.mocap, args.split, datasets, args.data_dir)
-    cameras = evaluation_cameras(args.cameras)
-
-    def measured(precision: str) -> dict:
-        return run(args.checkpoint, clips, cameras, args.flip_test, args.frame_stride, joints=args.joints,
-                   noise_px=args.noise_px, refine=args.refine, progress=True, precision=precision)
-
-    result = {"model": args.checkpoint, "mocap": source, "cameras": args.cameras, "precision": args.precision,
-              **measured(args.precision)}
-    if args.precision != "fp32":  # what the reduced precision costs, on the same clips
-        full = measured("fp32")
-        result["change_from_fp32_mm"] = {k: result[k] - full[k] for k in METRICS if result[k] is not None}
-    print(f"{args.checkpoint} on {source}, cameras {args.cameras}: {result['pairs']} (camera, clip) pairs, "
-          f"{result['skipped_pairs']} skipped (not fully in view), {result['frames']:,} frames")
-    header = "".join(f"{k.removesuffix('_mm'):>12}" for k in METRICS)
-    print(f"{'camera':<36}{header}{'frames':>10}")
-
-    def row(name: str, values: dict) -> str:
-        cells = "".join(f"{values[k]:>12.1f}" if values[k] is not None else f"{'-':>12}" for k in METRICS)
-        return f"{name:<36}{cells}{values['frames']:>10,}"
-
-    for name, values in result["per_camera"].items():
-        print(row(name, values))
-    for name, values in result["per_posture"].items():
-        print(row(f"posture: {name}", values))
-    print(row("overall (mm)", result))
-    if "change_from_fp32_mm" in result:
-        print(f"{args.precision} against fp32 (mm, same clips and cameras): " + ", ".join(
-            f"{k.removesuffix('_mm')} {v:+.2f}" for k, v in result["change_from_fp32_mm"].items()))
-    if result.get("within_1sd") is not None:
-        print(f"the true root within the reported sd along its ray: {100 * result['within_1sd']:.1f} % of frames "
-              f"within 1 sd, {100 * result['within_2sd']:.1f} % within 2; across it: "
-              f"{100 * result['across_within_1sd']:.1f} % / {100 * result['across_within_2sd']:.1f} %")
-    if args.json:
-        write_json(args.json, result, args.force)
-    return 0
-
-
-def export(args: argparse.Namespace) -> int:
-    from ray3d.checkpoints import export as copy_weights, load_model
-
-    if args.onnx:
-        from ray3d.io.atomic import atomic_path
-        from ray3d.models.backends import export_onnx
-
-        with atomic_path(args.out, overwrite=args.force) as temporary:
-            export_onnx(load_model(args.checkpoint)[0], str(temporary), args.image_width)
-        print(f"wrote {args.out} (ONNX, opset 17, inputs pixels/rays/camera_params/intrinsics/roll, and confidences "
-              "for models that read them; batch axis dynamic)")
-        return 0
-    provenance = {"training": {"command": args.command_line, "time_s": args.time_s, "machine": args.machine}} \
-        if args.command_line else {}
-    target = copy_weights(args.checkpoint, args.out, overwrite=args.force, averaged=not args.last_weights,
-                          **provenance)
-    print(f"wrote {target} and {target.with_suffix('.json')}")
-    return 0
-
-
-def models(args: argparse.Namespace) -> int:
-    from ray3d.checkpoints import shipped_models
-    from ray3d.models import PRESETS, LiftingNetwork
-    from ray3d.models.network import count_parameters, flops_per_frame
-
-    print(f"{'preset':<15}{'frames':>7}{'params':>12}{'MFLOPs/frame':>14}  {'input':<15}{'backbone':<12}{'root':<12}"
-          f"{'camera emb.':<12}shipped")
-    shipped = set(shipped_models())
-    for name, config in PRESETS.items():
-        model = LiftingNetwork(config)
-        print(f"{name:<15}{config.frames:>7}{count_parameters(model):>12,}{flops_per_frame(model) / 1e6:>14.2f}  "
-              f"{config.input:<15}{config.backbone:<12}{config.root:<12}{'yes' if config.camera_embedding else 'no':<12}"
-              f"{'yes' if name in shipped else 'no'}")
-    print(f"\nshipped weights (Lifter.load(NAME), --checkpoint NAME): {', '.join(sorted(shipped))}; what each was "
-          "trained on: src/ray3d/assets/models/MODELS.md")
     return 0
 
 
@@ -254,60 +75,6 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     return 0
-
-
-def lift(args: argparse.Namespace) -> int:
-    """One keypoint file and its camera (``ray3d.cli.fusion_commands.lift`` hands several on to ``lift_several``)."""
-    from ray3d.jobs import run_input
-
-    check_output(args.out, (args.camera,))
-    lifted = run_input(job_from_args(args, [args.keypoints], "keypoint files", "file"), 0, args.out)
-    keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
-    if keypoints.fps is None:
-        print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
-              "another; speeds and smoothing depend on it)", file=sys.stderr)
-    if keypoints.frame_order:
-        print(f"note: {args.keypoints} names its frames by text: ordered {keypoints.frame_order}", file=sys.stderr)
-    if keypoints.untracked_dropped:
-        print(f"note: {args.keypoints} has several people in some frames but no track ids: lifted each frame's "
-              f"most confident person, {keypoints.untracked_dropped} other detection(s) left out (give track ids, "
-              "e.g. AlphaPose --pose_track, to lift everybody)", file=sys.stderr)
-    frames = sum(len(r.joints) for r in world.tracks.values())
-    filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
-    written = ", ".join(str(p) for p in lifted.files.values())
-    print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
-          f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {args.frame} frame)")
-    if filled:
-        print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
-    for track, why in world.unliftable.items():
-        print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
-    print_refinements(world.tracks, camera)
-    return 0
-
-
-def print_ankle_plane(tracks: dict, camera=None) -> None:
-    """One line on stderr: where the tracks' ankles were found to meet the camera's floor, and what was applied."""
-    from ray3d.refine import AnklePlane
-
-    planes = [r.refinement["ankle_plane"] for r in tracks.values() if r.refinement and "ankle_plane" in r.refinement]
-    if planes:
-        print(f"note: {AnklePlane.from_summary(planes[0]).message(getattr(camera, 'name', ''))}", file=sys.stderr)
-
-
-def print_refinements(tracks: dict, camera=None) -> None:
-    """Each track's refinement, and after the work (a refusal stays one line) what is implausible of them and the camera."""
-    for doubt in () if camera is None else camera.doubts()[1]:
-        print(f"warning: {doubt}", file=sys.stderr)
-    print_ankle_plane(tracks, camera)
-    for track, result in tracks.items():
-        if result.refinement:
-            r = result.refinement
-            print(f"  track {track}: stature {r['stature_m']:.2f} m, moved x{r['median_scale']:.2f} along the rays, "
-                  f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- {r['position_sd_m']:.2f} m")
-            low, high = PLAUSIBLE_STATURE_M  # outside it the camera is the likelier error
-            if not low <= r["stature_m"] <= high:
-                print(f"warning: track {track} comes out {r['stature_m']:.2f} m tall, outside {low}-{high} m: check the "
-                      "camera's height, pitch and lens", file=sys.stderr)
 
 
 def batch(args: argparse.Namespace) -> int:
@@ -371,3 +138,64 @@ def viz(args: argparse.Namespace) -> int:
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")
     return 0
+
+
+def add_parser(commands) -> None:
+    """``ray3d demo``, ``batch``, ``viz`` and ``calibrate``'s flags, each bound to its handler here."""
+
+    from ray3d.body import ADULT_STATURE_M
+    from ray3d.cli.arguments import (add_force, add_lens_arguments)
+
+    demo_parser = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
+                                            "the baselines, write an HTML viewer and a GIF")
+    demo_parser.add_argument("--out", type=Path, default=Path("ray3d-demo"), help="output folder (default ray3d-demo)")
+    demo_parser.add_argument("--checkpoint", default="ray3d", help="model to demonstrate (default: the shipped Ray3D)")
+    demo_parser.add_argument("--frames", type=int, help="use only the first N frames")
+    demo_parser.set_defaults(handler=demo)
+
+    batch_parser = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
+                                              "cluster or a local Ray (pip install 'ray3d[cluster]')")
+    batch_parser.add_argument("manifest", type=Path, help="CSV or JSON: input, camera (or camera_height, pitch, hfov), "
+                                                   "options (docs/batch.md)")
+    batch_parser.add_argument("--out", required=True, type=Path, help="output folder: NAME/ per input and summary.csv")
+    batch_parser.add_argument("--address", help="an existing Ray cluster: auto, or ray://HOST:10001 (default: start a "
+                                         "local Ray for this job)")
+    batch_parser.add_argument("--workers", type=int, help="local Ray: its CPUs (default all); on a cluster: most tasks "
+                                                   "at once (default no limit)")
+    batch_parser.add_argument("--retries", type=int, default=2,
+                       help="retries of a task that crashed or raised (default 2; a bad input is not retried)")
+    batch_parser.add_argument("--cpus-per-task", type=float, default=1, help="CPUs (torch threads) per task (default 1)")
+    batch_parser.add_argument("--gpus-per-task", type=float, default=0, help="GPUs per task (default 0)")
+    batch_parser.set_defaults(handler=batch)
+
+    viz_parser = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
+                                          "ray3d video): every track, with its id and path on the floor")
+    viz_parser.add_argument("world", nargs="+", type=Path,
+                     help="world files (.json/.csv/.npz): several people, or one per method to compare")
+    viz_parser.add_argument("--camera", help="the camera drawn and projected through (default: the first world file's)")
+    viz_parser.add_argument("--html", type=Path, help="write the interactive viewer here")
+    viz_parser.add_argument("--animation", type=Path, help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
+    viz_parser.add_argument("--track", help="show only this track (default: every track)")
+    viz_parser.add_argument("--keypoints", type=Path,
+                     help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
+    viz_parser.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
+    viz_parser.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
+    add_force(viz_parser, "replace existing outputs")
+    viz_parser.set_defaults(handler=viz)
+
+    calibrate_parser = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
+                                                      "person walking on the floor")
+    calibrate_parser.add_argument("--floor-points", type=Path,
+                           help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
+    calibrate_parser.add_argument("--from-person", type=Path, metavar="KEYPOINTS",
+                           help="instead of --floor-points: 2D keypoints of one person standing or walking on the "
+                                "floor (any format ray3d lift reads); estimates height, pitch, roll (and focal)")
+    calibrate_parser.add_argument("--person-height", type=float, default=ADULT_STATURE_M,
+                           help=f"with --from-person: the person's stature in metres (default {ADULT_STATURE_M:.2f})")
+    calibrate_parser.add_argument("--track", help="with --from-person: only this track (default: every track, jointly)")
+    calibrate_parser.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
+    calibrate_parser.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
+    add_lens_arguments(calibrate_parser, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
+    calibrate_parser.add_argument("--out", required=True, type=Path, help="camera JSON to write")
+    add_force(calibrate_parser, "replace --out if it exists")
+    calibrate_parser.set_defaults(handler=calibrate)

@@ -4,7 +4,10 @@ keypoint files, one per camera; ``ray3d video`` with several videos prints throu
 from __future__ import annotations
 
 import argparse
+import sys
 
+from ray3d.cli.arguments import job_from_args, parse_offsets
+from ray3d.cli.printing import print_ankle_plane, print_fusion, print_refinements
 from ray3d.io.atomic import check_output, refuse_existing
 
 
@@ -22,44 +25,43 @@ def fuse(args: argparse.Namespace) -> int:
     return 0
 
 
-def parse_offsets(text: str | None) -> list[float] | None:
-    """``--offsets``: seconds separated by commas (None where not given)."""
-    from ray3d.errors import InputError
-
-    if not text:
-        return None
-    try:
-        return [float(v) for v in text.split(",")]
-    except ValueError:
-        raise InputError(f"--offsets: expected seconds separated by commas, got {text!r}") from None
-
-
-def print_fusion(fusion, sources: list[str]) -> None:
-    """The offsets, who joined whom, the cameras' agreement, and a warning on stderr naming a camera that
-    disagrees."""
-    import sys
-
-    for source, offset, sd in zip(sources, fusion.offsets_s, fusion.offset_sd_s):
-        print(f"{source}: offset {offset:+.3f} s" + (f" +- {sd:.3f} s (found)" if sd else ""))
-    for track, members in fusion.members.items():
-        print(f"  person {track}: {', '.join(members)}")
-    for entry in fusion.agreement:
-        print(f"  {entry['cameras'][0]} and {entry['cameras'][1]}: the same person {entry['median_distance_m']:.2f} m "
-              f"apart, {entry['median_sigmas']:.1f} sd of their uncertainties (median of {entry['frames']} frames)")
-    if fusion.suspects():
-        print(f"warning: the cameras disagree on where people are beyond their uncertainties; check the calibration "
-              f"of {' and '.join(fusion.suspects())}", file=sys.stderr)
-
-
-
 def lift(args: argparse.Namespace) -> int:
     """``ray3d lift``: one keypoint file as always, several (one per camera) fused."""
-    from ray3d.cli import commands
+
 
     if len(args.keypoints) > 1 or len(args.camera or []) > 1:
         return lift_several(args)
-    return commands.lift(argparse.Namespace(**{**vars(args), "keypoints": args.keypoints[0],
+    return lift_one(argparse.Namespace(**{**vars(args), "keypoints": args.keypoints[0],
                                                "camera": (args.camera or [None])[0]}))
+
+
+def lift_one(args: argparse.Namespace) -> int:
+    """``ray3d lift`` of one keypoint file and its camera."""
+    from ray3d.jobs import run_input
+
+    check_output(args.out, (args.camera,))
+    lifted = run_input(job_from_args(args, [args.keypoints], "keypoint files", "file"), 0, args.out)
+    keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
+    if keypoints.fps is None:
+        print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
+              "another; speeds and smoothing depend on it)", file=sys.stderr)
+    if keypoints.frame_order:
+        print(f"note: {args.keypoints} names its frames by text: ordered {keypoints.frame_order}", file=sys.stderr)
+    if keypoints.untracked_dropped:
+        print(f"note: {args.keypoints} has several people in some frames but no track ids: lifted each frame's "
+              f"most confident person, {keypoints.untracked_dropped} other detection(s) left out (give track ids, "
+              "e.g. AlphaPose --pose_track, to lift everybody)", file=sys.stderr)
+    frames = sum(len(r.joints) for r in world.tracks.values())
+    filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
+    written = ", ".join(str(p) for p in lifted.files.values())
+    print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
+          f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {args.frame} frame)")
+    if filled:
+        print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
+    for track, why in world.unliftable.items():
+        print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
+    print_refinements(world.tracks, camera)
+    return 0
 
 
 def lift_several(args: argparse.Namespace) -> int:
@@ -67,7 +69,6 @@ def lift_several(args: argparse.Namespace) -> int:
     as one camera's, then one fused world in --out (.json)."""
     from ray3d.cli.arguments import job_from_args
     from ray3d.errors import InputError
-    from ray3d.cli.commands import print_ankle_plane
     from ray3d.jobs import fuse_and_write, lift_cameras_together
 
     job = job_from_args(args, args.keypoints, "keypoint files", "file")
@@ -83,3 +84,45 @@ def lift_several(args: argparse.Namespace) -> int:
     print_fusion(fusion, [str(path) for path in args.keypoints])
     print(f"{len(fusion.world.tracks)} people from {len(worlds)} cameras -> {args.out}")
     return 0
+
+
+def add_parser(commands) -> None:
+    """``ray3d lift`` and ``ray3d fuse``'s flags, each bound to its handler here."""
+    from pathlib import Path
+
+    from ray3d.cli.arguments import (add_camera_arguments, add_force, add_lifting_arguments)
+
+    lift_parser = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
+    lift_parser.add_argument("--keypoints", required=True, type=Path, action="append",
+                      help="npz / JSON / CSV (ours), COCO results JSON, an OpenPose folder, or VideoPose3D positions_2d "
+                           "npz; several, one per camera (each with its --camera): one fused world")
+    add_camera_arguments(lift_parser, several=True)
+    lift_parser.add_argument("--find-offsets", action="store_true", help="several keypoint files: find how far apart their "
+                                                                  "clocks are from the people both cameras see")
+    lift_parser.add_argument("--out", required=True, type=Path,
+                      help="output .json, .csv or .npz (read back by ray3d viz), .trc (OpenSim / Pose2Sim markers) or "
+                           ".bvh (a skeleton with joint rotations: Blender, Maya; one file per track)")
+    lift_parser.add_argument("--layout", help="joint layout of the keypoints (h36m17, coco17, halpe26, blazepose33, body25, ...)")
+    lift_parser.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
+    add_lifting_arguments(lift_parser)
+    lift_parser.add_argument("--subject", help="VideoPose3D npz: the subject")
+    lift_parser.add_argument("--action", help="VideoPose3D npz: the action")
+    lift_parser.add_argument("--camera-index", type=int, help="VideoPose3D npz: the camera index (0-3)")
+    add_force(lift_parser, "replace --out if it exists")
+    lift_parser.set_defaults(handler=lift)
+
+    fuse_parser = commands.add_parser("fuse", help="several cameras' world files (ray3d lift / video, one per camera) -> "
+                                            "one world, one track per person, joints fused where cameras overlap")
+    fuse_parser.add_argument("worlds", nargs="+", type=Path, help="world files (.json/.csv/.npz), one per camera; the "
+                                                           "first sets the clock and frame numbers")
+    fuse_parser.add_argument("--out", required=True, type=Path, help="the fused world file (.json)")
+    fuse_parser.add_argument("--offsets", help="seconds each camera's clock is ahead of the first's, comma separated "
+                                        "(the first 0; default all 0)")
+    fuse_parser.add_argument("--find-offsets", action="store_true", help="find the offsets from the people both cameras "
+                                                                  "see at once")
+    fuse_parser.add_argument("--max-offset", type=float, default=2.0, help="the largest offset searched, seconds (default 2)")
+    fuse_parser.add_argument("--handover", type=float, default=2.0,
+                      help="a person leaving one view and entering another within this many seconds keeps their "
+                           "track (default 2)")
+    add_force(fuse_parser, "replace --out if it exists")
+    fuse_parser.set_defaults(handler=fuse)

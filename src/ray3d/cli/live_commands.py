@@ -25,7 +25,7 @@ def live(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ray3d.cli.arguments import job_from_args
-    from ray3d.cli.fusion_commands import parse_offsets
+    from ray3d.cli.arguments import parse_offsets
     from ray3d.site.files import read_site
     from ray3d.jobs.live import open_live, run_live_job, start_record
     from ray3d.live.mqtt import MqttPublisher

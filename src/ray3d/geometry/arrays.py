@@ -34,7 +34,11 @@ def numeric_array(value: Any, what: str) -> np.ndarray:
     ``what`` being not numeric."""
     try:
         return np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except OverflowError:
+        raise InputError(f"{what}: a number too large to be a float") from None
+    except (TypeError, ValueError) as err:
+        if "inhomogeneous" in str(err):
+            raise InputError(f"{what}: rows of different lengths") from None
         raise InputError(f"{what}: not numeric") from None
 
 

@@ -128,6 +128,7 @@ class Camera:
     def from_intrinsics(cls, fx: float, fy: float, cx: float, cy: float, dist: Sequence[float] | None,
                         R: Any, t: Any, image_size: tuple[int, int], name: str = "") -> Camera:
         """Build from scalar intrinsics; ``dist=None`` means no distortion."""
+        fx, fy, cx, cy = (_frozen(value, (), name) for value, name in ((fx, "fx"), (fy, "fy"), (cx, "cx"), (cy, "cy")))
         K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]], dtype=np.float64)
         return cls(K, np.zeros(5) if dist is None else dist, R, t, image_size, name)
 

@@ -21,7 +21,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ray3d.errors import InputError
-from ray3d.skeleton import Skeleton
+from ray3d.io.atomic import atomic_path, refuse_existing
+from ray3d.skeleton import Skeleton, layout_named_by
 
 # World (z up) -> BVH (y up): a rotation of -90 degrees about x, (x, y, z) -> (x, z, -y). OpenSim's TRC uses the same.
 Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -182,3 +183,41 @@ def export_paths(path: str | Path, world) -> dict[str, Path]:
     if len(set(safe.values())) < len(safe):
         safe = {track: f"{i}_{name}" for i, (track, name) in enumerate(safe.items())}
     return {track: path.with_name(f"{path.stem}_{safe[track]}{path.suffix}") for track in world.tracks}
+
+
+def write_bvh_files(path: Path, world, overwrite: bool) -> Path:
+    """Each track of ``world`` (a ``World``) as its BVH file (``export_paths``); consecutive frames only."""
+    targets = export_paths(path, world)
+    for track, target in targets.items():
+        refuse_existing(target, overwrite)
+        if np.any(np.diff(world.tracks[track].frames) != 1):
+            raise InputError(f"track {track}: its frames are not consecutive; BVH holds evenly spaced frames only")
+    skeleton = layout_named_by(world.joint_names)
+    if skeleton is None:
+        raise InputError(f"world: joints {', '.join(world.joint_names[:4])}, ... match no known layout")
+    for track, target in targets.items():
+        text = bvh_text(world.tracks[track].joints, skeleton, world.fps)
+        with atomic_path(target, overwrite) as temporary:
+            temporary.write_text(text)
+    return path
+
+
+def trc_text(world, name: str) -> str:
+    """The TRC file (OpenSim's "PathFileType 4" marker format, tab-separated) of every track: one row per frame
+    of any track, blank where a track has no frame."""
+    several = len(world.tracks) > 1
+    markers = [f"{t}_{j}" if several else j for t in world.tracks for j in world.joint_names]
+    frames = np.unique(np.concatenate([r.frames for r in world.tracks.values()]))
+    table = np.full((len(frames), len(markers), 3), np.nan)
+    for k, result in enumerate(world.tracks.values()):
+        rows = np.searchsorted(frames, result.frames)
+        table[rows, 17 * k:17 * (k + 1)] = 1000.0 * result.joints @ Y_UP.T
+    lines = [f"PathFileType\t4\t(X/Y/Z)\t{name}",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+             f"{world.fps:g}\t{world.fps:g}\t{len(frames)}\t{len(markers)}\tmm\t{world.fps:g}\t1\t{len(frames)}",
+             "Frame#\tTime\t" + "\t".join(f"{m}\t\t" for m in markers).rstrip("\t"),
+             "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, len(markers) + 1)), ""]
+    for row, (frame, values) in enumerate(zip(frames, table)):
+        cells = ["" if not np.isfinite(v) else f"{v:.2f}" for v in values.ravel()]
+        lines.append(f"{row + 1}\t{frame / world.fps:.5f}\t" + "\t".join(cells))
+    return "\n".join(lines) + "\n"

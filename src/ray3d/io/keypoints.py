@@ -8,7 +8,6 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
@@ -16,34 +15,11 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry.arrays import numeric_array
 from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
+from ray3d.io.detections import TrackDetections
 from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_named_by, layout_skeleton
 from ray3d.temporal import check_frame_rate
-
-
-class TrackDetections(NamedTuple):
-    """One person's detections: frame index (N,), pixels (N, J, 2) and optional confidences (N, J)."""
-
-    frames: np.ndarray
-    pixels: np.ndarray
-    confidences: np.ndarray | None = None
-
-    def dense(self) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Every frame from the first detection to the last: (frames (T,), pixels (T, J, 2) NaN where the
-        person was not detected, confidences (T, J) 0 there, or None)."""
-        frames = np.asarray(self.frames, dtype=np.int64)
-        order = np.argsort(frames)
-        span = np.arange(frames[order[0]], frames[order[-1]] + 1)
-        rows = frames[order] - span[0]
-        pixels = np.asarray(self.pixels, dtype=np.float64)
-        dense = np.full((len(span), *pixels.shape[1:]), np.nan)
-        dense[rows] = pixels[order]
-        if self.confidences is None:
-            return span, dense, None
-        confidences = np.zeros(dense.shape[:2])
-        confidences[rows] = np.asarray(self.confidences, dtype=np.float64)[order]
-        return span, dense, confidences
 
 
 @dataclasses.dataclass

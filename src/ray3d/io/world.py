@@ -15,11 +15,11 @@ import numpy as np
 from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera
 from ray3d.geometry.uncertainty import Positioned
-from ray3d.io.atomic import atomic_path, refuse_existing
-from ray3d.io.bvh_export import Y_UP, bvh_text, export_paths
+from ray3d.io.atomic import atomic_path
+from ray3d.io.bvh_export import trc_text, write_bvh_files
 from ray3d.io.text_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
-from ray3d.skeleton import H36M17, layout_named_by
+from ray3d.skeleton import H36M17
 
 FORMATS = (".json", ".csv", ".npz")
 EXPORTS = (".trc", ".bvh")  # written for other tools, not read back
@@ -176,7 +176,7 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
         raise InputError(f"{path}: a world of several cameras (which saw each frame) is written as .json",
                          arguments=("out",))
     if suffix == ".bvh":
-        return _write_bvh(path, world, overwrite)
+        return write_bvh_files(path, world, overwrite)
     meta = world.metadata()
     joints, frames, tracks, interpolated, position_sd = world.rows()
     with atomic_path(path, overwrite) as temporary:
@@ -194,7 +194,7 @@ def write_world(path: str | Path, world: World, overwrite: bool = False) -> Path
                         **({"in_part": world.in_part} if world.in_part else {})}
             temporary.write_text(json.dumps(document))
         elif suffix == ".trc":
-            temporary.write_text(_trc_text(world, path.name))
+            temporary.write_text(trc_text(world, path.name))
         elif suffix == ".csv":
             with temporary.open("w", newline="") as handle:
                 handle.write(_csv_header(world, world.refinements()))
@@ -242,43 +242,6 @@ def append_world_csv(path: str | Path, world: World) -> Path:
         handle.write(text.getvalue())
         handle.flush()
     return path
-
-
-def _write_bvh(path: Path, world: World, overwrite: bool) -> Path:
-    targets = export_paths(path, world)
-    for track, target in targets.items():
-        refuse_existing(target, overwrite)
-        if np.any(np.diff(world.tracks[track].frames) != 1):
-            raise InputError(f"track {track}: its frames are not consecutive; BVH holds evenly spaced frames only")
-    skeleton = layout_named_by(world.joint_names)
-    if skeleton is None:
-        raise InputError(f"world: joints {', '.join(world.joint_names[:4])}, ... match no known layout")
-    for track, target in targets.items():
-        text = bvh_text(world.tracks[track].joints, skeleton, world.fps)
-        with atomic_path(target, overwrite) as temporary:
-            temporary.write_text(text)
-    return path
-
-
-def _trc_text(world: World, name: str) -> str:
-    """The TRC file (OpenSim's "PathFileType 4" marker format, tab-separated) of every track: one row per frame
-    of any track, blank where a track has no frame."""
-    several = len(world.tracks) > 1
-    markers = [f"{t}_{j}" if several else j for t in world.tracks for j in world.joint_names]
-    frames = np.unique(np.concatenate([r.frames for r in world.tracks.values()]))
-    table = np.full((len(frames), len(markers), 3), np.nan)
-    for k, result in enumerate(world.tracks.values()):
-        rows = np.searchsorted(frames, result.frames)
-        table[rows, 17 * k:17 * (k + 1)] = 1000.0 * result.joints @ Y_UP.T
-    lines = [f"PathFileType\t4\t(X/Y/Z)\t{name}",
-             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
-             f"{world.fps:g}\t{world.fps:g}\t{len(frames)}\t{len(markers)}\tmm\t{world.fps:g}\t1\t{len(frames)}",
-             "Frame#\tTime\t" + "\t".join(f"{m}\t\t" for m in markers).rstrip("\t"),
-             "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, len(markers) + 1)), ""]
-    for row, (frame, values) in enumerate(zip(frames, table)):
-        cells = ["" if not np.isfinite(v) else f"{v:.2f}" for v in values.ravel()]
-        lines.append(f"{row + 1}\t{frame / world.fps:.5f}\t" + "\t".join(cells))
-    return "\n".join(lines) + "\n"
 
 
 def _from_rows(joints, frames, tracks, interpolated, fps: float, joint_names,
@@ -347,6 +310,26 @@ def _optional_array(values) -> np.ndarray | None:
     return None if values is None else np.array(values, dtype=np.float64)
 
 
+WORLD_FIELDS = ("units", "axes", "joint_names", "fps", "camera", "model", "tracks")
+TRACK_FIELDS = ("frames", "joints")  # what every version wrote; the fields added since are optional
+
+
+def _require(document, fields: tuple[str, ...], where: str) -> None:
+    if not isinstance(document, dict):
+        raise InputError(f"{where}: expected a JSON object")
+    missing = [name for name in fields if name not in document]
+    if missing:
+        raise InputError(f"{where}: not a world file written by ray3d: missing field(s) {', '.join(missing)} (every "
+                         "version writes them)")
+
+
+def _interpolated(entry: dict) -> np.ndarray:
+    """A track's (frames, joints) flags of joints filled in; none where the file does not say."""
+    if "interpolated_input_joints" in entry:
+        return np.array(entry["interpolated_input_joints"], dtype=bool)
+    return np.zeros(np.shape(entry["joints"])[:2], dtype=bool)
+
+
 @reads_file("world file")
 def read_world(path: str | Path) -> World:
     """Read back what :func:`write_world` wrote, in this version or an earlier one (files from before the
@@ -366,6 +349,9 @@ def read_world(path: str | Path) -> World:
                          str(data["units"]), _frame_described(str(data["axes"])), path)
         if suffix == ".json":
             document = read_json(path)
+            _require(document, WORLD_FIELDS, str(path))
+            for t, entry in document["tracks"].items():
+                _require(entry, TRACK_FIELDS, f"{path}: tracks[{t!r}]")
             cameras = tuple(Camera.from_dict(c) for c in document.get("cameras", [document["camera"]]))
 
             def seen_by(entry: dict) -> np.ndarray | None:
@@ -377,7 +363,7 @@ def read_world(path: str | Path) -> World:
                 return table
 
             tracks = {str(t): LiftResult(np.array(e["joints"], dtype=np.float64),
-                                         np.array(e["interpolated_input_joints"], dtype=bool), float(document["fps"]),
+                                         _interpolated(e), float(document["fps"]),
                                          np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]),
                                          e.get("refinement"), _optional_array(e.get("position_sd_m")), seen_by(e))
                       for t, e in document["tracks"].items()}

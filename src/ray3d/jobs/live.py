@@ -67,7 +67,8 @@ def open_stream(job: Job, k: int, paced: bool | None = None, stall_timeout_s: fl
     apart, doubling up to that many seconds)."""
     import sys
 
-    from ray3d.live.source import FrameSource, ReconnectingSource
+    from ray3d.live.reconnect import ReconnectingSource
+    from ray3d.live.source import FrameSource
     from ray3d.video import VideoInfo
 
     if reconnect_max_s is not None and not Path(str(job.inputs[k])).is_file():

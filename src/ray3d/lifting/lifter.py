@@ -19,8 +19,10 @@ from ray3d import temporal
 from ray3d.checkpoints import default_model, load_model
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
+from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
-from ray3d.io.keypoints import Keypoints, TrackDetections
+from ray3d.io.detections import TrackDetections
+from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import LiftResult, World
 from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
@@ -112,7 +114,7 @@ class Lifter:
                 The result's ``ankle_plane`` says what was found and applied.
             progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
         """
-        keypoints = np.asarray(keypoints, dtype=np.float64)
+        keypoints = numeric_array(keypoints, "keypoints")
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences
             return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress,
@@ -146,6 +148,9 @@ class Lifter:
         from every track, the ``SizeEvidence`` of tracks seen before and, with each view's {track: frame ids} on one
         clock (``spans``), the people two cameras saw at once (``_settle``). Each view's ``found`` keeps its
         tracks' evidence."""
+        if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
+            raise InputError(f"chunk: frames per network call, a whole number of at least 1; got {chunk!r}",
+                             ("chunk",))
         for view in views:
             self._run_network(view, 0.0, flip_test, chunk)
         config = self._refine_config(refine, next((v.prepared for v in views if v.prepared), {}))
@@ -291,8 +296,10 @@ class Lifter:
         it}."""
         prepared, spans, failures = {}, {}, {}
         for track, entry in tracks.items():
-            spans[track], pixels, confidences = TrackDetections(*entry).dense()
             try:
+                if not isinstance(entry, tuple) or len(entry) not in (2, 3):
+                    raise InputError(f"tracks[{track!r}]: expected (frame ids, pixels[, confidences])", ("tracks",))
+                spans[track], pixels, confidences = TrackDetections(*entry).dense(f"tracks[{track!r}]")
                 prepared[track] = self._prepare(pixels, camera, confidences, fps, layout, smooth_2d)
             except InputError as err:
                 failures[track] = err

@@ -22,17 +22,16 @@ from typing import TextIO
 import numpy as np
 
 from ray3d.errors import InputError
-from ray3d.io.world import append_world_csv
 from ray3d.lifting.lifter import Lifter
 from ray3d.site.files import EventLines
 from ray3d.live.outputs import Webhook
-from ray3d.live.cameras import FrameResult, LocalCameras
+from ray3d.live.cameras import LocalCameras
 from ray3d.geometry.uncertainty import PersonNow
 from ray3d.live.server import LiveBoard, LiveServer
-from ray3d.fusion.live import LiveFusion
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.lifting.options import LiftOptions, VideoOptions
-from ray3d.site.analytics import TimeBuckets, stature_class
+from ray3d.site.analytics import TimeBuckets
+from ray3d.live.views import Views
 from ray3d.site.events import SiteMonitor
 from ray3d.site.places import Site
 
@@ -140,93 +139,6 @@ def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) ->
     return caught
 
 
-class _Views:
-    """What the cameras give, brought together: each camera's finished people appended to its world file; with
-    several, their people joined into world people (``LiveFusion``) on the first camera's clock."""
-
-    def __init__(self, cameras, out_dir: Path, offsets_s: list[float] | None, recorder=None):
-        self.cameras, self.several, self.recorder = cameras, len(cameras.cameras) > 1, recorder
-        self.fps = cameras.fps[0]
-        count = len(cameras.cameras)
-        self.offsets_s = list(offsets_s) if offsets_s is not None else [0.0] * count
-        if len(self.offsets_s) != count:
-            raise InputError(f"offsets: {len(self.offsets_s)} given for {count} cameras", ("offsets",))
-        self.world_paths = [out_dir / "world.csv"] if not self.several else \
-            [out_dir / f"camera{k + 1}_{_file_name(name)}" / "world.csv" for k, name in enumerate(cameras.names)]
-        for path in self.world_paths:
-            if path.exists() and not (recorder and recorder.continues):
-                raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
-            path.parent.mkdir(parents=True, exist_ok=True)
-        self.fusion = LiveFusion(cameras.cameras, 1.0 / min(cameras.fps),
-                                 id_prefix=recorder.id_prefix if recorder else "") if self.several else None
-        self.written, self.left_out = 0, {}
-        self.label = " + ".join(str(name) for name in cameras.names)  # who saw the world's people
-        self._pending: tuple | None = None  # several cameras: the frame whose views are still coming in
-
-    def take(self, view: int, result: FrameResult) -> tuple[tuple | None, list[PersonNow], list[str]]:
-        """This camera's processed frame -> a frame settled for the site's events (its number on the first
-        camera's clock and its people; None while it is not), the people now and those who left. With several
-        cameras a frame is settled when the next begins: by then every camera's view of it is in."""
-        self._write(view, result.done)
-        if self.recorder is not None:
-            self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
-            if result.gap is not None:
-                self.recorder.gap(self.cameras.names[view], *result.gap, "the stream was down")
-        if not self.several:
-            return (result.index, result.persons), result.persons, result.ended
-        time_s = result.index / self.cameras.fps[view] - self.offsets_s[view]
-        for track in result.ended:
-            self.fusion.finished(view, track)
-        persons = self.fusion.update(view, time_s, result.persons)
-        index, settled = int(round(time_s * self.fps)), None
-        if self._pending is None or index > self._pending[0]:
-            settled, self._pending = self._pending, (index, persons)
-        else:
-            self._pending = (self._pending[0], persons)
-        return settled, persons, self.fusion.ended(time_s)
-
-    def finish(self) -> tuple[tuple | None, list[tuple[str, int]]]:
-        """Everybody still in view handed over: the last frame not settled yet (None if none) and who leaves
-        (person, the first camera's frame they were last seen in)."""
-        leaving = []
-        for view, (in_view, done) in enumerate(self.cameras.finish()):
-            self._write(view, done)
-            for track, last_frame in in_view:
-                if self.several:
-                    self.fusion.finished(view, track)
-                else:
-                    leaving.append((track, last_frame))
-        if self.several:
-            leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self.fusion.ended(np.inf, seen=True)]
-        return self._pending, leaving
-
-    def time_s(self, view: int, index: int) -> float:
-        """A frame of camera ``view`` on the first camera's clock (seconds)."""
-        return index / self.cameras.fps[view] - self.offsets_s[view]
-
-    def _write(self, view: int, done: list) -> None:
-        for finished in done:
-            if finished.world is None:
-                self.left_out[f"{view + 1}:{finished.track}" if self.several else finished.track] = finished.why
-                continue
-            append_world_csv(self.world_paths[view], finished.world)
-            self.written += 1
-            if self.recorder is not None:
-                track = next(iter(finished.world.tracks.values()))
-                refinement = track.refinement or {}
-                stature = refinement.get("stature_m")
-                self.recorder.person(finished.track, self.time_s(view, int(track.frames[0])),
-                                     self.time_s(view, int(track.frames[-1])), stature,
-                                     stature_class(stature, refinement.get("stature_interval_m")),
-                                     len(finished.world.rejoined.get(finished.track, ()) if finished.world.rejoined
-                                         else ()), self.cameras.names[view])
-
-
-def _file_name(name: str) -> str:
-    """A camera's or a stream's name as a folder name."""
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in Path(str(name)).stem) or "camera"
-
-
 def _several(value) -> list:
     return list(value) if isinstance(value, (list, tuple)) else [value]
 
@@ -257,6 +169,96 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     return follow(followed, out_dir, site, options, stop, started, offsets_s, recorder)
 
 
+class _Outputs:
+    """Where a run's events go as they are found: the event log (and stdout), the store, the time buckets, the
+    webhook, MQTT and the page's latest events; and the settled frames' people, to the store."""
+
+    def __init__(self, events_path: Path, options: LiveOptions, monitor: SiteMonitor, recorder, mqtt,
+                 buckets: TimeBuckets | None, label: str):
+        self.log = EventLines(events_path, options.echo)
+        self.webhook = Webhook(options.webhook, token=options.token) if options.webhook else None
+        self.monitor, self.recorder, self.mqtt, self.buckets, self.label = monitor, recorder, mqtt, buckets, label
+        self.latest: deque = deque(maxlen=LATEST_EVENTS)
+        self.count = 0
+        self.last_index = -1  # the last frame settled
+
+    def settle(self, settled: tuple[int, list[PersonNow]] | None) -> list[dict]:
+        """A settled frame's events (none when it is not newer than the last), its people to the store."""
+        if settled is None or settled[0] <= self.last_index:
+            return []
+        self.last_index = settled[0]
+        if self.recorder is not None:
+            self.recorder.positions(settled[0] / self.monitor.fps, settled[1], self.label)
+        return _monitored(self.monitor, settled, self.buckets)
+
+    def emit(self, events: list[dict]) -> None:
+        self.log.write(events)
+        if self.recorder is not None:
+            self.recorder.events(events)
+        if self.buckets is not None:
+            self.buckets.add(events)
+        if self.webhook:
+            self.webhook.post(events)
+        if self.mqtt is not None:
+            self.mqtt.publish(events, self.monitor)
+        self.latest.extend(events)
+        self.count += len(events)
+
+    def close(self) -> dict:
+        """Every output closed (the store is closed by the run, with how it ended); the webhook's counts."""
+        self.log.close()
+        if self.mqtt is not None:
+            self.mqtt.close()
+        if not self.webhook:
+            return {}
+        self.webhook.close()
+        return {"delivered": self.webhook.delivered, "failed": self.webhook.failed, "dropped": self.webhook.dropped}
+
+
+class _Pace:
+    """Each processed frame's latency (arrival to its people published, ms) and the recent rate, for the page."""
+
+    def __init__(self):
+        self.latencies: list[float] = []
+        self.recent_latency, self.recent_times = deque(maxlen=100), deque(maxlen=30)
+
+    def add(self, arrived: float, cameras) -> dict:
+        now = time.monotonic()
+        self.recent_times.append(now)
+        latency = 1000.0 * (now - arrived)
+        self.latencies.append(latency)
+        self.recent_latency.append(latency)
+        times = self.recent_times
+        rate = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else 0.0
+        return {"fps": rate, "latency_median_ms": float(np.median(self.recent_latency)),
+                "latency_p99_ms": float(np.percentile(self.recent_latency, 99)), "dropped": cameras.dropped,
+                "read": cameras.read}
+
+
+def _ended_on_purpose(until_s: float | None, stop: threading.Event, cameras) -> tuple[threading.Timer | None,
+                                                                                    threading.Event]:
+    """A timer that ends the run after ``until_s`` seconds (None: none), and the flag it sets."""
+    reached = threading.Event()
+    if until_s is None:
+        return None, reached
+
+    def end() -> None:
+        reached.set()
+        stop.set()
+        cameras.close()
+
+    timer = threading.Timer(max(0.0, until_s), end)
+    timer.daemon = True
+    timer.start()
+    return timer, reached
+
+
+def _refused(cameras, error: InputError):
+    cameras.close()
+    cameras.finish()
+    raise error
+
+
 def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),
            stop: threading.Event | None = None, started=lambda url: None,
            offsets_s: list[float] | None = None, recorder=None, mqtt=None) -> LiveSummary:
@@ -269,57 +271,24 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     out_dir.mkdir(parents=True, exist_ok=True)
     events_path = out_dir / "events.jsonl"
     if events_path.exists() and not (recorder and recorder.continues):
-        cameras.close()
-        cameras.finish()
-        raise InputError(f"{events_path}: exists; ray3d live never writes over an output", ("out",))
+        _refused(cameras, InputError(f"{events_path}: exists; ray3d live never writes over an output", ("out",)))
     stop = stop or threading.Event()
     site = site or Site()
     try:
-        views = _Views(cameras, out_dir, offsets_s, recorder)
-    except InputError:
-        cameras.close()
-        cameras.finish()
-        raise
+        views = Views(cameras, out_dir, offsets_s, recorder)
+    except InputError as err:
+        _refused(cameras, err)
     monitor = SiteMonitor(site, views.fps)
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
                                  for l in site.lines]})
     server = LiveServer(board, options.host, options.port, options.token) if options.page else None
-    log = EventLines(events_path, options.echo)
-    webhook = Webhook(options.webhook, token=options.token) if options.webhook else None
+    outputs = _Outputs(events_path, options, monitor, recorder, mqtt, buckets, views.label)
     trails: dict[str, deque] = {}
-    latest: deque = deque(maxlen=LATEST_EVENTS)
-    latencies, recent_latency, recent_times = [], deque(maxlen=100), deque(maxlen=30)
-    processed = events_count = 0
-    last_index = -1
+    pace, processed = _Pace(), 0
     ending, why = "stopped", f"{cameras.name}: stopped"
-
-    def emit(events: list[dict]) -> None:
-        nonlocal events_count
-        log.write(events)
-        if recorder is not None:
-            recorder.events(events)
-        if buckets is not None:
-            buckets.add(events)
-        if webhook:
-            webhook.post(events)
-        if mqtt is not None:
-            mqtt.publish(events, monitor)
-        latest.extend(events)
-        events_count += len(events)
-
-    reached = threading.Event()
-    timer = None
-    if options.until_s is not None:
-        def end_on_purpose() -> None:
-            reached.set()
-            stop.set()
-            cameras.close()
-
-        timer = threading.Timer(max(0.0, options.until_s), end_on_purpose)
-        timer.daemon = True
-        timer.start()
+    timer, reached = _ended_on_purpose(options.until_s, stop, cameras)
     try:
         if server:
             started(server.start())
@@ -339,28 +308,17 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     break
                 view, result = taken
                 settled, persons, leaving = views.take(view, result)
-                if recorder is not None and settled is not None and settled[0] > last_index:
-                    recorder.positions(settled[0] / views.fps, settled[1], views.label)
-                events = _monitored(monitor, settled, buckets) if settled is not None and settled[0] > last_index else []
-                last_index = max(last_index, settled[0] if settled is not None else last_index)
+                events = outputs.settle(settled)
                 for person in leaving:
                     events += monitor.ended(person)
                     trails.pop(person, None)
-                emit(events)
+                outputs.emit(events)
                 for person in persons:
                     trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * views.fps))))
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
                 processed += 1
-                now = time.monotonic()
-                recent_times.append(now)
-                latency = 1000.0 * (now - result.arrived)
-                latencies.append(latency)
-                recent_latency.append(latency)
-                rate = (len(recent_times) - 1) / (recent_times[-1] - recent_times[0]) if len(recent_times) > 1 else 0.0
-                board.publish(_snapshot(last_index, views.fps, persons, trails, monitor, latest, {
-                    "fps": rate, "latency_median_ms": float(np.median(recent_latency)),
-                    "latency_p99_ms": float(np.percentile(recent_latency, 99)), "dropped": cameras.dropped,
-                    "read": cameras.read}, buckets))
+                board.publish(_snapshot(outputs.last_index, views.fps, persons, trails, monitor, outputs.latest,
+                                        pace.add(result.arrived, cameras), buckets))
     finally:
         if timer is not None:
             timer.cancel()
@@ -368,24 +326,14 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
             ending, why = "until", f"{cameras.name}: ended after {options.until_s:g} s, as asked"
         cameras.close()
         settled, leaving = views.finish()
-        if settled is not None and settled[0] > last_index:
-            if recorder is not None:
-                recorder.positions(settled[0] / views.fps, settled[1], views.label)
-            emit(_monitored(monitor, settled, buckets))
+        outputs.emit(outputs.settle(settled))
         for person, _ in leaving:
-            emit(monitor.ended(person))
-        log.close()
-        if webhook:
-            webhook.close()
-        if mqtt is not None:
-            mqtt.close()
+            outputs.emit(monitor.ended(person))
+        webhook = outputs.close()
         if recorder is not None:
             recorder.close(ending)
         if server:
             server.stop()
     files = {"events": events_path, "world": views.world_paths[0], "worlds": views.world_paths}
     return LiveSummary(ending, why, cameras.read, processed, cameras.dropped, cameras.postponed,
-                       np.array(latencies), events_count,
-                       views.written, views.left_out,
-                       {} if not webhook else {"delivered": webhook.delivered, "failed": webhook.failed,
-                                               "dropped": webhook.dropped}, files)
+                       np.array(pace.latencies), outputs.count, views.written, views.left_out, webhook, files)
