@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 from ray3d import cameras, metrics
 from ray3d.data.motion import load_shipped
-from ray3d.data.samples import body_frames, detector_points, offset_joints
+from ray3d.data.detector_emulation import body_frames, detector_points, offset_joints
 from ray3d.data.virtual_cameras import centre_clip
 from ray3d.lifting.lifter import Lifter
 from ray3d.skeleton import COCO17

@@ -51,7 +51,8 @@ def test_interleaved_rounds_rotate_the_order_and_time_every_run_once_per_round()
 
 
 def test_layer_gemm_paths_name_the_kernels_each_layer_type_runs():
-    from ray3d.bench.speed import _batch, layer_gemm_paths
+    from ray3d.bench.machine import layer_gemm_paths
+    from ray3d.bench.speed import _batch
     from ray3d.models import PRESETS, LiftingNetwork
 
     model = LiftingNetwork(PRESETS["ray3d"]).eval()

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from ray3d import InputError, Lifter, cameras
 from ray3d.checkpoints import save_checkpoint
-from ray3d.data.samples import FACE_POINTS, SampleConfig, body_frames, detector_points, observe
+from ray3d.data.detector_emulation import FACE_POINTS, body_frames, detector_points
+from ray3d.data.samples import SampleConfig, observe
 from ray3d.data.virtual_cameras import sample_cameras
 from ray3d.geometry import CameraBatch
 from ray3d.models import LiftingNetwork, ModelConfig, TensorBatch, preset

@@ -133,7 +133,7 @@ def test_causal_samples_target_the_window_end(rng):
 
 
 def test_joint_offsets_are_mirrored_and_move_with_the_body(rng):
-    from ray3d.data.samples import body_frames, offset_joints
+    from ray3d.data.detector_emulation import body_frames, offset_joints
 
     windows = rng.normal(0, 0.2, (4, 9, 17, 3)) + [0, 0, 1.0]
     offsets = rng.normal(0, 0.03, (4, 17, 3))
@@ -195,7 +195,7 @@ def test_joints_outside_the_picture_are_unseen_and_stand_on_their_parents(rng):
 
 
 def test_an_occluder_hides_what_is_below_its_row_and_never_the_hips(rng):
-    from ray3d.data.samples import hidden_joints, occluder_rows
+    from ray3d.data.detector_emulation import hidden_joints, occluder_rows
 
     pixels = observe(_standing(64), _level_cameras(64, distance=4.0), NINE).pixels[:, 4]
     rows = occluder_rows(pixels, rng, 0.5, H36M17)
@@ -230,7 +230,7 @@ def test_detector_offsets_move_the_seen_joints_not_the_targets(rng):
 def test_seen_as_a_detector_derives_the_h36m_joints_as_lifting_does(rng):
     """Seen as COCO-17, the model's thorax is the mid-shoulders and its head comes from the ears, exactly as
     ``ray3d.skeleton.convert_keypoints`` makes them from a detector's keypoints."""
-    from ray3d.data.samples import detector_points
+    from ray3d.data.detector_emulation import detector_points
     from ray3d.skeleton import convert_keypoints
 
     windows, cameras = _standing(3), _level_cameras(3, distance=4.0)

@@ -128,7 +128,7 @@ class Lifter:
 
     def _prepare(self, keypoints: np.ndarray, camera: Camera, confidences, fps: float | None, layout: str,
                  smooth_2d: str | None) -> PreparedTrack:
-        return prepare_track(keypoints, camera, confidences, fps, layout, smooth_2d, self._input_skeleton)
+        return prepare_track(keypoints, camera, confidences, fps, layout, smooth_2d, self.input_skeleton)
 
     def _network(self, prepared: PreparedTrack, camera: Camera, flip_test: bool, chunk: int,
                  progress: bool | str) -> np.ndarray:
@@ -233,7 +233,7 @@ class Lifter:
         return LiftResult(temporal.smooth(joints, smooth_3d, prepared.fps), prepared.missing, prepared.fps,
                           np.arange(len(joints)), refinement=refinement, position_sd=position_sd)
 
-    def _input_skeleton(self, skeleton: Skeleton) -> Skeleton:
+    def input_skeleton(self, skeleton: Skeleton) -> Skeleton:
         """The model's input layout, after checking that keypoints of ``skeleton`` give its joints."""
         inputs = self.model.config.input_skeleton
         try:
@@ -333,15 +333,15 @@ class Lifter:
                    disable=not progress or count <= chunk)
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
-            out[start:start + len(part)] = self._lift_windows(pixels[part], rays[part], camera, flip_test,
+            out[start:start + len(part)] = self.lift_windows(pixels[part], rays[part], camera, flip_test,
                                                               None if confidences is None else confidences[part])
             bar.update(len(part))
         bar.close()
         return out
 
     @torch.no_grad()
-    def _lift_windows(self, pixels: np.ndarray, rays: np.ndarray, camera: Camera, flip_test: bool,
-                      confidences: np.ndarray | None = None) -> np.ndarray:
+    def lift_windows(self, pixels: np.ndarray, rays: np.ndarray, camera: Camera, flip_test: bool,
+                     confidences: np.ndarray | None = None) -> np.ndarray:
         """(N, F, J, 2) pixel, (N, F, J, 3) ray and optional (N, F, J) confidence windows of the model's input
         layout seen by ``camera`` -> (N, 17, 3) world joints."""
         cameras = CameraBatch.repeated(camera, len(pixels))

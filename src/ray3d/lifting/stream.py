@@ -41,7 +41,7 @@ class LiftStream:
             raise InputError(f"fps: a centred model waits for future frames only at its own {MODEL_FPS:g} frames/s; "
                              "stream without waiting for them", arguments=("wait_for_future",))
         self.remove_roll = config.remove_roll
-        self.inputs = lifter._input_skeleton(self.skeleton)  # the joints the model reads
+        self.inputs = lifter.input_skeleton(self.skeleton)  # the joints the model reads
         self._pixels: np.ndarray | None = None   # (F, J, 2) the current window, of the model's input layout
         self._rays: np.ndarray | None = None     # (F, J, 3)
         self._scores: np.ndarray | None = None   # (F, J) confidences
@@ -132,7 +132,7 @@ def lift_streams(streams: list[LiftStream]) -> list[np.ndarray]:
         return []
     first = streams[0]
     pixels, rays, scores = (np.stack(parts) for parts in zip(*(stream.window() for stream in streams)))
-    answers = first.lifter._lift_windows(pixels, rays, first.camera, first.flip_test, scores)
+    answers = first.lifter.lift_windows(pixels, rays, first.camera, first.flip_test, scores)
     for stream in streams:
         stream.answered += 1
     return list(answers)
