@@ -21,6 +21,7 @@ from ray3d.live.source import FrameSource, SourceGroup
 from ray3d.site import Site
 from ray3d.store import RunRecorder, read_record
 
+from browser import CHROMIUM, console_errors
 from services import RtspStream, mosquitto_broker, needs_rtsp
 from test_live import CAMERA, DOOR, FPS, ROOM, _frames, _scene, _ScriptedDetector
 
@@ -111,12 +112,23 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
     assert sum(int(b["door: forward"]) + int(b["door: back"]) for b in buckets) == 4  # two each way, two runs
     assert all(re.fullmatch(r"\d+(\.\d)?", b["room: mean occupancy"]) for b in buckets)  # to 0.1, every one
     assert (tmp_path / "report" / "by-time.png").stat().st_size > 10_000
+    if CHROMIUM:  # the page as a browser reads it: no console error
+        assert console_errors(tmp_path / "report" / "report.html") == "[]"
     assert main(["site", "--store", str(out / "site.db"), "--site", str(site), "--out", str(tmp_path / "report")]) == 2
     assert "exists" in capsys.readouterr().err  # nothing overwritten
     first_run = record.runs[0]
     assert main(["site", "--store", str(out / "site.db"), "--site", str(site), "--out", str(tmp_path / "period"),
                  "--from", _iso(first_run["first_at"] - 1), "--to", _iso(first_run["last_at"] + 0.05)]) == 0
     assert f"{len(events)} events" in capsys.readouterr().out  # the first run only
+    other = tmp_path / "other.json"  # a site the runs did not follow: said, its counts absent
+    other.write_text(json.dumps({"zones": [{"name": "hall", "polygon": ROOM.polygon.tolist()}],
+                                 "lines": [{"name": "door", "start": DOOR.start.tolist(), "end": DOOR.end.tolist()}]}))
+    assert main(["site", "--store", str(out / "site.db"), "--site", str(other), "--out", str(tmp_path / "hall")]) == 0
+    said = capsys.readouterr()
+    assert said.err.strip().splitlines() == ["note: zone 'hall': no run of the record followed it; its entries and "
+                                             "exits are not in it (its occupancy and heat map come from the "
+                                             "positions)"]
+    assert "zone hall: 0 entries, 0 exits" in said.out
 
 
 def _iso(at: float) -> str:

@@ -4,6 +4,7 @@ and plots (``ray3d.site.report.analyse_site``)."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from ray3d.io.atomic import check_output, refuse_existing
@@ -31,7 +32,7 @@ def site(args: argparse.Namespace) -> int:
 def store_report(args: argparse.Namespace, read_site) -> int:
     """``ray3d site --store``: the record over --from .. --to, and its gaps said."""
     from ray3d.errors import InputError
-    from ray3d.site.record import analyse_record, record_outputs
+    from ray3d.site.record import analyse_record, record_outputs, unfollowed_places
     from ray3d.store import read_record
 
     if args.start_time is not None:
@@ -48,6 +49,8 @@ def store_report(args: argparse.Namespace, read_site) -> int:
     if low is not None and high is not None and not high > low:
         raise InputError("--to: it must come after --from")
     record = read_record(args.store, low, high)
+    for line in unfollowed_places(record, plan):
+        print(f"note: {line}", file=sys.stderr)
     places, paths = analyse_record(record, plan, args.out, args.every, f"{record.location} on {args.site.name}",
                                    args.force)
     for row in places:

@@ -82,8 +82,7 @@ class LiveSummary:
 
 def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
               latest: deque, stats: dict, buckets: TimeBuckets | None) -> dict:
-    occupancy = {zone.name: int(sum(bool(zone.contains(p.joints[0, :2])) for p in people))
-                 for zone in monitor.site.zones}
+    occupancy = {zone: len(inside) for zone, inside in monitor.occupants.items()}  # as the events count it
     return {"frame": frame_index, "time_s": frame_index / fps,
             "people": [{"track": p.track, "x": round(float(p.joints[0, 0]), 3), "y": round(float(p.joints[0, 1]), 3),
                         "joints": np.round(p.joints, 3).tolist(), "position_sd_m": np.round(p.position_sd, 3).tolist(),

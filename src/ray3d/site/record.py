@@ -26,6 +26,24 @@ def record_outputs(out_dir: str | Path, by_time: bool = False) -> list[Path]:
     return [Path(out_dir) / name for name in (*RECORD_FILES, *(BY_TIME_FILES if by_time else ()))]
 
 
+def unfollowed_places(record, site: Site) -> list[str]:
+    """The site's zones and lines that no run of the record followed (the live runs' events are of the site file
+    they were given): a line for each, saying that its counts are absent (its occupancy still comes from the
+    positions)."""
+    import json
+
+    followed = {kind: set() for kind in ("zones", "lines")}
+    for run in record.runs:
+        document = json.loads(run["site"]) if run.get("site") else {}
+        for kind in followed:
+            followed[kind] |= {place["name"] for place in document.get(kind, ())}
+    lines = [f"zone {zone.name!r}: no run of the record followed it; its entries and exits are not in it (its "
+             "occupancy and heat map come from the positions)" for zone in site.zones if zone.name not in
+             followed["zones"]]
+    return lines + [f"line {line.name!r}: no run of the record followed it; its crossings are not in it"
+                    for line in site.lines if line.name not in followed["lines"]]
+
+
 def covered_seconds(record, seconds: np.ndarray) -> np.ndarray:
     """Which of ``seconds`` (Unix times) the record covers: inside a run's recorded span and not in a gap that
     left it blind (the service down, or the only camera of a run down). (N,) bool."""

@@ -13,14 +13,16 @@ from pathlib import Path
 from ray3d.io.atomic import write_text
 
 
-_TEMPLATE = """<!doctype html>
+_STYLE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
 <style>
  body { font-family: sans-serif; margin: 16px; background: #fafafa; }
  img { max-width: 48%; border: 1px solid #ddd; background: #fff; margin-right: 1%; vertical-align: top; }
  table { border-collapse: collapse; margin: 8px 0 16px; font-size: 13px; }
  td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
- #timeline { width: 100%; height: 160px; background: #fff; border: 1px solid #ddd; display: block; }
+"""  # the head both pages share
+
+_TEMPLATE = _STYLE + """ #timeline { width: 100%; height: 160px; background: #fff; border: 1px solid #ddd; display: block; }
  .note { color: #555; }
 </style></head>
 <body>
@@ -95,14 +97,7 @@ def write_site_report(path: str | Path, events: list[dict], places: list[dict], 
     return write_text(path, page, overwrite)
 
 
-_RECORD_TEMPLATE = """<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
-<style>
- body { font-family: sans-serif; margin: 16px; background: #fafafa; }
- img { max-width: 48%; border: 1px solid #ddd; background: #fff; margin-right: 1%; vertical-align: top; }
- table { border-collapse: collapse; margin: 8px 0 16px; font-size: 13px; }
- td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
- td.n { text-align: right; font-variant-numeric: tabular-nums; }
+_RECORD_TEMPLATE = _STYLE + """ td.n { text-align: right; font-variant-numeric: tabular-nums; }
  .note { color: #555; }
 </style></head>
 <body>
