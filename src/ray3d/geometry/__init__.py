@@ -1,7 +1,8 @@
 """Camera geometry: the camera model, lens distortion, world / camera / normalized frames, pixels <-> rays,
 camera placement and batches of cameras."""
 
-from ray3d.geometry.camera import Camera, focal_from_hfov, parse_image_size, pinhole_intrinsics
+from ray3d.geometry.camera import Camera
+from ray3d.geometry.intrinsics import focal_from_hfov, parse_image_size, pinhole_intrinsics
 from ray3d.geometry.camera_batch import CameraBatch
 from ray3d.geometry.transforms import (
     camera_center,
