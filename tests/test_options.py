@@ -12,7 +12,7 @@ from ray3d import Camera, InputError, cameras
 from ray3d.cli import main
 from ray3d.geometry.floor import FLAT_FLOOR
 from ray3d.io.camera_files import camera_from_options, save_cameras
-from ray3d.io.keypoints import TrackDetections
+from ray3d.io.detections import TrackDetections
 from ray3d.lifting.options import LiftOptions, VideoOptions
 
 

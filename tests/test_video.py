@@ -603,7 +603,7 @@ def test_two_videos_of_one_site_are_lifted_on_one_floor_found_where_both_see_peo
     """``lift_videos``: the same walk filmed from the front and the side (frames in step), each followed as
     ``lift_video`` follows it, lifted together: one ankle plane for both, their ankles triangulated where both see
     a person, close to where the mocap's planted ankles stand over the floor; each video's outputs written."""
-    from ray3d.geometry.camera import focal_from_hfov
+    from ray3d.geometry.intrinsics import focal_from_hfov
     from ray3d.video import lift_videos
 
     _, people, pixels, hidden = scene

@@ -16,7 +16,8 @@ from tqdm import tqdm
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.io.keypoints import Keypoints, TrackDetections, write_keypoints_json
+from ray3d.io.detections import TrackDetections
+from ray3d.io.keypoints import Keypoints, write_keypoints_json
 from ray3d.io.bvh_export import export_paths
 from ray3d.io.world import World, check_world_output, write_world
 from ray3d.lifting.lifter import Lifter

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ray3d.geometry import Camera
-from ray3d.io.keypoints import TrackDetections
+from ray3d.io.detections import TrackDetections
 from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.boxes import box_inside, box_overlap
 from ray3d.video.detectors import Detection
