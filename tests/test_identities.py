@@ -189,3 +189,14 @@ def test_a_line_counts_a_rejoined_person_once_and_the_world_file_keeps_the_rejoi
     jsonschema = pytest.importorskip("jsonschema")
     schema = json.loads(resources.files("ray3d").joinpath("assets", "world.schema.json").read_text())
     jsonschema.validate(json.loads((tmp_path / "w.json").read_text()), schema)
+
+
+def test_one_rule_says_a_track_is_too_short_offline_and_live():
+    """``Track.too_short``: kept from exactly ``shortest_s`` on, otherwise the reason both ``ray3d video`` and
+    ``ray3d live`` give."""
+    from ray3d.video.tracking import Track
+
+    second = Track("7", list(range(10)))  # 10 frames at 10 frames/s: 1.0 s
+    assert second.too_short(10.0, 1.0) is None
+    assert second.too_short(10.0, 1.5) == "seen for 1.00 s (under 1.50 s)"
+    assert Track("8", [4]).too_short(25.0, 0.04) is None  # one frame is one frame period

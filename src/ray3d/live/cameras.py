@@ -89,9 +89,8 @@ class Finisher:
                 self._done.append(finished)
 
     def _finish(self, track: Track) -> Finished:
-        seconds = track.seconds(self.fps)
-        if seconds < self.min_track_s:
-            return Finished(track.id, None, f"seen for {seconds:.2f} s (under {self.min_track_s:.2f} s)")
+        if (short := track.too_short(self.fps, self.min_track_s)) is not None:
+            return Finished(track.id, None, short)
         try:
             lifted = self.lifter.lift_tracks({track.id: track.as_detections()}, self.camera, self.layout,
                                              self.fps, seen_before=tuple(self.evidence),

@@ -126,8 +126,7 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
         raise InputError(_nobody_followed(info.path, read, fps, people.shortest_s, seen_for,
                                           tracker.frames_with_people, detector_name),
                          arguments=("min_track_s",) if seen_for else ("detector",))
-    dropped = {track.id: f"seen for {track.seconds(fps):.2f} s (under {people.shortest_s:.2f} s)"
-               for track in people.dropped}
+    dropped = {track.id: track.too_short(fps, people.shortest_s) for track in people.dropped}
     return TrackedPeople(kept, detector.layout, fps, read, dropped, info.path, detector_name, people.rejoins)
 
 
@@ -149,8 +148,8 @@ def follow_people(tracks: list[Track], fps: float, frames_read: int, options: Vi
     # A short clip keeps a person seen for half of it: one seen in every frame of a 1.7 s clip is a track.
     shortest = min(options.min_track_s, SHORT_CLIP_SHARE * frames_read / fps)
     identities, rejoins = rejoin_tracks(tracks, fps, options.rejoin_s)
-    kept = [track for track in identities if track.seconds(fps) >= shortest]
-    dropped = [track for track in identities if track.seconds(fps) < shortest]
+    kept = [track for track in identities if track.too_short(fps, shortest) is None]
+    dropped = [track for track in identities if track.too_short(fps, shortest) is not None]
     return FollowedPeople(kept, dropped, rejoins, shortest)
 
 

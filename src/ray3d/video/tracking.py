@@ -56,6 +56,12 @@ class Track:
         """How long the person was followed, first to last frame."""
         return (self.frames[-1] - self.frames[0] + 1) / fps
 
+    def too_short(self, fps: float, shortest_s: float) -> str | None:
+        """Why the track is left out of the people reported (followed for less than ``shortest_s``: a box on two
+        people or on part of one as often as a person), or None when it is kept. The one rule, offline and live."""
+        seconds = self.seconds(fps)
+        return f"seen for {seconds:.2f} s (under {shortest_s:.2f} s)" if seconds < shortest_s else None
+
     def as_detections(self) -> TrackDetections:
         """The frames, pixels and confidences as one record (what lifting reads)."""
         return TrackDetections(np.array(self.frames), np.stack([d.pixels for d in self.detections]),
