@@ -34,10 +34,10 @@ def console_errors(page: Path, fragment: str = "") -> str:
     return dom.split('<pre id="errors">', 1)[1].split("</pre>", 1)[0] if '<pre id="errors">' in dom else dom[-500:]
 
 
-def screenshot(url: str, path: Path, size: str = "1000,800", live: bool = False) -> np.ndarray:
-    """(H, W, 3) the page at ``url`` as Chromium draws it; ``live``: after 3 s of real time (a page fed by a
+def screenshot(url: str, path: Path, size: str = "1000,800", live: bool = False, wait_s: float = 3.0) -> np.ndarray:
+    """(H, W, 3) the page at ``url`` as Chromium draws it; ``live``: after ``wait_s`` of real time (a page fed by a
     stream: time for Chromium to start, connect and draw on a busy machine), else after its scripts settle."""
-    timing = "--timeout=3000" if live else "--virtual-time-budget=2000"
+    timing = f"--timeout={int(1000 * wait_s)}" if live else "--virtual-time-budget=2000"
     _run([timing, f"--window-size={size}", f"--screenshot={path}", url], path.with_name(path.stem + "-profile"))
     from PIL import Image
 

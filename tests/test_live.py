@@ -530,7 +530,8 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
     for k in range(2):
         time.sleep(1.0)
         for attempt in range(3):  # headless Chromium's --timeout sometimes stops the page before its feed's first
-            shot = screenshot(urls[0], tmp_path / f"page{k}-{attempt}.png", size="1100,800", live=True)
+            shot = screenshot(urls[0], tmp_path / f"page{k}-{attempt}.png", size="1100,800", live=True,
+                              wait_s=3.0 * (attempt + 1))  # a loaded machine starts Chromium slowly: wait longer
             if drawn(shot).sum() > 200:  # snapshot arrives; another launch is another page
                 break
         shots.append(shot)
