@@ -188,3 +188,23 @@ def test_the_same_run_gives_the_same_record_on_postgresql_as_on_sqlite(tmp_path)
         # two processes' runs on one PostgreSQL site: numbered apart
         again = _one_run(url, source="other.avi")
         assert again.run == 2 and {e["track"] for e in read_record(url).events} == {"1-0", "2-0"}
+
+
+def test_no_password_of_a_stream_or_a_database_is_recorded_or_said(tmp_path):
+    from ray3d.store.database import shown, without_passwords
+
+    assert without_passwords("ray3d live rtsp://admin:s3cret@cam.local:554/live --store postgresql://me:pw@db/x") == \
+        "ray3d live rtsp://admin@cam.local:554/live --store postgresql://me@db/x"
+    assert without_passwords("rtsp://cam.local/live") == "rtsp://cam.local/live"
+    assert shown("postgresql://me:pw@db:5432/site") == "postgresql://me@db:5432/site"
+    source = "rtsp://admin:s3cret@cam.local/live"
+    recorder = RunRecorder(tmp_path / "site.db", f"ray3d live {source}", [source], [False])
+    recorder.events([_event("track started", "1-0", 0.0)])
+    recorder.progress(source, 0, 0.0)
+    recorder.gap(source, 1.0, 2.0, "the stream was down")
+    recorder.close("ended")
+    again = RunRecorder(tmp_path / "site.db", f"ray3d live {source}", [source], [False])  # the same input, known
+    assert again.continues
+    again.close("ended")
+    assert b"s3cret" not in b"".join(path.read_bytes() for path in tmp_path.iterdir())
+    assert read_record(tmp_path / "site.db").gaps[0]["camera"] == "rtsp://admin@cam.local/live"

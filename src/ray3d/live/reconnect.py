@@ -12,6 +12,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.live.source import FrameSource, LiveFrame
+from ray3d.store.database import without_passwords
 
 
 class ReconnectingSource:
@@ -25,7 +26,8 @@ class ReconnectingSource:
     def __init__(self, location: str, fps: float | None = None, stall_s: float = 5.0, keep: int = 2,
                  backoff_s: float = 1.0, max_backoff_s: float = 30.0,
                  report: Callable[[str], None] = lambda line: None):
-        self.location, self.name, self.keep, self.report = str(location), str(location), keep, report
+        # Said without the URL's password (its lines go to a service's journal).
+        self.location, self.name, self.keep, self.report = str(location), without_passwords(location), keep, report
         self.stream_stall_s, self.backoff_s, self.max_backoff_s = float(stall_s), backoff_s, max_backoff_s
         self.stall_s = np.inf
         self.on_change: Callable[[], None] | None = None

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import re
 import sqlite3
 from pathlib import Path
 
@@ -20,14 +21,18 @@ def is_postgresql(location: str | Path) -> bool:
     return str(location).startswith(POSTGRESQL_PREFIXES)
 
 
+_CREDENTIALS = re.compile(r"(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*://)(?P<user>[^:/@\s]*):[^@/\s]*@")
+
+
+def without_passwords(text: str) -> str:
+    """``text`` with the password of every URL in it left out (``rtsp://user:secret@cam/`` -> ``rtsp://user@cam/``):
+    what a store records and a message says of streams and databases."""
+    return _CREDENTIALS.sub(lambda m: f"{m['scheme']}{m['user']}@", str(text))
+
+
 def shown(location: str | Path) -> str:
-    """A store's location as said in messages: a PostgreSQL URL without its password."""
-    text = str(location)
-    if is_postgresql(text) and "@" in text:
-        scheme, rest = text.split("://", 1)
-        credentials, host = rest.rsplit("@", 1)
-        return f"{scheme}://{credentials.split(':', 1)[0]}@{host}"
-    return text
+    """A store's location as said in messages: without its password."""
+    return without_passwords(str(location))
 
 
 class Database:

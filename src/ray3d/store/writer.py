@@ -16,7 +16,7 @@ import threading
 import time
 from collections.abc import Callable
 
-from ray3d.store.database import Database, connect, shown
+from ray3d.store.database import Database, connect, shown, without_passwords
 
 DOWN_BETWEEN_RUNS = "the service was down"
 
@@ -36,7 +36,8 @@ class RunRecorder:
     def __init__(self, location, command: str, sources: list[str], files: list[bool], site: dict | None = None,
                  origin: float | None = None, commit_every_s: float = 0.5, max_waiting: int = 200_000,
                  report: Callable[[str], None] = lambda line: print(line, file=sys.stderr)):
-        self.location, self.sources, self.report = location, list(sources), report
+        # A stream's URL is recorded without its password (the store is read by whoever reports on the site).
+        self.location, self.sources, self.report = location, [without_passwords(s) for s in sources], report
         self.shown = shown(location)  # as said in messages (a PostgreSQL URL without its password)
         self.commit_every_s, self.max_waiting = commit_every_s, max_waiting
         self._database: Database | None = connect(location)
@@ -68,7 +69,8 @@ class RunRecorder:
         resumes = [Resume(s, previous[s][0] + 1 if is_file and s in previous else 0, clock)
                    for s, is_file in zip(self.sources, files)]
         run = database.rows("INSERT INTO runs (started_at, command, sources, site) VALUES (?, ?, ?, ?) RETURNING run",
-                            (now, command, json.dumps(self.sources), json.dumps(site) if site else None))[0][0]
+                            (now, without_passwords(command), json.dumps(self.sources),
+                             json.dumps(site) if site else None))[0][0]
         database.commit()
         return int(run), resumes, {s: previous[s][1] for s in self.sources if s in previous}
 
@@ -102,21 +104,22 @@ class RunRecorder:
             self._second[person.track] = second
             sd = [float(v) for v in person.position_sd] if person.position_sd is not None else [None, None]
             rows.append((self.run, person.track, self.origin + time_s, float(person.joints[0, 0]),
-                         float(person.joints[0, 1]), sd[0], sd[1], camera))
+                         float(person.joints[0, 1]), sd[0], sd[1], without_passwords(camera)))
         self._add("positions", rows, at_most=self.origin + time_s if rows else None)
 
     def person(self, person: str, first_s: float, last_s: float, stature_m: float | None, stature_class: str,
                rejoins: int, camera: str) -> None:
         self._second.pop(person, None)
         self._add("people", [(person, self.run, self.origin + first_s, self.origin + last_s, stature_m,
-                              stature_class, int(rejoins), camera)])
+                              stature_class, int(rejoins), without_passwords(camera))])
 
     def gap(self, camera: str, from_at: float, to_at: float, why: str) -> None:
-        self._add("gaps", [(self.run, camera, float(from_at), float(to_at), why)])
+        self._add("gaps", [(self.run, without_passwords(camera), float(from_at), float(to_at), why)])
 
     def progress(self, source: str, frame: int, time_s: float) -> None:
         """Input ``source`` recorded up to its ``frame``, at ``time_s`` of stream time. Its first frame of the run
         closes the gap since the last run."""
+        source = without_passwords(source)
         if (down_since := self._down_since.pop(source, None)) is not None:
             self.gap(source, down_since, self.origin + time_s, DOWN_BETWEEN_RUNS)
         with self._lock:
