@@ -39,7 +39,7 @@ class FrameResult:
     """One processed frame of one camera: its ``index``, when it ``arrived`` (this process's monotonic clock),
     the people in it, the tracks let go with it (``ended``), the tracks lifted offline since the last result
     (``done``), from a camera in another process its frames read, dropped and people postponed so far, and the
-    ``gap`` (Unix times) its stream left just before it, where it was reopened."""
+    ``gap`` its stream left just before it, where it was reopened (``LiveFrame.gap``: frame numbers)."""
 
     index: int
     arrived: float
@@ -47,7 +47,7 @@ class FrameResult:
     ended: list[str]
     done: list[Finished]
     counts: tuple[int, int, int] | None = None
-    gap: tuple[float, float] | None = None
+    gap: tuple[int, int] | None = None
 
 
 class Finisher:

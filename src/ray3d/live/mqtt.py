@@ -89,6 +89,7 @@ class MqttPublisher:
         self._state: dict[str, str] = {}  # retained topic -> the value last published
         self._reported = False
         self._lock = threading.Lock()
+        self._codes = (mqtt.MQTT_ERR_SUCCESS, mqtt.MQTT_ERR_NO_CONN)  # sent, or queued until the broker is back
         self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=client_id or "",
                                    clean_session=True)
         self._client.max_queued_messages_set(queue_size)
@@ -107,11 +108,9 @@ class MqttPublisher:
             client.publish(topic, json.dumps(payload), qos=1, retain=True)
 
     def _send(self, topic: str, payload: str, retain: bool) -> bool:
-        import paho.mqtt.client as mqtt
-
         info = self._client.publish(topic, payload, qos=1, retain=retain)
-        if info.rc == mqtt.MQTT_ERR_SUCCESS or info.rc == mqtt.MQTT_ERR_NO_CONN:
-            return True  # sent, or queued until the broker is back
+        if info.rc in self._codes:
+            return True
         self.dropped += 1
         if not self._reported:
             self._reported = True

@@ -31,14 +31,14 @@ class ReconnectingSource:
         self.stream_stall_s, self.backoff_s, self.max_backoff_s = float(stall_s), backoff_s, max_backoff_s
         self.stall_s = np.inf
         self.on_change: Callable[[], None] | None = None
-        self.gaps: list[tuple[float, float]] = []
         self._changed = threading.Condition()
         self._closed = False
         self._done_read = self._done_dropped = 0
         self._current = FrameSource.open(self.location, fps, paced=False, stall_s=self.stream_stall_s, keep=keep)
         self.fps, self.image_size = self._current.fps, self._current.image_size
         self._current.on_change = self._tell
-        self._last_index, self._last_wall, self._gap = -1, time.time(), None
+        self._last_index, self._last_wall = -1, time.time()
+        self._down_after: int | None = None  # reopened, no frame taken yet: the last frame's number before
         self._opened_at = time.time()  # the stall clock starts again with each opening
         self._let_go: list[FrameSource] = []  # streams closed while down, their readers still in a read
         self._keeper = threading.Thread(target=self._keep_open, name="reconnect", daemon=True)
@@ -94,7 +94,7 @@ class ReconnectingSource:
                     if self._closed:
                         opened.close()
                         return
-                    self._gap = (self._last_wall, None)
+                    self._down_after = self._last_index
                     self._opened_at = time.time()
                     self._current = opened
                     opened.on_change = self._tell
@@ -123,10 +123,9 @@ class ReconnectingSource:
             if frame is None:
                 continue
             with self._changed:
-                if self._gap is not None:
-                    self.gaps.append((self._gap[0], time.time()))
-                    frame = dataclasses.replace(frame, gap=self.gaps[-1])
-                    self._gap = None
+                if self._down_after is not None:
+                    frame = dataclasses.replace(frame, gap=(self._down_after, frame.index))
+                    self._down_after = None
                 self._last_index, self._last_wall = frame.index, time.time()
             return frame
 

@@ -22,13 +22,13 @@ from ray3d.errors import InputError
 @dataclasses.dataclass(frozen=True)
 class LiveFrame:
     """A frame: its number in the stream (from 0), the (H, W, 3) uint8 RGB image and when it was read
-    (``time.monotonic()``); the first frame after the stream was reopened carries the ``gap`` it leaves (Unix
-    times of the last frame before and of this one)."""
+    (``time.monotonic()``); the first frame after the stream was reopened carries the ``gap`` it leaves (the
+    numbers of the last frame before and of this one: the gap on the stream's clock, as its events are)."""
 
     index: int
     image: np.ndarray
     arrived: float
-    gap: tuple[float, float] | None = None
+    gap: tuple[int, int] | None = None
 
 
 class StreamStalled(Exception):

@@ -46,8 +46,9 @@ class Views:
         self._write(view, result.done)
         if self.recorder is not None:
             self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
-            if result.gap is not None:
-                self.recorder.gap(self.cameras.names[view], *result.gap, "the stream was down")
+            if result.gap is not None:  # on the stream's clock, as the events are
+                before, after = (self.recorder.origin + self.time_s(view, index) for index in result.gap)
+                self.recorder.gap(self.cameras.names[view], before, after, "the stream was down")
         if not self.several:
             return (result.index, result.persons), result.persons, result.ended
         time_s = result.index / self.cameras.fps[view] - self.offsets_s[view]
@@ -94,8 +95,8 @@ class Views:
                 self.recorder.person(finished.track, self.time_s(view, int(track.frames[0])),
                                      self.time_s(view, int(track.frames[-1])), stature,
                                      stature_class(stature, refinement.get("stature_interval_m")),
-                                     len(finished.world.rejoined.get(finished.track, ()) if finished.world.rejoined
-                                         else ()), self.cameras.names[view])
+                                     len((finished.world.rejoined or {}).get(finished.track, ())),
+                                     self.cameras.names[view])
 
 
 def _file_name(name: str) -> str:

@@ -7,6 +7,7 @@ happened), so the report over a store is the sum of its runs' events."""
 from __future__ import annotations
 
 import datetime
+import json
 from pathlib import Path
 
 import numpy as np
@@ -30,8 +31,6 @@ def unfollowed_places(record, site: Site) -> list[str]:
     """The site's zones and lines that no run of the record followed (the live runs' events are of the site file
     they were given): a line for each, saying that its counts are absent (its occupancy still comes from the
     positions)."""
-    import json
-
     followed = {kind: set() for kind in ("zones", "lines")}
     for run in record.runs:
         document = json.loads(run["site"]) if run.get("site") else {}
@@ -49,7 +48,7 @@ def covered_seconds(record, seconds: np.ndarray) -> np.ndarray:
     left it blind (the service down, or the only camera of a run down). (N,) bool."""
     seconds = np.asarray(seconds, dtype=float)
     covered = np.zeros(len(seconds), dtype=bool)
-    single = {run["run"] for run in record.runs if run["sources"].count('"') <= 2}  # one input (a JSON list of one)
+    single = {run["run"] for run in record.runs if len(json.loads(run["sources"])) == 1}
     for run in record.runs:
         if run["first_at"] is not None and run["last_at"] is not None:
             covered |= (seconds >= run["first_at"]) & (seconds <= run["last_at"])
@@ -72,10 +71,8 @@ def record_buckets(record, site: Site, every_s: float) -> list[dict]:
     second_of = np.floor(positions["at"]).astype(np.int64)
     inside = {zone.name: zone.contains(np.stack([positions["x"], positions["y"]], axis=-1).reshape(-1, 2))
               for zone in site.zones}
-    counts = {name: {} for name in inside}
-    for name, flags in inside.items():
-        for second in second_of[flags]:
-            counts[name][second] = counts[name].get(second, 0) + 1
+    counts = {name: dict(zip(*(v.tolist() for v in np.unique(second_of[flags], return_counts=True))))
+              for name, flags in inside.items()}
     for second in seconds[covered]:
         buckets.observe(float(second - start), {name: per.get(int(second), 0) for name, per in counts.items()})
     rows = buckets.rows(record.to_at - start)
@@ -117,11 +114,10 @@ def analyse_record(record, site: Site, out_dir: str | Path, every_s: float | Non
     out_dir.mkdir(parents=True, exist_ok=True)
     joined = {p["person"]: p["rejoins"] for p in record.people if p["rejoins"]}
     places = zone_summaries(record.events, site, joined)
-    when = _clock
-    events = [{"at": when(e["at"]), "run": e["run"], **{k: v for k, v in e.items() if k not in ("at", "run")}}
+    events = [{"at": _clock(e["at"]), "run": e["run"], **{k: v for k, v in e.items() if k not in ("at", "run")}}
               for e in record.events]
-    people = [{**p, "first_at": when(p["first_at"]), "last_at": when(p["last_at"])} for p in record.people]
-    gaps = [{"camera": g["camera"], "from": when(g["from_at"]), "to": when(g["to_at"]),
+    people = [{**p, "first_at": _clock(p["first_at"]), "last_at": _clock(p["last_at"])} for p in record.people]
+    gaps = [{"camera": g["camera"], "from": _clock(g["from_at"]), "to": _clock(g["to_at"]),
              "seconds": round(g["to_at"] - g["from_at"], 1), "why": g["why"], "run": g["run"]} for g in record.gaps]
     paths = [out_dir / name for name in RECORD_FILES]
     tables = [write_csv(paths[1], events, overwrite), write_csv(paths[2], people, overwrite),

@@ -123,13 +123,6 @@ class Database:
             self._connection.execute("COMMIT")
             self._connection.execute("BEGIN")
 
-    def rollback(self) -> None:
-        if self.postgresql:
-            self._connection.rollback()
-        else:
-            self._connection.execute("ROLLBACK")
-            self._connection.execute("BEGIN")
-
     def close(self) -> None:
         try:
             if not self.postgresql and self._connection.in_transaction:

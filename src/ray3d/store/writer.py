@@ -3,9 +3,9 @@ committed by a thread of its own every ``commit_every_s`` (half a second), so a 
 most the last one, and a slow or unreachable database never holds up the stream (at most ``max_waiting`` rows
 wait; beyond, new rows are counted as lost and said once).
 
-``begin_run`` numbers the run, records where the service was down since the last one (a gap per input) and says
-where each file input is to be taken up again (``Resume``): the frame after the last one recorded, on the clock
-of the run that began it."""
+Beginning, it numbers the run, notes where each input was last recorded (closed as a gap, "the service was down",
+at the input's first frame of this run) and says where each file input is to be taken up again (``Resume``): the
+frame after the last one recorded, on the clock of the run that began it."""
 
 from __future__ import annotations
 
@@ -42,14 +42,17 @@ class RunRecorder:
         self.commit_every_s, self.max_waiting = commit_every_s, max_waiting
         self._database: Database | None = connect(location)
         self.run, self.resumes, self._down_since = self._begin(command, files, site, origin)
-        self._continued = dict(self._down_since)
-        self.origin = self.resumes[0].origin
+        # Whether the store already held a record of these inputs (this run appends to what they wrote).
+        self.continues = bool(self._down_since)
+        self.origin = self.resumes[0].origin  # every input's frame 0, one clock
         self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0}
         self.lost = 0
         self._seq = 0
         self._last_at: float | None = None
         self._first_at: float | None = None  # the run's first frame (Unix time)
-        self._second: dict[str, int] = {}  # person -> the last whole second of stream time a position was kept
+        # person -> the last whole second of stream time a position was kept (of those seen in the last seconds)
+        self._second: dict[str, int] = {}
+        self._pruned_at: int | None = None
         self._waiting: dict[str, list] = {"events": [], "positions": [], "people": [], "gaps": []}
         self._progress: dict[str, tuple[int, float]] = {}
         self._failed = False
@@ -75,11 +78,6 @@ class RunRecorder:
         return int(run), resumes, {s: previous[s][1] for s in self.sources if s in previous}
 
     @property
-    def continues(self) -> bool:
-        """Whether the store already held a record of these inputs (this run appends to what they wrote)."""
-        return bool(self._continued)
-
-    @property
     def id_prefix(self) -> str:
         """Before each person's id in this run: ids are unique across the runs of a store."""
         return f"{self.run}-"
@@ -97,19 +95,21 @@ class RunRecorder:
 
     def positions(self, time_s: float, people, camera: str) -> None:
         """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time."""
-        second, rows = int(time_s // 1.0), []
+        second, rows, camera = int(time_s // 1.0), [], without_passwords(camera)
+        if second != self._pruned_at:  # once a second: only who was seen in the last second is kept
+            self._second = {track: kept for track, kept in self._second.items() if kept >= second - 1}
+            self._pruned_at = second
         for person in people:
             if self._second.get(person.track) == second:
                 continue
             self._second[person.track] = second
             sd = [float(v) for v in person.position_sd] if person.position_sd is not None else [None, None]
             rows.append((self.run, person.track, self.origin + time_s, float(person.joints[0, 0]),
-                         float(person.joints[0, 1]), sd[0], sd[1], without_passwords(camera)))
+                         float(person.joints[0, 1]), sd[0], sd[1], camera))
         self._add("positions", rows, at_most=self.origin + time_s if rows else None)
 
     def person(self, person: str, first_s: float, last_s: float, stature_m: float | None, stature_class: str,
                rejoins: int, camera: str) -> None:
-        self._second.pop(person, None)
         self._add("people", [(person, self.run, self.origin + first_s, self.origin + last_s, stature_m,
                               stature_class, int(rejoins), without_passwords(camera))])
 
@@ -190,16 +190,12 @@ class RunRecorder:
         database.many("INSERT INTO progress (source, run, frame, at, origin) VALUES (?, ?, ?, ?, ?) "
                       "ON CONFLICT (source) DO UPDATE SET run = excluded.run, frame = excluded.frame, "
                       "at = excluded.at, origin = excluded.origin",
-                      [(source, self.run, frame, at, self._origin_of(source)) for source, (frame, at) in
-                       progress.items()])
+                      [(source, self.run, frame, at, self.origin) for source, (frame, at) in progress.items()])
         newest = max([at for _, at in progress.values()] + ([last_at] if last_at is not None else []), default=None)
         if newest is not None:
             database.execute("UPDATE runs SET last_at = ?, first_at = COALESCE(first_at, ?) WHERE run = ?",
                              (newest, self._first_at if self._first_at is not None else newest, self.run))
         database.commit()
-
-    def _origin_of(self, source: str) -> float:
-        return next(r.origin for r in self.resumes if r.source == source)
 
     def discard(self) -> None:
         """A run that never started (its inputs could not be opened) taken out of the store; an SQLite store that
