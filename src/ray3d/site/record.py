@@ -151,5 +151,5 @@ def _summary(record) -> str:
     down = sum(g["to_at"] - g["from_at"] for g in record.gaps)
     return (f"From {_clock(record.from_at)} to {_clock(record.to_at)}: {len(record.events)} events of "
             f"{len(record.people)} people over {len(runs)} run(s); {len(record.gaps)} gap(s) in the record, "
-            f"{down:.0f} s in all. Written from the store's events and positions only: no image, crop or overlay "
+            f"{down:.1f} s in all. Written from the store's events and positions only: no image, crop or overlay "
             "of any video is in this report.")

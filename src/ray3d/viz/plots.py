@@ -103,7 +103,7 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
     starts = [datetime.datetime.fromisoformat(row["start"]) for row in rows]
     ends = [datetime.datetime.fromisoformat(row["end"]) for row in rows]
     width = [(e - s).total_seconds() / 86400 for s, e in zip(starts, ends)]
-    fig, (counts, people) = plt.subplots(2, 1, figsize=(9, 5.5), dpi=110, sharex=True)
+    fig, (counts, people) = plt.subplots(2, 1, figsize=(10.5, 5.5), dpi=110, sharex=True)
     series = {"entries": [sum(row.get(f"{z.name}: entries", 0) for z in site.zones) for row in rows],
               "exits": [sum(row.get(f"{z.name}: exits", 0) for z in site.zones) for row in rows],
               "crossings": [sum(row.get(f"{l.name}: forward", 0) + row.get(f"{l.name}: back", 0) for l in site.lines)
@@ -113,7 +113,6 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
         offsets = [s + datetime.timedelta(days=w * k / len(shown)) for s, w in zip(starts, width)]
         counts.bar(offsets, values, width=[w / len(shown) for w in width], align="edge", label=name)
     counts.set_ylabel("per bucket")
-    counts.legend(fontsize=8, loc="upper left")
     for zone in site.zones:
         middles = [s + (e - s) / 2 for s, e in zip(starts, ends)]
         line, = people.plot(middles, [row[f"{zone.name}: mean occupancy"] for row in rows], marker="o", ms=3,
@@ -122,14 +121,13 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
                     label=f"{zone.name}: peak")
     people.set_ylabel("people in the zone")
     if site.zones:
-        people.legend(fontsize=8, loc="upper left")
+        people.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside: never on the data
     zone_of = starts[0].tzinfo if starts else None
     for k, (low, high) in enumerate(gaps):
         for axis in (counts, people):
             axis.axvspan(datetime.datetime.fromtimestamp(low, zone_of), datetime.datetime.fromtimestamp(high, zone_of),
                          color="0.6", alpha=0.35, lw=0, label="no record" if k == 0 and axis is counts else None)
-    if gaps:
-        counts.legend(fontsize=8, loc="upper left")
+    counts.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     people.xaxis.set_major_formatter(dates.ConciseDateFormatter(people.xaxis.get_major_locator(), tz=zone_of))
     for axis in (counts, people):
         axis.grid(alpha=0.3)
