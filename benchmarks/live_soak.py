@@ -21,6 +21,7 @@ import numpy as np
 
 from ray3d.io.camera_files import read_camera
 from ray3d.site.files import read_site
+from ray3d.lifting.lifter import Lifter
 from ray3d.live.runner import LiveOptions, run_live
 from ray3d.live.source import FrameSource, _opened
 from ray3d.store import RunRecorder, read_record
@@ -84,7 +85,8 @@ def main() -> None:
 
     threading.Thread(target=sample, daemon=True).start()
     recorder = RunRecorder(args.out / "site.db", "live_soak", [source.name], [False])
-    summary = run_live(source, camera, args.out, detector, site=read_site(args.site) if args.site else None,
+    summary = run_live(source, camera, args.out, detector, Lifter.load(layout=detector.layout),
+                       site=read_site(args.site) if args.site else None,
                        options=LiveOptions(port=0), started=started, recorder=recorder)
     stop.set()
     written = len((args.out / "events.jsonl").read_text().splitlines())

@@ -26,6 +26,7 @@ import numpy as np
 from ray3d.io.camera_files import read_camera
 from ray3d.site.files import read_site
 from ray3d.io.world import read_world
+from ray3d.lifting.lifter import Lifter
 from ray3d.live.runner import LiveOptions, run_live
 from ray3d.live.source import FrameSource
 from ray3d.video import make_detector
@@ -101,7 +102,8 @@ def main() -> None:
         threading.Thread(target=_feed_latencies, args=(url, arrivals, page_latency, stop_feed), daemon=True).start()
 
     begun = time.monotonic()
-    summary = run_live(source, camera, args.out, detector, site=read_site(args.site) if args.site else None,
+    summary = run_live(source, camera, args.out, detector, Lifter.load(layout=detector.layout),
+                       site=read_site(args.site) if args.site else None,
                        options=LiveOptions(port=0), started=started)
     stop_feed.set()
     wall = time.monotonic() - begun

@@ -221,6 +221,17 @@ def test_only_the_jobs_wing_assembles_a_job_or_fuses_worlds(assembler, own_room)
     assert {m for m in _callers(assembler) if not _in_room(m, own_room)} <= {"ray3d.jobs.run", "ray3d.jobs.live"}
 
 
+def test_a_site_report_is_made_in_one_place_and_models_are_loaded_by_jobs_and_lifting_only():
+    """Every report on a site (``ray3d video --site``, ``ray3d site``, batch rows, live runs) is made by
+    ``jobs.run.site_report``; a model is loaded (``Lifter.load``) only in ``jobs`` (a job's, cached per layout)
+    and ``lifting``: no front end, pipeline or live camera falls back to a model of its own."""
+    assert {m for m in _callers("analyse_site") if not _in_room(m, "ray3d.site")} == {"ray3d.jobs.run"}
+    loaders = {module for module, path in MODULES.items() for node in ast.walk(ast.parse(path.read_text()))
+               if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "load"
+               and isinstance(node.func.value, ast.Name) and node.func.value.id == "Lifter"}
+    assert loaders and all(_in_room(m, "ray3d.jobs") or _in_room(m, "ray3d.lifting") for m in loaders), loaders
+
+
 def test_a_video_or_stream_camera_and_detector_are_put_together_in_one_function():
     functions = {(module, node.name) for module, path in MODULES.items() if _in_room(module, "ray3d.jobs")
                  for node in ast.walk(ast.parse(path.read_text())) if isinstance(node, ast.FunctionDef)

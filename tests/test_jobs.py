@@ -17,7 +17,7 @@ from ray3d.batch.runner import process_entry
 from ray3d.demo import demo_clip
 from ray3d.geometry.uncertainty import information_weighted
 from ray3d.io.world import read_world
-from ray3d.jobs import CameraChoice, Job, fuse_and_write, run_input
+from ray3d.jobs import CameraChoice, Job, fuse_and_write, run_input, run_job
 from ray3d.temporal import velocity
 
 CAMERA = cameras.h36m("S9", "54138969")
@@ -57,6 +57,39 @@ def test_an_input_lifted_in_memory_is_the_one_written_and_two_cameras_fuse_into_
     assert len(read_world(tmp_path / "fused.json").cameras) == 2
     with pytest.raises(InputError, match="exists"):  # never over an output
         fuse_and_write(worlds, tmp_path / "fused.json")
+
+
+def test_a_whole_job_lifts_fuses_and_reports_with_one_model_loaded_per_layout(tmp_path):
+    """``run_job``: two cameras' keypoint files -> one fused world and the site's report beside it; the job's
+    model is loaded once per layout and not sent with the job to a worker; outputs and a bad site are refused
+    before any work."""
+    import pickle
+
+    other = cameras.h36m("S9", "55011271")
+    walk = demo_clip()[:200]
+    np.savez(tmp_path / "one.npz", keypoints=CAMERA.project(walk), fps=50.0)
+    np.savez(tmp_path / "other.npz", keypoints=other.project(walk), fps=50.0)
+    (tmp_path / "site.json").write_text(json.dumps({"zones": [{"name": "all", "polygon": [[-9, -9], [9, -9], [9, 9],
+                                                                                          [-9, 9]]}]}))
+    job = Job((tmp_path / "one.npz", tmp_path / "other.npz"), (CameraChoice(made=CAMERA), CameraChoice(made=other)),
+              site=tmp_path / "site.json")
+    done = run_job(job, tmp_path / "out" / "world.json", progress=False)
+    assert len(done.inputs) == 2 and len(done.world.tracks) == 1 and done.fusion is not None
+    assert len(read_world(tmp_path / "out" / "world.json").cameras) == 2
+    assert done.files == {"world": tmp_path / "out" / "world.json", "site": tmp_path / "out" / "site"}
+    assert [row["place"] for row in done.site.places] == ["all"] and (tmp_path / "out" / "site" / "report.html").exists()
+    assert job.lifter("h36m17") is job.lifter("h36m17") is job.lifter(None) is not None
+    sent = pickle.loads(pickle.dumps(job))
+    assert sent._lifters == {} and (sent.inputs, sent.site) == (job.inputs, job.site) and job._lifters
+    with pytest.raises(InputError, match="exists"):
+        run_job(job, tmp_path / "out" / "world.json", progress=False)
+    with pytest.raises(InputError, match="fused into a .json"):
+        run_job(job, tmp_path / "fused.csv", progress=False)
+    (tmp_path / "bad.json").write_text("{")
+    with pytest.raises(InputError, match="bad.json"):
+        Job((tmp_path / "one.npz",), (CameraChoice(made=CAMERA),), site=tmp_path / "bad.json")
+    with pytest.raises(InputError, match="every_s"):
+        Job((tmp_path / "one.npz",), (CameraChoice(made=CAMERA),), start_time=1.0)
 
 
 def test_a_batch_row_takes_every_option_of_the_command_line_and_writes_its_site_report(tmp_path):

@@ -149,16 +149,15 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
     """A live job over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job
-    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
 
-    lifter = Lifter.load()  # before the stream starts: frames that come while it loads would be dropped
+    job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
+    lifter = job.lifter("h36m17")  # before the stream starts: frames that come while it loads would be dropped
     lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
     detector = _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
     live_options = LiveOptions(**{"page": False, **options})
-    job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
-    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector], lifter)
+    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector])
     return run_live_job(job, inputs, tmp_path / "live", site, live_options), detector
 
 
@@ -268,12 +267,10 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     seen by both cameras, near the truth."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job
-    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
 
     people = _scene()
     facing = cameras.h36m("S9", "55011271")
-    lifter = Lifter.load()
     # Every frame processed (as from files read as fast as they are processed): what is tested is who is who
     # across the cameras, not keeping up, which a loaded machine may not (then a person's frames are dropped).
     sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", waits=True)
@@ -281,7 +278,7 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)),
               video=VideoOptions(min_track_s=0.5))
     inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
-                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)], lifter)
+                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)])
     summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
                            LiveOptions(page=False))
     assert summary.ending == "ended" and summary.processed == summary.read == 2 * len(people)
@@ -461,12 +458,14 @@ from test_live import _scene, _ScriptedDetector, _frames, CAMERA
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
 from ray3d.live.source import FrameSource
+from ray3d.lifting.lifter import Lifter
+lifter = Lifter.load()
 people = _scene(400)
 source = FrameSource(_frames(400, people=people), 10.0, "scene", paced=True)
 stop = threading.Event()
 caught = stop_on_signals(stop, source)
 print("started", flush=True)
-summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), options=LiveOptions(page=False), stop=stop,
+summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), lifter, options=LiveOptions(page=False), stop=stop,
                    video_options=VideoOptions(min_track_s=0.5))
 print(summary.ending, summary.processed, flush=True)
 sys.exit(128 + caught[0] if caught else 0)
@@ -500,6 +499,7 @@ def test_a_signal_ends_the_stream_with_every_output_complete(tmp_path, number):
 def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_headless_chromium(tmp_path):
     import urllib.request
 
+    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions, run_live
 
     people = _scene(600)  # a minute: the stream runs until the screenshots are taken, then it is stopped
@@ -511,7 +511,8 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
         urls.append(url)
         listening.set()
 
-    runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people)),
+    runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people),
+                                                     Lifter.load()),
                               kwargs={"site": Site((ROOM,), (DOOR,)), "started": started, "stop": stop,
                                       "options": LiveOptions(port=0, every_s=2.0),
                                                          "video_options": VideoOptions(min_track_s=0.5)})
@@ -600,7 +601,6 @@ def test_each_live_camera_in_this_process_lifts_on_its_own_floor(tmp_path):
     on Ray (``job.lift_options(k)``), not all on the first camera's."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs
-    from ray3d.lifting.lifter import Lifter
 
     people = _scene(4)
     facing = cameras.h36m("S9", "55011271")
@@ -613,7 +613,7 @@ def test_each_live_camera_in_this_process_lifts_on_its_own_floor(tmp_path):
                for c in (CAMERA, facing)]
     job = Job(tuple(s.name for s in sources), tuple(CameraChoice(file) for file in files))
     inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
-                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)], Lifter.load())
+                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)])
     try:
         assert [view.finisher.lift_options.floor_z for view in inputs.followed.views] == [-0.2, 0.1]
     finally:

@@ -35,17 +35,15 @@ def _live(out: Path, people: np.ndarray, views=(CAMERA,), site: Site = Site((ROO
     and its recorder."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job, start_record
-    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
 
-    lifter = Lifter.load()
     names = tuple(f"scene from {c.name} ({k + 1})" for k, c in enumerate(views))
     job = Job(names, tuple(CameraChoice(made=c) for c in views), video=VideoOptions(min_track_s=0.5))
     recorder = start_record(job, store or out / "site.db", "test", site, start)
     sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, name, waits=True)
                for c, name in zip(views, names)]
     inputs = local_inputs(job, SourceGroup(sources), list(views), [_ScriptedDetector(people, c) for c in views],
-                          lifter, recorder.id_prefix)
+                          recorder.id_prefix)
     summary = run_live_job(job, inputs, out, site, LiveOptions(page=False, **options), recorder=recorder,
                            mqtt=mqtt)
     return summary, recorder
@@ -160,6 +158,33 @@ def test_two_cameras_on_one_walk_count_exactly_what_one_camera_counts(tmp_path):
     assert len({e["track"] for e in twice}) == len({e["track"] for e in once}) == 2  # two people, not four
 
 
+def test_two_cameras_live_events_are_those_of_the_report_on_the_world_file_they_write(tmp_path):
+    """One join per live run: the fused world file is joined as the live events joined the cameras' tracks
+    (``joined.jsonl``), so its people are the events' people, by name; and the frames are held until who everybody
+    is has been decided, so a person's first moments count. The report on that world file finds the live run's
+    events: the same kinds, people, places and directions, each within a quarter second (the live positions are
+    the causal answers, the world file's the whole tracks'; a track is confirmed live two frames after it began)."""
+    from ray3d import cameras
+    from ray3d.site import Zone
+    from test_live import ACROSS, LOOKING, SPOT
+
+    hall = Zone("hall", np.array([SPOT + a * ACROSS + b * LOOKING for a, b in ((0.6, -3), (4, -3), (4, 3), (0.6, 3))]))
+    facing = cameras.h36m("S9", "55011271")
+    _live(tmp_path / "two", _scene(), views=(CAMERA, facing), site=Site((hall,), (DOOR,)))
+    live, report = _lines(tmp_path / "two" / "events.jsonl"), _lines(tmp_path / "two" / "site" / "events.jsonl")
+    joined = [json.loads(line) for line in (tmp_path / "two" / "joined.jsonl").read_text().splitlines()]
+    assert sorted(j["person"] for j in joined) == sorted(read_world(tmp_path / "two" / "world.json").tracks)
+    assert all(sorted(view for view, _ in j["tracks"]) == [0, 1] for j in joined)  # each seen by both cameras
+
+    def what(event: dict) -> tuple:
+        return event["event"], event["track"], event.get("zone") or event.get("line"), event.get("direction")
+
+    assert sorted(map(what, live)) == sorted(map(what, report))
+    assert {e["event"] for e in live} >= {"zone left", "zone entered", "line crossed"}
+    for event in live:
+        assert min(abs(event["time_s"] - e["time_s"]) for e in report if what(e) == what(event)) <= 0.25
+
+
 def test_a_run_ends_on_purpose_with_until_and_its_outputs_complete(tmp_path):
     people = _scene(400)
     summary, recorder = _live(tmp_path / "live", people, until_s=1.0)
@@ -269,7 +294,6 @@ class _StandingPerson:
 def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_with_three_gaps(tmp_path, monkeypatch):
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job
-    from ray3d.lifting.lifter import Lifter
     from ray3d.live.runner import LiveOptions
     from ray3d.live.reconnect import ReconnectingSource
 
@@ -289,8 +313,7 @@ def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_wit
         assert source is not None
         job = Job((stream.url,), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.3))
         recorder = RunRecorder(tmp_path / "site.db", "test", [stream.url], [False])
-        inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [_StandingPerson()], Lifter.load(),
-                              recorder.id_prefix)
+        inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [_StandingPerson()], recorder.id_prefix)
         stop = threading.Event()
 
         def interrupt() -> None:

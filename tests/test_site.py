@@ -299,7 +299,8 @@ def test_a_zones_rules_fire_when_exceeded():
 
 
 def test_person_frames_speed_heading_posture_zones_occupancy_and_heat():
-    from ray3d.site.analytics import heat_map, occupancy, person_frames
+    from ray3d.site.analytics import heat_map, person_frames
+    from ray3d.site.events import replay_site
 
     times, points = _walk(np.linspace(0, 5, 51))  # 1 m/s along +x through the room
     joints = _standing(len(points)) + np.column_stack([points, np.zeros(len(points))])[:, None]
@@ -310,7 +311,8 @@ def test_person_frames_speed_heading_posture_zones_occupancy_and_heat():
     middle = [r for r in rows if r["track"] == "1"][25]
     assert middle["speed_m_s"] == pytest.approx(1.0, rel=0.01) and middle["heading_deg"] == pytest.approx(0.0, abs=1)
     assert middle["posture"] == "upright" and middle["zones"] == ["room"]
-    times, counts = occupancy(rows, site, 10.0)
+    replay = replay_site(world, site)
+    times, counts = replay.times, replay.occupancy
     assert counts["room"].max() == 2 and counts["room"][0] == 0 and len(times) == 51
     grid, corner = heat_map(rows, 10.0, cell_m=1.0)
     assert grid.sum() == pytest.approx(2 * 51 / 10.0) and corner[0] <= 0.0
@@ -389,7 +391,8 @@ def test_a_reader_that_stops_reading_is_not_an_internal_error(tmp_path, monkeypa
 @given(st.lists(st.tuples(st.integers(0, 120), st.integers(5, 80), st.floats(-2, 2), st.floats(-1.5, 1.5)),
                 min_size=1, max_size=5), st.sampled_from([0.7, 1.0, 2.5, 30.0]))
 def test_time_buckets_add_up_to_the_whole_runs_counts(walkers, every_s):
-    from ray3d.site.analytics import by_time, occupancy, person_frames, zone_summaries
+    from ray3d.site.analytics import by_time, zone_summaries
+    from ray3d.site.events import replay_site
 
     tracks = {}
     for k, (start, length, x0, speed) in enumerate(walkers):
@@ -400,8 +403,8 @@ def test_time_buckets_add_up_to_the_whole_runs_counts(walkers, every_s):
         tracks[str(k)] = LiftResult(joints, np.zeros((length, 17), bool), 10.0, frames)
     world = World(tracks, cameras.h36m("S9", "54138969"), "ray3d")
     site = Site((ROOM,), (DOOR,))
-    events = site_events(world, site)
-    times, counts = occupancy(person_frames(world, site), site, 10.0)
+    replay = replay_site(world, site)
+    events, times, counts = replay.events, replay.times, replay.occupancy
     end_s = max(float(r.frames[-1]) / 10.0 for r in tracks.values())
     buckets = by_time(events, times, counts, site, every_s, end_s)
     places = {row["place"]: row for row in zone_summaries(events, site)}

@@ -23,7 +23,7 @@ from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
 from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
 from ray3d.video.boxes import box_overlap
-from ray3d.video.tracking import _clothes_boxes, _clothes_colour, colour_distance
+from ray3d.video.clothes import clothes_boxes, clothes_colour, colour_distance
 
 SIZE, FPS, FRAMES = (640, 480), 20.0, 40
 CAMERA = Camera.from_height_pitch(3.0, 15.0, SIZE, hfov_deg=70.0)
@@ -219,7 +219,7 @@ def test_clothes_colours_tell_jeans_from_black_trousers_under_the_same_jacket():
     pose = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
     seen = np.ones(17, bool)
     detection = Detection(pose, np.ones(17), 0.9)
-    torso, legs = _clothes_boxes(detection, pose, seen)
+    torso, legs = clothes_boxes(detection, pose, seen)
     assert torso[3] <= legs[3] and legs[1] < torso[3]  # the legs' box below the torso's, from the hips
 
     def dressed(trousers_rgb, seed):  # the camera's noise differs from frame to frame
@@ -227,7 +227,7 @@ def test_clothes_colours_tell_jeans_from_black_trousers_under_the_same_jacket():
         frame[int(torso[1]):int(torso[3]) + 1, int(torso[0]):int(torso[2]) + 1] = (30, 30, 35)
         frame[int(torso[3]) + 1:int(legs[3]) + 1, int(legs[0]):int(legs[2]) + 1] = trousers_rgb
         noisy = frame + np.random.default_rng(seed).normal(0.0, 3.0, frame.shape)
-        return _clothes_colour(np.clip(noisy, 0, 255).astype(np.uint8), torso, legs)
+        return clothes_colour(np.clip(noisy, 0, 255).astype(np.uint8), torso, legs)
 
     jeans, black = dressed((60, 90, 150), 0), dressed((35, 35, 40), 1)
     # The torsos tell them apart not at all; half the histogram unlike is half the way to nothing in common.
@@ -245,7 +245,7 @@ def test_a_person_keeps_their_colours_while_somebody_may_be_hidden_behind_them()
     assert box_overlap(boxes[0][None], boxes[1][None])[0, 0] > 0.05  # the far man's box lies under the near one's
 
     def dressed(t: int, blue_legs: bool) -> np.ndarray:  # his clothes where his joints are in frame t
-        torso, legs = _clothes_boxes(Detection(pixels[0][t], np.ones(17), 0.9), pixels[0][t], np.ones(17, bool))
+        torso, legs = clothes_boxes(Detection(pixels[0][t], np.ones(17), 0.9), pixels[0][t], np.ones(17, bool))
         frame = np.full((SIZE[1], SIZE[0], 3), 128, np.uint8)
         for box in (torso, legs):
             frame[int(box[1]):int(box[3]) + 1, int(box[0]):int(box[2]) + 1] = (200, 30, 40)
@@ -258,8 +258,8 @@ def test_a_person_keeps_their_colours_while_somebody_may_be_hidden_behind_them()
         seen = [0, 1] if t < 10 else [0]
         tracker.update(t, [Detection(pixels[p][t], np.ones(17), 0.9) for p in seen], dressed(t, 10 <= t < 17))
     (red,) = [t for t in tracker.tracks() if len(t.frames) == 17]
-    torso, legs = _clothes_boxes(Detection(pixels[0][16], np.ones(17), 0.9), pixels[0][16], np.ones(17, bool))
-    assert colour_distance(red.colour, _clothes_colour(dressed(16, False), torso, legs)) < 0.1
+    torso, legs = clothes_boxes(Detection(pixels[0][16], np.ones(17), 0.9), pixels[0][16], np.ones(17, bool))
+    assert colour_distance(red.colour, clothes_colour(dressed(16, False), torso, legs)) < 0.1
 
 
 def test_tracker_needs_several_hits_before_a_track_exists():
@@ -381,21 +381,22 @@ def test_a_person_the_bottom_edge_cuts_is_followed_and_flagged_in_part(tmp_path)
 
 def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):
     path, people, pixels, hidden = scene
+    lifter = Lifter.load()
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "mine.txt").write_text("keep me")
     with pytest.raises(InputError, match="not empty"):
-        lift_video(path, CAMERA, tmp_path / "full", StubDetector(pixels), overlay=False, progress=False)
+        lift_video(path, CAMERA, tmp_path / "full", StubDetector(pixels), lifter, overlay=False, progress=False)
     assert (tmp_path / "full" / "mine.txt").read_text() == "keep me"
     other = Camera.from_height_pitch(2.0, 15.0, (1280, 720), hfov_deg=70.0)
     with pytest.raises(InputError, match=r"image size \(1280, 720\) but .*640x480"):
-        lift_video(path, other, tmp_path / "b", StubDetector(pixels), progress=False)
+        lift_video(path, other, tmp_path / "b", StubDetector(pixels), lifter, progress=False)
     with pytest.raises(InputError, match="nobody was found"):
-        lift_video(path, CAMERA, tmp_path / "c", StubDetector([]), progress=False)
+        lift_video(path, CAMERA, tmp_path / "c", StubDetector([]), lifter, progress=False)
     with pytest.raises(InputError, match="nobody was found.* 1 frame"):  # one frame: too short to follow anybody
-        lift_video(path, CAMERA, tmp_path / "one", StubDetector(pixels), video_options=VideoOptions(frames=1),
+        lift_video(path, CAMERA, tmp_path / "one", StubDetector(pixels), lifter, video_options=VideoOptions(frames=1),
                    progress=False)
     with pytest.raises(InputError, match="start frame 99"):
-        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), video_options=VideoOptions(start=99),
+        lift_video(path, CAMERA, tmp_path / "d", StubDetector(pixels), lifter, video_options=VideoOptions(start=99),
                    progress=False)
     with pytest.raises(InputError, match="frames must be at least 1"):
         VideoOptions(frames=0)
@@ -403,10 +404,10 @@ def test_the_pipeline_refuses_what_it_cannot_use(scene, tmp_path):
         VideoOptions(max_gap_s=-1.0)
     (tmp_path / "notes.mp4").write_text("not a video")
     with pytest.raises(InputError, match="notes.mp4"):
-        lift_video(tmp_path / "notes.mp4", CAMERA, tmp_path / "e", StubDetector(pixels), progress=False)
+        lift_video(tmp_path / "notes.mp4", CAMERA, tmp_path / "e", StubDetector(pixels), lifter, progress=False)
     cv2.VideoWriter(str(tmp_path / "empty.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), FPS, SIZE).release()
     with pytest.raises(InputError, match="empty.mp4"):
-        lift_video(tmp_path / "empty.mp4", CAMERA, tmp_path / "f", StubDetector(pixels), progress=False)
+        lift_video(tmp_path / "empty.mp4", CAMERA, tmp_path / "f", StubDetector(pixels), lifter, progress=False)
     assert not any((tmp_path / name).exists() for name in "bcdef") and not (tmp_path / "one").exists()
 
 

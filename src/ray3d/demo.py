@@ -15,7 +15,7 @@ from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import shipped_models
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import centre_clip
-from ray3d.lifting.lifter import Lifter
+from ray3d.jobs import load_lifter
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
 
@@ -45,11 +45,11 @@ def run_demo(out_dir: str | Path = "ray3d-demo", checkpoint: str = "ray3d", base
                 "mrpe_mm": 1e3 * float(metrics.mrpe(predicted, truth)),
                 "mpjpe_mm": 1e3 * float(metrics.mpjpe(predicted, truth)) if has_pose else None}
 
-    lifter = Lifter.load(checkpoint)
+    lifter = load_lifter(checkpoint)
     predictions = {checkpoint: lifter.lift(pixels, camera).joints,
                    f"{checkpoint}, network only": lifter.lift(pixels, camera, refine=False).joints}
     if baseline and baseline in shipped_models():
-        predictions[baseline] = Lifter.load(baseline).lift(pixels, camera).joints
+        predictions[baseline] = load_lifter(baseline).lift(pixels, camera).joints
     rfrh = np.full_like(truth, np.nan)
     rfrh[:, 0] = rfrh_root(pixels[:, 0], camera)
     table = {name: errors(p) for name, p in {**predictions, "rfrh": rfrh}.items()}

@@ -130,7 +130,8 @@ class Entry:
                    read_options={k: o[k] for k in ("subject", "action", "camera_index") if k in o},
                    detector=o.get("detector"), video=VideoOptions(**{field: o[column] for field, column in
                                                                     VIDEO_COLUMNS.items() if column in o}),
-                   world_format=o.get("format", ".json"), overlay=o.get("overlay", True))
+                   world_format=o.get("format", ".json"), overlay=o.get("overlay", True), site=o.get("site"),
+                   every_s=o.get("every"), start_time=o.get("start_time"))
 
     def fingerprint(self) -> str:
         """What the entry's output depends on: its options, its input and camera files (size and time), and
@@ -242,12 +243,5 @@ def _entry(path: Path, number: int, row: dict, names: dict) -> Entry:
         job.cameras[0].camera(None if kind == "keypoints" else _CHECK_IMAGE_SIZE)
     except InputError as err:
         raise InputError(f"{where}: camera: {err.message}") from None
-    if "site" in options:
-        from ray3d.site.files import read_site
-
-        try:
-            read_site(options["site"])
-        except InputError as err:
-            raise InputError(f"{where}: column site: {err.message}") from None
     return entry
 

@@ -62,7 +62,7 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     cannot mend a bad input); any other exception is raised, for Ray to retry."""
     import torch
 
-    from ray3d.jobs import run_input
+    from ray3d.jobs import run_job
 
     torch.set_num_threads(threads)
     started = time.perf_counter()
@@ -70,16 +70,9 @@ def process_entry(entry: Entry, out_dir: Path, fingerprint: str, threads: int = 
     temporary = Path(tempfile.mkdtemp(prefix=f".{entry.name}.", dir=out_dir))
     try:
         job = entry.job()
-        out = temporary / f"world{job.world_format}" if job.kind == "keypoints" else temporary
-        result = run_input(job, 0, out, progress=False)
-        world, frames = result.world, result.frames
-        if "site" in entry.options:
-            from ray3d.site.files import read_site
-            from ray3d.site.report import analyse_site
-
-            analyse_site(world, read_site(entry.options["site"]), temporary / "site",
-                         title=f"{entry.name} on {Path(entry.options['site']).name}",
-                         every_s=entry.options.get("every"), start_time=entry.options.get("start_time"))
+        done = run_job(job, temporary / f"world{job.world_format}" if job.kind == "keypoints" else temporary,
+                       progress=False)
+        world, frames = done.world, done.inputs[0].frames
     except InputError as err:
         shutil.rmtree(temporary, ignore_errors=True)
         return {"status": "failed", "error": err.message, "seconds": time.perf_counter() - started}

@@ -21,7 +21,8 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "smooth_2d": "--smooth-2d", "smooth_3d": "--smooth-3d", "source": "SOURCE", "token": "--token",
          "port": "--port", "page": "--no-page", "offsets": "--offsets", "cameras": "WORLDS", "format": "--format",
          "frame_stride": "--frame-stride", "clips_per_camera": "--clips-per-camera", "max_frames": "--max-frames",
-         "floor_offset": "--floor-offset", "camera_step": "--camera-step", "floor_z": "--floor-z"}
+         "floor_offset": "--floor-offset", "camera_step": "--camera-step", "floor_z": "--floor-z",
+         "site": "--site", "every_s": "--every", "start_time": "--start-time"}
 
 
 def main(argv: list[str] | None = None) -> int:

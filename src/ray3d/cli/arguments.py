@@ -130,7 +130,9 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
                              if getattr(args, k, None) is not None},
                detector=getattr(args, "detector", None), video=video, world_format=getattr(args, "format", ".json"),
                overlay=not (getattr(args, "no_overlay", False) or getattr(args, "privacy", False)),
-               find_offsets=getattr(args, "find_offsets", False), overwrite=getattr(args, "force", False))
+               find_offsets=getattr(args, "find_offsets", False), overwrite=getattr(args, "force", False),
+               site=getattr(args, "site", None), every_s=getattr(args, "every", None),
+               start_time=getattr(args, "start_time", None))
 
 
 def parse_offsets(text: str | None) -> list[float] | None:

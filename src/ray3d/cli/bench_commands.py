@@ -40,11 +40,11 @@ def robustness(args: argparse.Namespace) -> int:
 def calibration(args: argparse.Namespace) -> int:
     from ray3d.bench.calibration import run, write
     from ray3d.data import motion as motion_data
-    from ray3d.lifting.lifter import Lifter
+    from ray3d.jobs import load_lifter
 
     if args.people < 1:
         raise InputError(f"bench calibration: people must be at least 1, got {args.people}", arguments=("people",))
-    rows = run(motion_data.load_shipped(args.data_dir, args.split), Lifter.load(args.checkpoint), args.pairs, args.seed,
+    rows = run(motion_data.load_shipped(args.data_dir, args.split), load_lifter(args.checkpoint), args.pairs, args.seed,
                args.bootstrap, people=args.people)
     return _show(write(rows, args.out), f"{len(rows)} estimates")
 
@@ -54,9 +54,9 @@ def real_video(args: argparse.Namespace) -> int:
     from ray3d.data import motion as motion_data
     from ray3d.io.camera_files import read_camera
     from ray3d.io.keypoints import read_keypoints
-    from ray3d.lifting.lifter import Lifter
+    from ray3d.jobs import load_lifter
 
-    lifter, video_rows, name = Lifter.load(args.checkpoint), None, ""
+    lifter, video_rows, name = load_lifter(args.checkpoint), None, ""
     if args.video or args.keypoints:
         if not args.camera:
             raise InputError("bench real-video: --video and --keypoints need --camera")
@@ -79,10 +79,10 @@ def real_video(args: argparse.Namespace) -> int:
 
 def real_near(args: argparse.Namespace) -> int:
     from ray3d.bench.real_near import VIEWS, run, write
-    from ray3d.lifting.lifter import Lifter
+    from ray3d.jobs import load_lifter
 
     _check_floor_offset(args.floor_offset)
-    return _show(write(args.out, run(args.data, args.detector, Lifter.load(args.checkpoint),
+    return _show(write(args.out, run(args.data, args.detector, load_lifter(args.checkpoint),
                                      tuple(args.views or VIEWS), args.floor_offset)))
 
 
@@ -94,7 +94,7 @@ def _check_floor_offset(offset: float) -> None:
 def level(args: argparse.Namespace) -> int:
     from ray3d.bench.level import run, write
     from ray3d.data import motion as motion_data
-    from ray3d.lifting.lifter import Lifter
+    from ray3d.jobs import load_lifter
 
     from ray3d.data.virtual_cameras import grid
 
@@ -102,7 +102,7 @@ def level(args: argparse.Namespace) -> int:
         raise InputError("bench level: clips per camera, frames and the camera step must be at least 1",
                          arguments=("clips_per_camera", "max_frames", "camera_step"))
     _check_floor_offset(args.floor_offset)
-    rows = run(Lifter.load(args.checkpoint), motion_data.load_shipped(args.data_dir, "test"), args.clips_per_camera,
+    rows = run(load_lifter(args.checkpoint), motion_data.load_shipped(args.data_dir, "test"), args.clips_per_camera,
                args.seed, args.max_frames, grid("level-test")[::args.camera_step], args.floor_offset, args.floor_z)
     return _show(write(args.out, rows))
 

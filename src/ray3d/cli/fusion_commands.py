@@ -8,7 +8,7 @@ import sys
 
 from ray3d.cli.arguments import job_from_args, parse_offsets
 from ray3d.cli.printing import print_ankle_plane, print_fusion, print_refinements
-from ray3d.io.atomic import check_output, refuse_existing
+from ray3d.io.atomic import check_output
 
 
 def fuse(args: argparse.Namespace) -> int:
@@ -37,10 +37,10 @@ def lift(args: argparse.Namespace) -> int:
 
 def lift_one(args: argparse.Namespace) -> int:
     """``ray3d lift`` of one keypoint file and its camera."""
-    from ray3d.jobs import run_input
+    from ray3d.jobs import run_job
 
     check_output(args.out, (args.camera,))
-    lifted = run_input(job_from_args(args, [args.keypoints], "keypoint files", "file"), 0, args.out)
+    lifted = run_job(job_from_args(args, [args.keypoints], "keypoint files", "file"), args.out).inputs[0]
     keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
@@ -67,22 +67,15 @@ def lift_one(args: argparse.Namespace) -> int:
 def lift_several(args: argparse.Namespace) -> int:
     """``ray3d lift`` with several keypoint files, one per camera (``--camera`` once each, in order): each lifted
     as one camera's, then one fused world in --out (.json)."""
-    from ray3d.cli.arguments import job_from_args
-    from ray3d.errors import InputError
-    from ray3d.jobs import fuse_and_write, lift_cameras_together
+    from ray3d.jobs import run_job
 
     job = job_from_args(args, args.keypoints, "keypoint files", "file")
-    if args.out.suffix.lower() != ".json":
-        raise InputError(f"{args.out}: several cameras' people are fused into a .json world file", ("out",))
-    refuse_existing(check_output(args.out, (*args.keypoints, *(c.file for c in job.cameras))), args.force)
-    worlds = []
-    for k, (path, lifted) in enumerate(zip(job.inputs, lift_cameras_together(job))):
-        print(f"{path}: {len(lifted.world.tracks)} track(s) through camera {lifted.camera.name or job.cameras[k].file}")
-        worlds.append(lifted.world)
-    print_ankle_plane(worlds[0].tracks)
-    fusion = fuse_and_write(worlds, args.out, find_offsets=job.find_offsets, overwrite=args.force)
-    print_fusion(fusion, [str(path) for path in args.keypoints])
-    print(f"{len(fusion.world.tracks)} people from {len(worlds)} cameras -> {args.out}")
+    done = run_job(job, args.out)
+    for path, lifted, choice in zip(job.inputs, done.inputs, job.cameras):
+        print(f"{path}: {len(lifted.world.tracks)} track(s) through camera {lifted.camera.name or choice.file}")
+    print_ankle_plane(done.inputs[0].world.tracks)
+    print_fusion(done.fusion, [str(path) for path in args.keypoints])
+    print(f"{len(done.world.tracks)} people from {len(job.inputs)} cameras -> {args.out}")
     return 0
 
 

@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 from ray3d.body import PLAUSIBLE_STATURE_M
-from ray3d.io.atomic import check_output, refuse_existing
 
 
 def write_json(path: Path, document: dict, overwrite: bool) -> None:
@@ -61,33 +60,16 @@ def print_fusion(fusion, sources: list[str]) -> None:
               f"of {' and '.join(fusion.suspects())}", file=sys.stderr)
 
 
-def refuse_site_outputs(out_dir: Path, inputs: tuple, overwrite: bool, every_s: float | None = None) -> None:
-    """Before any work: no output of the site analysis (with time buckets of ``every_s``) may be an input or exist
-    (unless ``overwrite``)."""
-    from ray3d.site.report import site_outputs
-
-    for path in site_outputs(out_dir, every_s is not None):
-        refuse_existing(check_output(path, inputs), overwrite)
-
-
-def report_site(world, site, out_dir: Path, title: str, overwrite: bool, every_s: float | None = None,
-                start_time=None) -> None:
-    """Analyse a ``World`` on a ``ray3d.site.Site`` and print the counts per place and the events by kind."""
-    from ray3d.site.report import analyse_site
-
-    if start_time is not None and every_s is None:
-        from ray3d.errors import InputError
-
-        raise InputError("--start-time: it places the time buckets of --every; give --every too")
-    events, places, paths = analyse_site(world, site, out_dir, title, overwrite, every_s, start_time)
-    for row in places:
+def print_site_report(report, world) -> None:
+    """A site's report (``jobs.SiteReport``) of ``world``'s people: the counts per place and the events by kind."""
+    for row in report.places:
         tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
                  else f"{row['forward']} forward, {row['back']} back")
         joined = f" ({row['by_rejoined_tracks']} by people taken up again after a gap)" if row["by_rejoined_tracks"] \
             else ""
         print(f"{row['kind']} {row['place']}: {tally}{joined}")
     kinds: dict[str, int] = {}
-    for event in events:
+    for event in report.events:
         kinds[event["event"]] = kinds.get(event["event"], 0) + 1
-    print(f"{len(events)} events of {len(world.tracks)} tracks ({', '.join(f'{n} {k}' for k, n in kinds.items())}) "
-          f"-> {out_dir}: {', '.join(p.name for p in paths)}")
+    print(f"{len(report.events)} events of {len(world.tracks)} tracks ({', '.join(f'{n} {k}' for k, n in kinds.items())}) "
+          f"-> {report.folder}: {', '.join(p.name for p in report.files)}")

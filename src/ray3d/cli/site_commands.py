@@ -8,13 +8,14 @@ import sys
 from pathlib import Path
 
 from ray3d.io.atomic import check_output, refuse_existing
-from ray3d.cli.printing import refuse_site_outputs, report_site
+from ray3d.cli.printing import print_site_report
 
 
 def site(args: argparse.Namespace) -> int:
     from ray3d.errors import InputError
-    from ray3d.site.files import read_site
     from ray3d.io.world import read_world
+    from ray3d.jobs import check_site_outputs, site_report
+    from ray3d.site.files import read_site
 
     if (args.world is None) == (args.store is None):
         raise InputError("give a world file or --store (one of them)")
@@ -22,10 +23,11 @@ def site(args: argparse.Namespace) -> int:
         return store_report(args, read_site)
     if args.from_time is not None or args.to_time is not None:
         raise InputError("--from / --to: they choose a period of a --store")
-    refuse_site_outputs(args.out, (args.world, args.site), args.force, args.every)
+    check_site_outputs(args.out, (args.world, args.site), args.force, args.every)
     plan = read_site(args.site)  # a bad site file is refused before the world file is read
-    report_site(read_world(args.world), plan, args.out, f"{args.world.name} on {args.site.name}", args.force,
-                args.every, args.start_time)
+    world = read_world(args.world)
+    print_site_report(site_report(world, plan, args.out, f"{args.world.name} on {args.site.name}", args.force,
+                                  args.every, args.start_time), world)
     return 0
 
 

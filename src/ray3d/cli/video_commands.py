@@ -7,46 +7,22 @@ import argparse
 
 from ray3d.cli.arguments import job_from_args
 from ray3d.cli.printing import print_refinements
-from ray3d.errors import InputError
 
 
 def video(args: argparse.Namespace) -> int:
-    from ray3d.cli.printing import print_fusion
-    from ray3d.cli.printing import refuse_site_outputs, report_site
-    from ray3d.io.atomic import refuse_existing
-    from ray3d.site.files import read_site
-    from ray3d.jobs import fuse_and_write, run_input, run_videos_together
+    from ray3d.cli.printing import print_fusion, print_site_report
+    from ray3d.jobs import run_job
 
     job = job_from_args(args, args.input, "videos", "video")
-    several = len(job.inputs) > 1
-    plan = None
-    if args.site is not None:  # refused before any work, not after it
-        refuse_site_outputs(args.out / "site", (*args.input, args.site), args.force, args.every)
-        plan = read_site(args.site)
-    fused_path, viewer_path = args.out / "world.json", args.out / "viewer.html"
-    if several:
-        if args.format != ".json":
-            raise InputError("--format: several cameras' people are fused into a .json world file", ("format",))
-        for path in (fused_path, viewer_path):
-            refuse_existing(path, args.force)
-    # Several cameras of one site are lifted together, on one floor.
-    results = run_videos_together(job, [args.out / f"camera{k + 1}_{path.stem}" for k, path in enumerate(job.inputs)]) \
-        if several else [run_input(job, 0, args.out)]
-    worlds = []
-    for path, result in zip(job.inputs, results):
+    done = run_job(job, args.out)
+    for path, result in zip(job.inputs, done.inputs):
         _print_video(path, args.detector, result)
-        worlds.append(result.world)
-    if several:
-        fusion = fuse_and_write(worlds, fused_path, find_offsets=job.find_offsets, viewer_path=viewer_path,
-                                overwrite=args.force)
-        print_fusion(fusion, [str(path) for path in job.inputs])
-        print(f"{len(fusion.world.tracks)} people from {len(worlds)} cameras -> {fused_path}, {viewer_path}")
-        world, name = fusion.world, f"{len(job.inputs)} cameras"
-    else:
-        world, name = worlds[0], args.input[0].name
-    if plan is not None:
-        report_site(world, plan, args.out / "site", f"{name} on {args.site.name}", args.force, args.every,
-                    args.start_time)
+    if done.fusion is not None:
+        print_fusion(done.fusion, [str(path) for path in job.inputs])
+        print(f"{len(done.world.tracks)} people from {len(job.inputs)} cameras -> {done.files['world']}, "
+              f"{done.files['viewer']}")
+    if done.site is not None:
+        print_site_report(done.site, done.world)
     return 0
 
 

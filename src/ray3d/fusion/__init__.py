@@ -222,9 +222,13 @@ class Fusion:
 
 
 def fuse_worlds(worlds: list[World], offsets_s: list[float] | None = None, find_offsets: bool = False,
-                max_offset_s: float = 2.0, handover_s: float = 2.0) -> Fusion:
+                max_offset_s: float = 2.0, handover_s: float = 2.0,
+                groups: dict[str, list[tuple[int, str]]] | None = None) -> Fusion:
     """Several cameras' worlds (each lifted from one camera) -> one world with one track per person. Offsets
-    given (seconds, one per camera, the first 0), found from the people (``find_offsets``), or 0."""
+    given (seconds, one per camera, the first 0), found from the people (``find_offsets``), or 0. Who is who is
+    found (``associate``), or given as ``groups`` ({person: [(camera index, track), ...]}, as a live run joined
+    them as it went: ``fusion.live.LiveFusion.joined``): then the world's tracks are those people, by their names,
+    and a track in no group is left out."""
     if len(worlds) < 2:
         raise InputError("cameras: fusing needs two or more cameras' worlds", ("cameras",))
     names = [world.camera.name or f"camera {k}" for k, world in enumerate(worlds)]
@@ -240,9 +244,19 @@ def fuse_worlds(worlds: list[World], offsets_s: list[float] | None = None, find_
         raise InputError(f"offsets: {len(offsets_s)} given for {len(worlds)} cameras", ("offsets",))
     fps = worlds[0].fps
     tracks = [t for k, world in enumerate(worlds) for t in on_clock(world, k, offsets_s[k], fps)]
-    groups = associate(tracks, handover_s, fps)
+    if groups is None:
+        people = {str(n): g for n, g in enumerate(associate(tracks, handover_s, fps))}
+    else:
+        index = {(t.view, t.name): i for i, t in enumerate(tracks)}
+        chosen = {str(person): [index[key] for key in map(tuple, members) if key in index]
+                  for person, members in groups.items()}
+        kept = sorted(i for g in chosen.values() for i in g)
+        renumbered = {i: k for k, i in enumerate(kept)}
+        tracks = [tracks[i] for i in kept]
+        people = {person: [renumbered[i] for i in g] for person, g in chosen.items() if g}
     centers = [world.camera.center for world in worlds]
-    fused = {str(n): fuse(tracks, g, centers, fps, len(worlds)) for n, g in enumerate(groups)}
-    members = {str(n): [f"{names[tracks[i].view]}:{tracks[i].name}" for i in g] for n, g in enumerate(groups)}
+    fused = {n: fuse(tracks, g, centers, fps, len(worlds)) for n, g in people.items()}
+    members = {n: [f"{names[tracks[i].view]}:{tracks[i].name}" for i in g] for n, g in people.items()}
     world = World(fused, worlds[0].camera, worlds[0].model, cameras=tuple(w.camera for w in worlds))
-    return Fusion(world, list(offsets_s), sds, members, camera_agreement(tracks, groups, names, centers, fps))
+    return Fusion(world, list(offsets_s), sds, members,
+                  camera_agreement(tracks, list(people.values()), names, centers, fps))

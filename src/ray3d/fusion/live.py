@@ -59,6 +59,7 @@ class _CameraTrack:
     agreeing: tuple[str | None, int] = (None, 0)  # (world person, updates in a row it stayed within the gate)
     person: str | None = None
     finished: bool = False
+    undecided: list = dataclasses.field(default_factory=list)  # (time_s, PersonNow) while who it is was open
 
 
 @dataclasses.dataclass
@@ -71,7 +72,11 @@ class _WorldPerson:
 class LiveFusion:
     """``update(view, time_s, people)`` -> the world's people now (their ``track`` the world person's id);
     ``finished(view, track)`` when a camera's tracker lets a track go; ``ended(time_s)`` -> the world people
-    gone for good (every track finished, and ``handover_s`` passed)."""
+    gone for good (every track finished, and ``handover_s`` passed). ``joined`` holds who each of those was,
+    [(person, [(view, track), ...])], until the caller takes it: the world file is fused by the same join
+    (``fusion.fuse_worlds``'s ``groups``). ``decided`` holds, until the caller takes it, what a track saw while
+    who it was stayed open ([(time_s, PersonNow)], named by the person it then joined or became), so that a
+    caller holding its frames ``WAIT_S`` and a little longer misses nobody's first moments."""
 
     def __init__(self, cameras: list[Camera], frame_period_s: float, handover_s: float = 2.0, decide_s: float = 0.1,
                  id_prefix: str = ""):
@@ -82,6 +87,8 @@ class LiveFusion:
         self._tracks: dict[tuple[int, str], _CameraTrack] = {}
         self._people: dict[str, _WorldPerson] = {}  # the world people not gone for good
         self._next_person = 0
+        self.joined: list[tuple[str, list[tuple[int, str]]]] = []
+        self.decided: list[tuple[float, PersonNow]] = []
 
     def update(self, view: int, time_s: float, people: list[PersonNow]) -> list[PersonNow]:
         for now in people:
@@ -90,6 +97,7 @@ class LiveFusion:
             track.now, track.seen_s = now, time_s
             track.updates += 1
             if track.person is None:
+                track.undecided.append((time_s, now))
                 self._decide(key, track, time_s)
         return [p for n, person in self._people.items() if (p := self._fused(n, person, time_s)) is not None]
 
@@ -104,7 +112,9 @@ class LiveFusion:
         gone = [(n, person.seen_s) for n, person in self._people.items()
                 if all(self._tracks[k].finished for k in person.members) and time_s - person.seen_s > self.handover_s]
         for n, _ in gone:  # forgotten: a long stream keeps only who may still be in view
-            for key in self._people.pop(n).members:
+            members = self._people.pop(n).members
+            self.joined.append((n, sorted(members)))
+            for key in members:
                 self._tracks.pop(key, None)
         return gone if seen else [n for n, _ in gone]
 
@@ -112,7 +122,7 @@ class LiveFusion:
         """Join the track to the world person (or the other camera's undecided track, making one new person
         of both) it has agreed with for ``decide_updates`` updates running; a new person when it agrees with
         nobody then. While two are as near (people crossing) it waits, ``WAIT_S`` at most."""
-        candidate = self._nearest(key, track, time_s)
+        candidate, other = self._nearest(key, track, time_s), None
         held, count = track.agreeing
         track.agreeing = (candidate, count + 1 if candidate not in (None, AMBIGUOUS) and candidate == held else 0)
         if candidate not in (None, AMBIGUOUS) and track.agreeing[1] >= self.decide_updates:
@@ -125,6 +135,9 @@ class LiveFusion:
             track.person = self._new_person()
         if track.person is not None:
             self._people[track.person].members.add(key)
+            for joined in (track, other) if other is not None else (track,):
+                self.decided += [(at, dataclasses.replace(now, track=track.person)) for at, now in joined.undecided]
+                joined.undecided = []
 
     def _new_person(self) -> str:
         person, self._next_person = f"{self.id_prefix}{self._next_person}", self._next_person + 1

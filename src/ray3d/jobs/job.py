@@ -53,7 +53,8 @@ class Job:
     and ``read_options`` (a VideoPose3D npz's subject, action, camera_index); videos by ``detector``
     (``video.DEFAULT_DETECTOR`` when None) with ``video`` options; each input's world written as ``world_format``, a video's ``overlay`` drawn, outputs
     replaced only with ``overwrite``; several inputs are several cameras of one scene, their clocks found from
-    the people with ``find_offsets``."""
+    the people with ``find_offsets``; with a ``site`` file, the people's report on its zones and lines (time
+    buckets of ``every_s`` seconds from ``start_time``, a ``datetime``)."""
 
     inputs: tuple  # paths; a live job's may be device numbers or stream URLs
     cameras: tuple[CameraChoice, ...]
@@ -70,6 +71,10 @@ class Job:
     overlay: bool = True
     find_offsets: bool = False
     overwrite: bool = False
+    site: str | Path | None = None
+    every_s: float | None = None
+    start_time: Any = None
+    _lifters: dict = dataclasses.field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "inputs", tuple(self.inputs))
@@ -83,6 +88,14 @@ class Job:
         check_precision(self.precision)
         if self.floor_file is not None:
             read_floor(self.floor_file)  # a bad floor file is refused before any work
+        if self.start_time is not None and self.every_s is None:
+            raise InputError("start_time places the time buckets: give every_s too", ("start_time", "every_s"))
+        if self.site is not None:
+            object.__setattr__(self, "site", Path(self.site))
+            self.site_plan()  # a bad site file is refused before any work
+
+    def __getstate__(self) -> dict:
+        return {**self.__dict__, "_lifters": {}}  # a job sent to a Ray worker loads its models there
 
     @property
     def kind(self) -> str:
@@ -94,9 +107,23 @@ class Job:
         floor_z = self.lift.floor_z if self.lift.floor_z is not None else floor_z_of_camera_file(self.cameras[k].file)
         return dataclasses.replace(self.lift, floor=floor, floor_z=floor_z)
 
-    def lifter(self, layout: str | None = None, keypoints_path: str | Path | None = None):
-        """The ``Lifter`` for keypoints of ``layout`` (``lifting.lifter.chosen_lifter``; None: the lifting chooses
-        the shipped model for the input's layout itself)."""
-        from ray3d.lifting.files import chosen_lifter
+    def lifter(self, layout: str | None = None):
+        """The ``Lifter`` for keypoints of ``layout`` (``load_lifter``; None: H36M-17), loaded once per layout."""
+        layout = layout or "h36m17"
+        if layout not in self._lifters:
+            self._lifters[layout] = load_lifter(self.checkpoint, self.precision, layout)
+        return self._lifters[layout]
 
-        return chosen_lifter(self.checkpoint, self.precision, layout, keypoints_path)
+    def site_plan(self):
+        """The ``site.places.Site`` of ``site`` (None without one)."""
+        from ray3d.site.files import read_site
+
+        return None if self.site is None else read_site(self.site)
+
+
+def load_lifter(checkpoint: str | None = None, precision: str = "fp32", layout: str | None = None):
+    """The model a job or a benchmark lifts by: ``checkpoint`` (a shipped name or a path; None: the shipped model for
+    keypoints of ``layout``, H36M-17 when None) in ``precision``."""
+    from ray3d.lifting.lifter import Lifter
+
+    return Lifter.load(checkpoint, layout=layout or "h36m17", precision=precision)

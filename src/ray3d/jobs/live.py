@@ -1,7 +1,7 @@
 """A live job: its streams opened, each with its camera, detector and lifter (``open_live``: in this process, or
 with ``address`` each camera in a Ray actor, ``live.cluster``), followed as they arrive (``live.runner.follow``),
 and at the end the same tail as an offline job: several cameras' world files fused into one
-(``jobs.run.fuse_and_write``) and, with a site, its report (``ray3d.site.report``)."""
+(``jobs.run.fuse_and_write``) and, with a site, its report (``jobs.run.site_report``)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import threading
 from pathlib import Path
 
 from ray3d.jobs.job import Job
-from ray3d.jobs.run import camera_and_detector, fuse_and_write
+from ray3d.jobs.run import camera_and_detector, fuse_and_write, site_report
 
 
 @dataclasses.dataclass
@@ -29,13 +29,12 @@ class LiveInputs:
         return isinstance(self.followed, RayCameras)
 
 
-def local_inputs(job: Job, group, cameras: list, detectors: list, lifter=None, id_prefix: str = "") -> LiveInputs:
-    """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process
-    (``id_prefix`` before every track id: a store's run number)."""
-    from ray3d.lifting.lifter import Lifter
+def local_inputs(job: Job, group, cameras: list, detectors: list, id_prefix: str = "") -> LiveInputs:
+    """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process by the
+    job's lifter (``id_prefix`` before every track id: a store's run number)."""
     from ray3d.live.cameras import LocalCameras
 
-    lifter = lifter or Lifter.load(layout=detectors[0].layout)
+    lifter = job.lifter(detectors[0].layout)
     lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source is running)
     options = [job.lift_options(k) for k in range(len(cameras))]  # each camera on its own floor, as on Ray
     return LiveInputs(LocalCameras(group, cameras, detectors, lifter, options, job.video.max_gap_s,
@@ -116,7 +115,7 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
     opened = [open_stream(job, k, paced, stall_timeout_s, firsts[k], reconnect_max_s) for k in range(len(job.inputs))]
     detectors = [detector for _, _, detector in opened]
     return local_inputs(job, SourceGroup([source for source, _, _ in opened]), [camera for _, camera, _ in opened],
-                        detectors, job.lifter(detectors[0].layout), prefix)
+                        detectors, prefix)
 
 
 def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, options=None,
@@ -129,6 +128,7 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
     ``files`` naming every output."""
     from ray3d.io.world import read_world, write_world
     from ray3d.live.runner import LiveOptions, follow
+    from ray3d.live.views import JOINED_FILE, read_joined
 
     out_dir = Path(out_dir)
     several = len(inputs.followed.cameras) > 1
@@ -154,15 +154,16 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
         if len(worlds) == 1:
             write_world(fused_path, worlds[0])
             summary.tracks = len(worlds[0].tracks)
-        else:
-            fusion = fuse_and_write(worlds, fused_path, [offsets[k] - offsets[written[0][1]] for _, k in written])
+        else:  # fused by the join the live events used
+            position = {k: i for i, (_, k) in enumerate(written)}
+            groups = {person: [(position[view], track) for view, track in members if view in position]
+                      for person, members in read_joined(out_dir / JOINED_FILE).items()}
+            fusion = fuse_and_write(worlds, fused_path, [offsets[k] - offsets[written[0][1]] for _, k in written],
+                                    groups=groups)
             summary.tracks = len(fusion.world.tracks)  # the world's people, not each camera's tracks
         summary.files["world"] = fused_path
     if site is not None and (site.zones or site.lines) and summary.files["world"].exists():
-        from ray3d.site.report import analyse_site
-
-        analyse_site(read_world(summary.files["world"]), site, ends_in / "site",
-                     title=f"ray3d live: {inputs.followed.name}", every_s=options.every_s,
-                     start_time=options.start_time)
-        summary.files["site"] = ends_in / "site"
+        summary.files["site"] = site_report(read_world(summary.files["world"]), site, ends_in / "site",
+                                            f"ray3d live: {inputs.followed.name}", every_s=options.every_s,
+                                            start_time=options.start_time).folder
     return summary

@@ -1,7 +1,8 @@
 """What a model reads from users' keypoints: the checks that refuse keypoints no camera could have seen (normalised
 coordinates, points off the image, feet above the horizon), the shapes checked, stand-ins for joints never seen,
-and the confidences in the model's input layout. Used by ``Lifter.lift`` and ``LiftStream`` alike; and a track made
-ready to lift (``prepare_track``)."""
+the one conversion to the model's input layout with its confidences (``model_inputs``) and the rays it reads
+(``camera_rays``). Used by ``Lifter.lift`` and ``LiftStream`` alike; and a track made ready to lift
+(``prepare_track``)."""
 
 from __future__ import annotations
 
@@ -95,6 +96,28 @@ def model_confidences(keypoints: np.ndarray, skeleton: Skeleton, confidences: np
     return convert_confidences(np.where(seen, scores, 0.0), skeleton, inputs)
 
 
+def model_inputs(keypoints: np.ndarray, skeleton: Skeleton, confidences: np.ndarray | None,
+                 inputs: Skeleton) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Checked keypoints (..., J, 2) of ``skeleton`` and their confidences -> what a model reading ``inputs``
+    takes: its (..., J_inputs, 2) pixels, which of them were found (a missing joint: NaN or confidence 0) and
+    their confidences (``model_confidences``). The one conversion ``prepare_track`` and ``LiftStream`` make."""
+    pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
+    frames = keypoints.reshape(-1, *keypoints.shape[-2:])
+    scores = model_confidences(frames, skeleton, None if confidences is None else
+                               confidences.reshape(len(frames), -1), inputs)
+    return pixels, found, scores.reshape(*keypoints.shape[:-2], -1)
+
+
+def camera_rays(camera: Camera, pixels: np.ndarray, remove_roll: bool) -> np.ndarray:
+    """(..., J, 2) pixels -> the (..., J, 3) rays a model reads (``Camera.pixels_to_rays``), refusing pixels the
+    camera's lens model cannot invert."""
+    rays = camera.pixels_to_rays(pixels, remove_roll=remove_roll)
+    if not np.isfinite(rays).all():
+        raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
+                         "(far outside the image?)")
+    return rays
+
+
 @dataclasses.dataclass(frozen=True)
 class PreparedTrack:
     """One track made ready to lift: the model's input pixels (T, J, 2) and confidences (T, J) at the input's
@@ -128,11 +151,12 @@ def prepare_track(keypoints: np.ndarray, camera: Camera, confidences, fps: float
     if len(keypoints) == 0:
         raise InputError("keypoints: no frames")
     check_in_image(keypoints, camera)
-    h36m_pixels, h36m_found = convert_keypoints(keypoints, skeleton, confidences)
-    check_feet_below_horizon(h36m_pixels, h36m_found, camera)
     inputs = model_skeleton(skeleton)
-    pixels, found = convert_keypoints(keypoints, skeleton, confidences, inputs)
-    scores = model_confidences(keypoints, skeleton, confidences, inputs)
+    pixels, found, scores = model_inputs(keypoints, skeleton, confidences, inputs)
+    # The feet and the output's missing joints are read in H36M-17: the same conversion when the model reads it.
+    h36m_pixels, h36m_found = (pixels, found) if inputs.name == "h36m17" else \
+        convert_keypoints(keypoints, skeleton, confidences)
+    check_feet_below_horizon(h36m_pixels, h36m_found, camera)
     never_seen = ~found.any(axis=0)
     if never_seen[0]:
         raise InputError(f"keypoints: the root ({inputs.joint_names[0]}, or both hips) is missing in every frame "

@@ -31,7 +31,7 @@ from ray3d.models.tensor_batch import TensorBatch
 from ray3d.lifting.options import LiftOptions
 from ray3d.refine import (AnklePlane, RefineConfig, given_ankle_plane, network_position_sd, observe_ankle_plane,
                           on_observed_rays, refine_track, size_evidence)
-from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, prepare_track
+from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, camera_rays, prepare_track
 from ray3d.lifting.stream import LiftStream
 from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, people_seen_twice, progress_labels
 from ray3d.skeleton import H36M17, Skeleton, conversion_matrix
@@ -321,10 +321,7 @@ class Lifter:
                      progress: bool | str = False, confidences: np.ndarray | None = None) -> np.ndarray:
         """(T, J, 2) pixels of the model's input layout (gaps filled) and their (T, J) confidences -> (T, 17, 3)
         world joints."""
-        rays = camera.pixels_to_rays(pixels, remove_roll=self.model.config.remove_roll)
-        if not np.isfinite(rays).all():
-            raise InputError(f"keypoints: some lie where camera {camera.name or ''}'s lens model cannot be inverted "
-                             "(far outside the image?)")
+        rays = camera_rays(camera, pixels, self.model.config.remove_roll)
         count = len(pixels)
         # Windows are gathered chunk by chunk (never all at once), which keeps memory bounded.
         index = temporal.sequence_window_indices(count, self.model.config.window)

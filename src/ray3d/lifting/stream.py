@@ -7,8 +7,8 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.lifting.inputs import MODEL_FPS, checked_keypoints, model_confidences
-from ray3d.skeleton import convert_keypoints, layout_skeleton
+from ray3d.lifting.inputs import MODEL_FPS, camera_rays, checked_keypoints, model_inputs
+from ray3d.skeleton import layout_skeleton
 
 
 class LiftStream:
@@ -97,9 +97,7 @@ class LiftStream:
 
     def _prepare(self, keypoints, confidences) -> tuple[np.ndarray, np.ndarray]:
         keypoints, confidences = checked_keypoints(keypoints, confidences, self.skeleton)
-        pixels, seen = convert_keypoints(keypoints, self.skeleton, confidences, self.inputs)
-        scores = model_confidences(keypoints[None], self.skeleton, None if confidences is None else confidences[None],
-                                   self.inputs)[0]
+        pixels, seen, scores = model_inputs(keypoints, self.skeleton, confidences, self.inputs)
         self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
         filled = self._last_seen.copy()
         if np.isnan(filled[0]).any():
@@ -111,10 +109,7 @@ class LiftStream:
 
     def _append(self, pixels: np.ndarray, scores: np.ndarray) -> None:
         """Model-rate frames (K, J, 2) and their confidences (K, J) onto the window's end."""
-        rays = self.camera.pixels_to_rays(pixels, remove_roll=self.remove_roll)
-        if not np.isfinite(rays).all():
-            raise InputError(f"keypoints: some lie where camera {self.camera.name or ''}'s lens model cannot be "
-                             "inverted (far outside the image?)")
+        rays = camera_rays(self.camera, pixels, self.remove_roll)
         if self._pixels is None:
             self._pixels = np.repeat(pixels[-1:], self.frames, axis=0)
             self._rays = np.repeat(rays[-1:], self.frames, axis=0)

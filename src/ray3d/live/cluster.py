@@ -27,7 +27,7 @@ STEP_WAIT_S = 0.25  # how often the loop looks up from waiting for the workers (
 
 class CameraWorker:
     """One camera, run in a Ray actor: ``opened(first_index)`` opens its stream, camera and detector
-    (``jobs.live.open_stream``), ``lifter(layout)`` gives its lifter (None: the shipped one for the layout).
+    (``jobs.live.open_stream``), ``lifter(layout)`` gives its lifter (``jobs.Job.lifter``).
     ``step()`` -> its next frame's ``FrameResult`` (``arrived``: the frame's age in seconds; ``counts``: frames read,
     dropped and people postponed so far), or ``(ending, why)`` once its stream has ended, stalled or broken off."""
 
@@ -35,11 +35,9 @@ class CameraWorker:
                  first_index: int = 0, id_prefix: str = ""):
         import torch
 
-        from ray3d.lifting.lifter import Lifter
-
         torch.set_num_threads(1)
         self.source, self.camera, detector = opened(first_index=first_index)
-        chosen = lifter(detector.layout) or Lifter.load(layout=detector.layout)
+        chosen = lifter(detector.layout)
         chosen.prepare_small_batches()
         self.people = CameraPeople(self.camera, detector, chosen, self.source.fps, self.source.deadline_frames,
                                    lift_options, max_gap_s, min_track_s, id_prefix)

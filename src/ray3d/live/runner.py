@@ -142,7 +142,7 @@ def _several(value) -> list:
     return list(value) if isinstance(value, (list, tuple)) else [value]
 
 
-def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | None = None,
+def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter,
              site: Site | None = None, options: LiveOptions = LiveOptions(),
              lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
              started=lambda url: None, offsets_s: list[float] | None = None,
@@ -160,7 +160,6 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter | Non
     if not len(sources) == len(cameras) == len(detectors):
         raise InputError(f"cameras: {len(cameras)} cameras and {len(detectors)} detectors for {len(sources)} "
                          "streams; give one each per stream", ("camera",))
-    lifter = lifter or Lifter.load(layout=detectors[0].layout)
     lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
     group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
     followed = LocalCameras(group, cameras, detectors, lifter, lift_options, video_options.max_gap_s,
@@ -181,9 +180,9 @@ class _Outputs:
         self.count = 0
         self.last_index = -1  # the last frame settled
 
-    def settle(self, settled: tuple[int, list[PersonNow]] | None) -> list[dict]:
+    def settle(self, settled: tuple[int, list[PersonNow]]) -> list[dict]:
         """A settled frame's events (none when it is not newer than the last), its people to the store."""
-        if settled is None or settled[0] <= self.last_index:
+        if settled[0] <= self.last_index:
             return []
         self.last_index = settled[0]
         if self.recorder is not None:
@@ -307,7 +306,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     break
                 view, result = taken
                 settled, persons, leaving = views.take(view, result)
-                events = outputs.settle(settled)
+                events = [event for frame in settled for event in outputs.settle(frame)]
                 for person in leaving:
                     events += monitor.ended(person)
                     trails.pop(person, None)
@@ -325,7 +324,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
             ending, why = "until", f"{cameras.name}: ended after {options.until_s:g} s, as asked"
         cameras.close()
         settled, leaving = views.finish()
-        outputs.emit(outputs.settle(settled))
+        for frame in settled:
+            outputs.emit(outputs.settle(frame))
         for person, _ in leaving:
             outputs.emit(monitor.ended(person))
         webhook = outputs.close()

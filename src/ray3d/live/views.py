@@ -1,15 +1,17 @@
 """What a live run's cameras give, brought together (``Views``): each camera's finished people appended to its
 world file and the store, and with several cameras their people joined into world people (``LiveFusion``) on the
-first camera's clock."""
+first camera's clock, who each of them was appended to ``joined.jsonl`` as they leave (the world file is fused by
+that join: ``read_joined``)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 
 from ray3d.errors import InputError
-from ray3d.fusion.live import LiveFusion
+from ray3d.fusion.live import WAIT_S, LiveFusion
 from ray3d.io.world import append_world_csv
 from ray3d.live.cameras import FrameResult
 from ray3d.geometry.uncertainty import PersonNow
@@ -29,7 +31,8 @@ class Views:
             raise InputError(f"offsets: {len(self.offsets_s)} given for {count} cameras", ("offsets",))
         self.world_paths = [out_dir / "world.csv"] if not self.several else \
             [out_dir / f"camera{k + 1}_{_file_name(name)}" / "world.csv" for k, name in enumerate(cameras.names)]
-        for path in self.world_paths:
+        self.joined_path = out_dir / JOINED_FILE if self.several else None
+        for path in [*self.world_paths, *([self.joined_path] if self.several else [])]:
             if path.exists() and not (recorder and recorder.continues):
                 raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -37,12 +40,17 @@ class Views:
                                  id_prefix=recorder.id_prefix if recorder else "") if self.several else None
         self.written, self.left_out = 0, {}
         self.label = " + ".join(str(name) for name in cameras.names)  # who saw the world's people
-        self._pending: tuple | None = None  # several cameras: the frame whose views are still coming in
+        # Several cameras: the frames not settled yet, {frame: {person: PersonNow}}, held until who everybody in
+        # them is has been decided (``LiveFusion``: ``WAIT_S`` at most) and every camera's view of them is in.
+        self._held: dict[int, dict[str, PersonNow]] = {}
+        self._hold_frames = int(np.ceil((WAIT_S + 2.0 / min(cameras.fps)) * self.fps))
+        self._settled_until = -1  # the last frame settled
 
-    def take(self, view: int, result: FrameResult) -> tuple[tuple | None, list[PersonNow], list[str]]:
-        """This camera's processed frame -> a frame settled for the site's events (its number on the first
-        camera's clock and its people; None while it is not), the people now and those who left. With several
-        cameras a frame is settled when the next begins: by then every camera's view of it is in."""
+    def take(self, view: int, result: FrameResult) -> tuple[list[tuple], list[PersonNow], list[str]]:
+        """This camera's processed frame -> the frames settled for the site's events (each its number on the first
+        camera's clock and its people, in order), the people now and those who left. With several cameras a frame
+        is settled once who everybody in it is has been decided, with what each saw before that (``WAIT_S`` and
+        two frames later): a person's first moments are counted as one camera counts them."""
         self._write(view, result.done)
         if self.recorder is not None:
             self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
@@ -50,21 +58,37 @@ class Views:
                 before, after = (self.recorder.origin + self.time_s(view, index) for index in result.gap)
                 self.recorder.gap(self.cameras.names[view], before, after, "the stream was down")
         if not self.several:
-            return (result.index, result.persons), result.persons, result.ended
+            return [(result.index, result.persons)], result.persons, result.ended
         time_s = result.index / self.cameras.fps[view] - self.offsets_s[view]
         for track in result.ended:
             self.fusion.finished(view, track)
         persons = self.fusion.update(view, time_s, result.persons)
-        index, settled = int(round(time_s * self.fps)), None
-        if self._pending is None or index > self._pending[0]:
-            settled, self._pending = self._pending, (index, persons)
-        else:
-            self._pending = (self._pending[0], persons)
-        return settled, persons, self.fusion.ended(time_s)
+        index = int(round(time_s * self.fps))
+        self._hold(index, persons)
+        for at, now in self.fusion.decided:
+            self._hold(int(round(at * self.fps)), [now], replace=False)
+        self.fusion.decided.clear()
+        return self._settle(index - self._hold_frames), persons, self._ended(time_s)
 
-    def finish(self) -> tuple[tuple | None, list[tuple[str, int]]]:
-        """Everybody still in view handed over: the last frame not settled yet (None if none) and who leaves
-        (person, the first camera's frame they were last seen in)."""
+    def _hold(self, index: int, persons: list[PersonNow], replace: bool = True) -> None:
+        """``persons`` in frame ``index`` until it is settled (too late for a frame settled already); without
+        ``replace``, only where the frame has not got that person."""
+        if index > self._settled_until:
+            frame = self._held.setdefault(index, {})
+            for person in persons:
+                if replace or person.track not in frame:
+                    frame[person.track] = person
+
+    def _settle(self, until: float) -> list[tuple]:
+        """The held frames up to ``until``, in order: (frame, its people)."""
+        ready = sorted(index for index in self._held if index <= until)
+        if ready:
+            self._settled_until = ready[-1]
+        return [(index, list(self._held.pop(index).values())) for index in ready]
+
+    def finish(self) -> tuple[list[tuple], list[tuple[str, int]]]:
+        """Everybody still in view handed over: the frames not settled yet, in order, and who leaves (person, the
+        first camera's frame they were last seen in)."""
         leaving = []
         for view, (in_view, done) in enumerate(self.cameras.finish()):
             self._write(view, done)
@@ -74,8 +98,21 @@ class Views:
                 else:
                     leaving.append((track, last_frame))
         if self.several:
-            leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self.fusion.ended(np.inf, seen=True)]
-        return self._pending, leaving
+            leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self._ended(np.inf, seen=True)]
+            for at, now in self.fusion.decided:
+                self._hold(int(round(at * self.fps)), [now], replace=False)
+            self.fusion.decided.clear()
+        return self._settle(np.inf), leaving
+
+    def _ended(self, time_s: float, seen: bool = False) -> list:
+        """``LiveFusion.ended``, and who each of those people was appended to the join's file."""
+        gone = self.fusion.ended(time_s, seen)
+        if self.fusion.joined:
+            with self.joined_path.open("a") as handle:
+                handle.writelines(json.dumps({"person": person, "tracks": [list(m) for m in members]}) + "\n"
+                                  for person, members in self.fusion.joined)
+            self.fusion.joined.clear()
+        return gone
 
     def time_s(self, view: int, index: int) -> float:
         """A frame of camera ``view`` on the first camera's clock (seconds)."""
@@ -97,6 +134,22 @@ class Views:
                                      stature_class(stature, refinement.get("stature_interval_m")),
                                      len((finished.world.rejoined or {}).get(finished.track, ())),
                                      self.cameras.names[view])
+
+
+JOINED_FILE = "joined.jsonl"
+
+
+def read_joined(path: Path) -> dict[str, list[tuple[int, str]]]:
+    """A live run's join (``Views``): {person: [(camera index, track), ...]}; a last line cut short by a kill is
+    left out."""
+    joined = {}
+    for line in path.read_text().splitlines() if path.exists() else ():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue
+        joined[entry["person"]] = [(int(view), str(track)) for view, track in entry["tracks"]]
+    return joined
 
 
 def _file_name(name: str) -> str:

@@ -96,17 +96,6 @@ def person_frames(world: World, site: Site) -> list[dict]:
     return rows
 
 
-def occupancy(rows: list[dict], site: Site, fps: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """From ``person_frames`` rows: the frames' times (F,) and, per zone, how many people were in it at each."""
-    frames = np.unique([row["frame"] for row in rows]) if rows else np.zeros(0, dtype=int)
-    counts = {zone.name: np.zeros(len(frames), dtype=int) for zone in site.zones}
-    for row in rows:
-        at = np.searchsorted(frames, row["frame"])
-        for name in row["zones"]:
-            counts[name][at] += 1
-    return frames / fps, counts
-
-
 def heat_map(rows: list[dict], fps: float, cell_m: float = 0.5) -> tuple[np.ndarray, tuple[float, float]]:
     """Seconds spent per ``cell_m`` square of the floor plan by everybody (from ``person_frames`` rows): (H, W)
     and the (x, y) of the grid's lower-left corner."""

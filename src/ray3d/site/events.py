@@ -187,9 +187,19 @@ class SiteMonitor:
         return [Event(FALL, track, **fall) for fall in found]
 
 
-def site_events(world: World, site: Site) -> list[Event]:
-    """Every event the world's tracks make on the site, in time order: the finished world replayed frame by frame
-    through a ``SiteMonitor``, as ``ray3d live`` would have found them."""
+@dataclasses.dataclass
+class SiteReplay:
+    """A finished world replayed through a ``SiteMonitor``: its ``events`` in time order, and the times (F,) of
+    the frames anybody was in with, per zone, how many people the monitor had in it at each (``occupancy``)."""
+
+    events: list[Event]
+    times: np.ndarray
+    occupancy: dict[str, np.ndarray]
+
+
+def replay_site(world: World, site: Site) -> SiteReplay:
+    """The world's tracks replayed frame by frame through a ``SiteMonitor``, as ``ray3d live`` would have met them:
+    every event, and each zone's occupancy as the monitor counts it (the one rule on both clocks)."""
     world = world.in_frame("world")
     present: dict[int, dict[str, np.ndarray]] = {}
     last: dict[int, list[str]] = {}
@@ -198,8 +208,18 @@ def site_events(world: World, site: Site) -> list[Event]:
             present.setdefault(int(frame), {})[str(track)] = result.joints[row]
         last.setdefault(int(result.frames[-1]), []).append(str(track))
     monitor, events = SiteMonitor(site, world.fps), []
-    for frame in sorted(present):
+    frames = sorted(present)
+    occupancy = {zone.name: np.zeros(len(frames), dtype=int) for zone in site.zones}
+    for k, frame in enumerate(frames):
         events += monitor.update(frame, present[frame])
+        for zone, inside in monitor.occupants.items():
+            occupancy[zone][k] = len(inside)
         for track in last.get(frame, ()):
             events += monitor.ended(track)
-    return sorted(events, key=lambda e: (e["time_s"], e["track"]))
+    return SiteReplay(sorted(events, key=lambda e: (e["time_s"], e["track"])), np.array(frames) / world.fps,
+                      occupancy)
+
+
+def site_events(world: World, site: Site) -> list[Event]:
+    """Every event the world's tracks make on the site, in time order (``replay_site``)."""
+    return replay_site(world, site).events

@@ -30,17 +30,17 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     counts per bucket of that many seconds in ``by-time.csv`` and the report, wall-clock from ``start_time``, a
     ``datetime``, when given)."""
     from ray3d.site.files import write_csv, write_site_tables
-    from ray3d.site.analytics import by_time, heat_map, occupancy, person_frames, track_summaries, zone_summaries
-    from ray3d.site.events import EVENT_KINDS, site_events
+    from ray3d.site.analytics import by_time, heat_map, person_frames, track_summaries, zone_summaries
+    from ray3d.site.events import EVENT_KINDS, replay_site
     from ray3d.viz.html_viewer import write_viewer
     from ray3d.viz.plots import plot_floor_plan, plot_occupancy
     from ray3d.viz.site_report import write_site_report
 
     out_dir = Path(out_dir)
     world = world.in_frame("world")
-    events, frames = site_events(world, site), person_frames(world, site)
+    replay, frames = replay_site(world, site), person_frames(world, site)
+    events, times, counts = replay.events, replay.times, replay.occupancy
     places = zone_summaries(events, site, world.rejoined)
-    times, counts = occupancy(frames, site, world.fps)
     series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
               for k, t in enumerate(times)]
     tables = write_site_tables(out_dir, events, track_summaries(world, site), places, frames, series, overwrite)

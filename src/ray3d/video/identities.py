@@ -28,7 +28,8 @@ import numpy as np
 
 from ray3d.fusion.tracks import handover_reach_m
 from ray3d.temporal import velocity
-from ray3d.video.tracking import COLOUR_GATE, Track, colour_distance
+from ray3d.video.clothes import COLOUR_GATE, colour_distance
+from ray3d.video.tracking import Track
 
 REJOIN_WITHIN_S = 3.0   # the longest gap across which a person is taken up again
 WALK_WINDOW_S = 1.0     # a track's walk (its velocity) at its end and start, over this much of it

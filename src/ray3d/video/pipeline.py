@@ -187,7 +187,7 @@ def _targets(out_dir: Path, world_format: str, overlay: bool, overwrite: bool) -
 
 
 def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Path, detector: PoseDetector,
-               lifter: Lifter | None = None, options: LiftOptions = LiftOptions(),
+               lifter: Lifter, options: LiftOptions = LiftOptions(),
                video_options: VideoOptions = VideoOptions(), world_format: str = ".json", overlay: bool = True,
                overwrite: bool = False, progress: bool = True) -> VideoResult:
     """Detect, track and lift everybody, and write ``out_dir``/{world.json|.csv|.npz, keypoints.json,
@@ -202,7 +202,7 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
                        overwrite, progress)[0]
 
 
-def lift_videos(inputs: list[tuple], lifter: Lifter | None = None, options: LiftOptions = LiftOptions(),
+def lift_videos(inputs: list[tuple], lifter: Lifter, options: LiftOptions = LiftOptions(),
                 video_options: VideoOptions = VideoOptions(), world_format: str = ".json", overlay: bool = True,
                 overwrite: bool = False, progress: bool = True, one_clock: bool = True) -> list[VideoResult]:
     """Several videos of one site, each (video, camera, out_dir, detector) as ``lift_video`` takes them: everybody
@@ -223,7 +223,6 @@ def lift_videos(inputs: list[tuple], lifter: Lifter | None = None, options: Lift
         followed.append(track_video(info, camera, detector, video_options, progress))
         took.append(time.perf_counter() - clock)
     clock = time.perf_counter()
-    lifter = lifter or Lifter.load(layout=followed[0].layout)
     lifted = lifter.lift_cameras({k: (people.tracks, camera) for k, (people, (_, camera, _, _))
                                   in enumerate(zip(followed, started))},
                                  {k: people.layout for k, people in enumerate(followed)},
