@@ -489,3 +489,25 @@ def test_the_python_api_answers_bad_arguments_like_the_command_line(tmp_path):
     with pytest.raises(InputError, match=r"broken.json: tracks\['0'\]: not a world file written by ray3d: "
                                          r"missing field\(s\) frames"):
         read_world(tmp_path / "broken.json")
+
+
+def test_a_job_and_its_whole_run_answer_bad_arguments_naming_them(tmp_path):
+    """``Job``, ``run_job``, ``site_report`` and ``fuse_worlds``: a wrong type or value is an ``InputError`` naming
+    the argument, before any work."""
+    from ray3d import cameras
+    from ray3d.demo import demo_clip
+    from ray3d.fusion import fuse_worlds
+    from ray3d.jobs import CameraChoice, Job, run_job, site_report
+
+    camera = cameras.h36m("S9", "54138969")
+    np.savez(tmp_path / "k.npz", keypoints=camera.project(demo_clip()[:30]), fps=50.0)
+    one = (tmp_path / "k.npz",), (CameraChoice(made=camera),)
+    cases = [(lambda: Job(*one, site=123), "site"), (lambda: Job(*one, every_s="x"), "every_s"),
+             (lambda: Job(*one, every_s=-1.0), "every_s"), (lambda: Job(*one, start_time=5), "start_time"),
+             (lambda: Job(*one).lifter("nonsense"), "nonsense"), (lambda: run_job(Job(*one), None), "out"),
+             (lambda: site_report(None, None, tmp_path / "site"), "world"),
+             (lambda: fuse_worlds([None, None]), "worlds")]
+    for call, named in cases:
+        with pytest.raises(InputError, match=named):
+            call()
+    assert not (tmp_path / "site").exists()

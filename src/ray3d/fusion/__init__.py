@@ -231,6 +231,8 @@ def fuse_worlds(worlds: list[World], offsets_s: list[float] | None = None, find_
     and a track in no group is left out."""
     if len(worlds) < 2:
         raise InputError("cameras: fusing needs two or more cameras' worlds", ("cameras",))
+    if not all(isinstance(world, World) for world in worlds):
+        raise InputError("worlds: each a World (io.world.read_world)", ("worlds",))
     names = [world.camera.name or f"camera {k}" for k, world in enumerate(worlds)]
     if len(set(names)) < len(names):
         names = [f"{k}:{name}" for k, name in enumerate(names)]
@@ -248,8 +250,11 @@ def fuse_worlds(worlds: list[World], offsets_s: list[float] | None = None, find_
         people = {str(n): g for n, g in enumerate(associate(tracks, handover_s, fps))}
     else:
         index = {(t.view, t.name): i for i, t in enumerate(tracks)}
-        chosen = {str(person): [index[key] for key in map(tuple, members) if key in index]
-                  for person, members in groups.items()}
+        try:
+            chosen = {str(person): [index[key] for key in map(tuple, members) if key in index]
+                      for person, members in groups.items()}
+        except (AttributeError, TypeError):
+            raise InputError("groups: {person: [(camera index, track), ...]}", ("groups",)) from None
         kept = sorted(i for g in chosen.values() for i in g)
         renumbered = {i: k for k, i in enumerate(kept)}
         tracks = [tracks[i] for i in kept]

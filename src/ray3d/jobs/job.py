@@ -88,9 +88,15 @@ class Job:
         check_precision(self.precision)
         if self.floor_file is not None:
             read_floor(self.floor_file)  # a bad floor file is refused before any work
+        if self.every_s is not None and (isinstance(self.every_s, bool) or not isinstance(self.every_s, (int, float))
+                                         or not 0 < self.every_s < float("inf")):
+            raise InputError(f"every_s: the time buckets' length in seconds, above 0; got {self.every_s!r}",
+                             ("every_s",))
         if self.start_time is not None and self.every_s is None:
             raise InputError("start_time places the time buckets: give every_s too", ("start_time", "every_s"))
         if self.site is not None:
+            if not isinstance(self.site, (str, Path)):
+                raise InputError(f"site: a site file's path; got {type(self.site).__name__}", ("site",))
             object.__setattr__(self, "site", Path(self.site))
             self.site_plan()  # a bad site file is refused before any work
 
@@ -125,5 +131,6 @@ def load_lifter(checkpoint: str | None = None, precision: str = "fp32", layout: 
     """The model a job or a benchmark lifts by: ``checkpoint`` (a shipped name or a path; None: the shipped model for
     keypoints of ``layout``, H36M-17 when None) in ``precision``."""
     from ray3d.lifting.lifter import Lifter
+    from ray3d.skeleton import layout_skeleton
 
-    return Lifter.load(checkpoint, layout=layout or "h36m17", precision=precision)
+    return Lifter.load(checkpoint, layout=layout_skeleton(layout or "h36m17").name, precision=precision)

@@ -62,6 +62,8 @@ def run_job(job: Job, out: str | Path, progress: bool = True) -> JobResult:
     outputs in ``out``/camera<k>_<name>/, the fused world.json and viewer.html in ``out``); a keypoint job's world
     file (several files: the fused .json). The site's report goes to ``site_folder(job, out)``. Every output is
     refused before any work where it exists (unless ``job.overwrite``) or is an input."""
+    if not isinstance(out, (str, Path)):
+        raise InputError(f"out: a folder (videos) or a world file (keypoints); got {type(out).__name__}", ("out",))
     out = Path(out)
     several = len(job.inputs) > 1
     fused = _fused_outputs(job, out) if several else {}
@@ -119,8 +121,12 @@ def site_report(world: World, site, folder: str | Path, title: str = "", overwri
     """``world``'s people on ``site`` (a ``site.places.Site``): its events, counts per place, tables and plots in
     ``folder`` (``site.report.analyse_site``; time buckets of ``every_s`` seconds from ``start_time``). The one
     place a job's, a live run's or ``ray3d site``'s report is made."""
+    from ray3d.site.places import Site
     from ray3d.site.report import analyse_site
 
+    if not isinstance(world, World) or not isinstance(site, Site):
+        raise InputError(f"world, site: a World and a Site (site.files.read_site); got {type(world).__name__} and "
+                         f"{type(site).__name__}", ("world", "site"))
     if start_time is not None and every_s is None:
         raise InputError("start_time places the time buckets: give every_s too", ("start_time", "every_s"))
     events, places, files = analyse_site(world, site, folder, title, overwrite, every_s, start_time)
