@@ -335,6 +335,47 @@ def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camer
     assert set(later) == {str(max(map(int, seen)) + 1)}
 
 
+@pytest.mark.parametrize("late_by", [0, 1, 2])
+def test_several_cameras_settle_each_frame_once_in_order_whichever_camera_comes_late(tmp_path, late_by):
+    """Two cameras' frames of one walk across the door, the second camera's coming ``late_by`` frames after the
+    first's: every frame is settled once, in order, from the walk's first frame (what a track saw while who it
+    was stayed open counts), the person's settled places go one way only, and the door is crossed once."""
+    import types
+
+    from ray3d.geometry.uncertainty import PersonNow
+    from ray3d.live.cameras import FrameResult
+    from ray3d.live.views import Views
+    from ray3d.site import SiteMonitor
+
+    facing = cameras.h36m("S9", "55011271")
+    fake = types.SimpleNamespace(cameras=[CAMERA, facing], fps=[FPS, FPS], names=["front", "facing"],
+                                 sources=["front", "facing"], finish=lambda: [([], []), ([], [])])
+    views = Views(fake, tmp_path, None)
+    pose = demo_clip()[0] - demo_clip()[0, :1] * [1, 1, 0]
+    walk = [SPOT + (0.05 + 0.03 * k) * ACROSS for k in range(30)]  # slowly, over the door
+
+    def frame(view: int, k: int) -> FrameResult:
+        place = np.append(walk[k] + 0.02 * (-1) ** view * LOOKING, 0.0)  # the cameras disagree a little
+        return FrameResult(k, 0.0, [PersonNow(f"{view}-a", pose + place, np.array([0.1, 0.03]), 1.7)], [], [])
+
+    order = [(0, k) for k in range(late_by)] + [arrival for k in range(30 - late_by)
+                                                for arrival in ((0, k + late_by), (1, k))]
+    order += [(1, k) for k in range(30 - late_by, 30)]
+    settled = []
+    for view, k in order:
+        settled += views.take(view, frame(view, k))[0]
+    settled += views.finish()[0]
+    indices = [index for index, _ in settled]
+    assert indices == sorted(set(indices)) and indices[0] == 0 and indices[-1] == 29
+    assert all(len(people) == 1 for _, people in settled)
+    along = [float(np.dot(people[0].joints[0, :2] - SPOT, ACROSS)) for _, people in settled]
+    assert np.all(np.diff(along) > 0)
+    monitor = SiteMonitor(Site((), (DOOR,)), FPS)
+    crossings = [e for index, people in settled for e in monitor.update(index, {p.track: p.joints for p in people})
+                 if e["event"] == "line crossed"]
+    assert len(crossings) == 1
+
+
 def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions():
     from ray3d.site import SiteMonitor
 

@@ -34,11 +34,9 @@ def local_inputs(job: Job, group, cameras: list, detectors: list, id_prefix: str
     job's lifter (``id_prefix`` before every track id: a store's run number)."""
     from ray3d.live.cameras import LocalCameras
 
-    lifter = job.lifter(detectors[0].layout)
-    lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source is running)
     options = [job.lift_options(k) for k in range(len(cameras))]  # each camera on its own floor, as on Ray
-    return LiveInputs(LocalCameras(group, cameras, detectors, lifter, options, job.video.max_gap_s,
-                                   job.video.min_track_s, id_prefix))
+    return LiveInputs(LocalCameras(group, cameras, detectors, job.lifter(detectors[0].layout), options,
+                                   job.video.max_gap_s, job.video.min_track_s, id_prefix))
 
 
 def start_record(job: Job, store, command: str, site=None, start_time=None):

@@ -110,7 +110,9 @@ class CameraPeople:
     def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int | None,
                  lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = ""):
         """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it;
-        ``id_prefix``: written before each of its track ids (a run's number)."""
+        ``id_prefix``: written before each of its track ids (a run's number). The lifter's small-batch path is
+        made here, before the first frame is taken (it pauses 0.2 s; the stream may be running)."""
+        lifter.prepare_small_batches()
         self._following = dict(camera=camera, detector=detector, lifter=lifter, fps=fps, floor=lift_options.floor,
                                max_gap_s=max_gap_s, deadline_frames=keep)
         self.id_prefix, self.gaps = id_prefix, 0

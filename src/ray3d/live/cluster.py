@@ -37,10 +37,8 @@ class CameraWorker:
 
         torch.set_num_threads(1)
         self.source, self.camera, detector = opened(first_index=first_index)
-        chosen = lifter(detector.layout)
-        chosen.prepare_small_batches()
-        self.people = CameraPeople(self.camera, detector, chosen, self.source.fps, self.source.deadline_frames,
-                                   lift_options, max_gap_s, min_track_s, id_prefix)
+        self.people = CameraPeople(self.camera, detector, lifter(detector.layout), self.source.fps,
+                                   self.source.deadline_frames, lift_options, max_gap_s, min_track_s, id_prefix)
 
     def describe(self) -> tuple:
         return self.camera, self.source.fps, self.source.name

@@ -160,7 +160,6 @@ def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter,
     if not len(sources) == len(cameras) == len(detectors):
         raise InputError(f"cameras: {len(cameras)} cameras and {len(detectors)} detectors for {len(sources)} "
                          "streams; give one each per stream", ("camera",))
-    lifter.prepare_small_batches()  # before the first frame is taken (it pauses 0.2 s; the source may be running)
     group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
     followed = LocalCameras(group, cameras, detectors, lifter, lift_options, video_options.max_gap_s,
                             video_options.min_track_s, recorder.id_prefix if recorder else "")

@@ -45,6 +45,7 @@ class Views:
         self._held: dict[int, dict[str, PersonNow]] = {}
         self._hold_frames = int(np.ceil((WAIT_S + 2.0 / min(cameras.fps)) * self.fps))
         self._settled_until = -1  # the last frame settled
+        self._newest = -1  # the newest frame any camera has given
 
     def take(self, view: int, result: FrameResult) -> tuple[list[tuple], list[PersonNow], list[str]]:
         """This camera's processed frame -> the frames settled for the site's events (each its number on the first
@@ -63,7 +64,9 @@ class Views:
         for track in result.ended:
             self.fusion.finished(view, track)
         persons = self.fusion.update(view, time_s, result.persons)
-        index = int(round(time_s * self.fps))
+        # The people now are every camera's latest answers: a camera's frame that comes in after another's later
+        # one updates the newest frame (an older one would go back in time for the other camera's people).
+        index = self._newest = max(self._newest, int(round(time_s * self.fps)))
         self._hold(index, persons)
         for at, now in self.fusion.decided:
             self._hold(int(round(at * self.fps)), [now], replace=False)
