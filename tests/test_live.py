@@ -145,8 +145,9 @@ def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
         "ray3d live: error: --camera: 1 given for 2 sources; give one per source, in order"]
 
 
-def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, **options):
-    """A live job over the scene's frames (each carrying its number), played at ``fps`` (a fast replay)."""
+def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, detector=None, **options):
+    """A live job over the scene's frames (each carrying its number), played at ``fps`` (a fast replay), the
+    people found by ``detector`` (default: where the camera sees them)."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job
     from ray3d.live.runner import LiveOptions
@@ -154,7 +155,7 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, *
     job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
     lifter = job.lifter("h36m17")  # before the stream starts: frames that come while it loads would be dropped
     lifter.prepare_small_batches()  # and so would those while it traces its small-batch path
-    detector = _ScriptedDetector(people)
+    detector = detector or _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
     live_options = LiveOptions(**{"page": False, **options})
     inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector])
@@ -198,6 +199,21 @@ def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_i
     live._refine(following, raw)
     _, offline_refinement = refine_track(raw, CAMERA, FPS, config=live.config)
     assert following.scale == pytest.approx(offline_refinement.scale[-1], abs=1e-12)
+
+
+def test_a_person_standing_by_a_zone_edge_with_a_jittery_detector_does_not_flicker_in_and_out_live(tmp_path):
+    """Somebody standing 0.15 m inside the room, their detections jumping about 25 px sideways frame to frame (about
+    0.1 m on the floor): the live answers are smoothed causally (One-Euro, ``live.people.LIVE_SMOOTHING``), so
+    the live events have them in the room throughout, not entering and leaving it frame by frame (unsmoothed: 16
+    zone events in 3 s)."""
+    clip = demo_clip()[::6][:1] - demo_clip()[::6][:1, :1] * [1, 1, 0]
+    people = (clip + np.append(SPOT + 1.15 * ACROSS, 0.0))[None].repeat(60, axis=0)  # (60, 1, 17, 3)
+    detector = _ScriptedDetector(people)
+    detector.pixels = detector.pixels + np.random.default_rng(0).normal(0, 25, (60, 1, 1, 1)) * [1, 0]
+    summary, _ = _run(tmp_path, people, Site((ROOM,), ()), detector=detector)
+    events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
+    assert summary.processed > 40 and [e["event"] for e in events if e["event"].startswith("zone")] == []
+    assert events[0]["event"] == "track started" and ROOM.contains(np.array([events[0]["place_m"][:2]]))[0]
 
 
 def test_the_detector_is_given_the_time_until_the_frame_is_due_and_a_person_unseen_once_is_held(tmp_path):

@@ -78,3 +78,20 @@ def test_gaps_are_filled_linearly_and_held_at_the_ends():
     np.testing.assert_allclose(filled[1:, 0], values[1:, 0])
     np.testing.assert_allclose(filled[0, 0], values[1, 0])  # held before the first seen frame
     np.testing.assert_array_equal(filled[:, 1], values[:, 1])
+
+
+def test_the_one_euro_filter_one_sample_at_a_time_is_the_sequence_filter_and_keeps_a_still_value():
+    """``temporal.OneEuro`` (live, sample by sample, at any spacing) is the filter ``smooth(..., "one-euro")``
+    runs over a sequence; a value that does not move stays put; a sample after a gap moves the output further
+    towards it than one a frame later would, never past it."""
+    from ray3d.temporal import OneEuro, one_euro
+
+    walk = np.cumsum(np.random.default_rng(1).normal(0, 0.05, (50, 17, 3)), axis=0)
+    smoother = OneEuro()
+    np.testing.assert_allclose(np.stack([smoother(x, 0.1) for x in walk]), one_euro(walk, 10.0))
+    still = OneEuro()
+    assert all(np.array_equal(still(np.full(3, 2.5), 0.1), np.full(3, 2.5)) for _ in range(5))
+    a, b = OneEuro(), OneEuro()
+    a(np.zeros(3), 0.1), b(np.zeros(3), 0.1)
+    near, far = a(np.ones(3), 0.1), b(np.ones(3), 0.5)
+    assert np.all(0 < near) and np.all(near < far) and np.all(far < 1)

@@ -153,27 +153,39 @@ def savgol(sequence: np.ndarray, window: int = 9, order: int = 2) -> np.ndarray:
     return savgol_filter(sequence, window, order, axis=0, mode="interp")
 
 
+class OneEuro:
+    """The One-Euro filter (Casiez et al. 2012), causal, one sample at a time, every coordinate of it at once:
+    ``filter(value, dt_s)`` -> the value smoothed. Low speed -> strong smoothing (cutoff ``min_cutoff`` Hz); high
+    speed -> less lag (the cutoff grows by ``beta`` per unit of speed). Samples may come at any spacing ``dt_s``
+    (a live stream's dropped frames)."""
+
+    def __init__(self, min_cutoff: float = 1.0, beta: float = 0.05, derivative_cutoff: float = 1.0):
+        self.min_cutoff, self.beta, self.derivative_cutoff = min_cutoff, beta, derivative_cutoff
+        self.previous: np.ndarray | None = None
+        self.derivative: np.ndarray | None = None
+
+    def __call__(self, value: np.ndarray, dt_s: float) -> np.ndarray:
+        value = np.asarray(value, dtype=np.float64)
+        if self.previous is None:
+            self.previous, self.derivative = value.copy(), np.zeros_like(value)
+            return value.copy()
+        a = _smoothing_factor(self.derivative_cutoff, dt_s)
+        self.derivative = a * (value - self.previous) / dt_s + (1 - a) * self.derivative
+        a = _smoothing_factor(self.min_cutoff + self.beta * np.abs(self.derivative), dt_s)
+        self.previous = a * value + (1 - a) * self.previous
+        return self.previous.copy()
+
+
+def _smoothing_factor(cutoff_hz, dt_s: float):
+    return 1.0 / (1.0 + 1.0 / (2 * np.pi * cutoff_hz * dt_s))
+
+
 def one_euro(sequence: np.ndarray, fps: float, min_cutoff: float = 1.0, beta: float = 0.05,
              derivative_cutoff: float = 1.0) -> np.ndarray:
-    """The One-Euro filter (Casiez et al. 2012), causal, vectorised over all coordinates of each frame.
-
-    Low speed -> strong smoothing (cutoff ``min_cutoff`` Hz); high speed -> less lag (cutoff grows by ``beta``
-    per unit of speed).
-    """
-    def alpha(cutoff):
-        tau = 1.0 / (2 * np.pi * cutoff)
-        return 1.0 / (1.0 + tau * fps)
-
-    out = np.empty_like(sequence, dtype=np.float64)
-    out[0] = sequence[0]
-    derivative = np.zeros_like(out[0])
-    for i in range(1, len(sequence)):
-        raw_derivative = (sequence[i] - out[i - 1]) * fps
-        a = alpha(derivative_cutoff)
-        derivative = a * raw_derivative + (1 - a) * derivative
-        a = alpha(min_cutoff + beta * np.abs(derivative))
-        out[i] = a * sequence[i] + (1 - a) * out[i - 1]
-    return out
+    """A sequence (T, ...) through ``OneEuro`` at ``fps``."""
+    smoother = OneEuro(min_cutoff, beta, derivative_cutoff)
+    return np.stack([smoother(value, 1.0 / fps) for value in sequence]) if len(sequence) else \
+        np.asarray(sequence, dtype=np.float64).copy()
 
 
 def smooth(sequence: np.ndarray, method: str | None, fps: float) -> np.ndarray:

@@ -27,12 +27,17 @@ from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.stream import LiftStream, lift_streams
 from ray3d.live.source import LiveFrame
 from ray3d.refine import RefineConfig, network_position_sd, refine_track, scale_about
+from ray3d.temporal import OneEuro
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.pipeline import CONFIRM_FRAMES
 from ray3d.video.tracking import FloorTracker, Track
 
 
 RUNNER_SHARE = 0.1  # of a frame's period, kept for the events, the outputs and the page after the people
+# The One-Euro filter's minimum cutoff (Hz) and its growth per m/s on each person's answers: a frame's jitter and
+# the refinement's steps along the ray (every refine_every_s) smoothed, as the offline report's whole tracks are
+# (Savitzky-Golay), without which a person near a zone's edge enters and leaves it frame by frame.
+LIVE_SMOOTHING = (1.0, 0.05)
 
 
 @dataclasses.dataclass
@@ -45,6 +50,8 @@ class _Following:
     stature_m: float | None = None
     next_refinement: int = 0          # the frame from which the refinement runs again
     latest: PersonNow | None = None   # the answer for the track's latest detection
+    smoother: OneEuro = None          # the answers, causally smoothed (as the offline report's are, whole)
+    answered: int | None = None       # the frame of the latest answer
 
 
 class LivePeople:
@@ -117,6 +124,8 @@ class LivePeople:
         people = []
         for (track_id, following), raw in zip(waiting, answers):
             joints = scale_about(raw[None], self.camera.center, np.array([following.scale]))[0]
+            step_s = (frame.index - following.answered) / self.fps if following.answered is not None else 0.0
+            joints, following.answered = following.smoother(joints, step_s), frame.index
             sd = following.position_sd if following.position_sd is not None else \
                 network_position_sd(raw[None], self.camera, self.config)[0]
             following.latest = PersonNow(track_id, joints, sd, following.stature_m)
@@ -132,7 +141,8 @@ class LivePeople:
 
     def _start(self, track: Track) -> _Following:
         stream = self.lifter.stream(self.camera, self.detector.layout, fps=self.fps, wait_for_future=False)
-        self._following[track.id] = following = _Following(stream, history=deque(maxlen=self.window))
+        self._following[track.id] = following = _Following(stream, history=deque(maxlen=self.window),
+                                                           smoother=OneEuro(*LIVE_SMOOTHING))
         return following
 
     def _refine(self, following: _Following, joints: np.ndarray) -> None:
