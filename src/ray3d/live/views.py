@@ -31,8 +31,8 @@ class Views:
             raise InputError(f"offsets: {len(self.offsets_s)} given for {count} cameras", ("offsets",))
         self.world_paths = [out_dir / "world.csv"] if not self.several else \
             [out_dir / f"camera{k + 1}_{_file_name(name)}" / "world.csv" for k, name in enumerate(cameras.names)]
-        self.joined_path = out_dir / JOINED_FILE if self.several else None
-        for path in [*self.world_paths, *([self.joined_path] if self.several else [])]:
+        self.joined_path = out_dir / JOINED_FILE
+        for path in self.world_paths + ([self.joined_path] if self.several else []):
             if path.exists() and not (recorder and recorder.continues):
                 raise InputError(f"{path}: exists; ray3d live never writes over an output", ("out",))
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -60,7 +60,7 @@ class Views:
                 self.recorder.gap(self.cameras.names[view], before, after, "the stream was down")
         if not self.several:
             return [(result.index, result.persons)], result.persons, result.ended
-        time_s = result.index / self.cameras.fps[view] - self.offsets_s[view]
+        time_s = self.time_s(view, result.index)
         for track in result.ended:
             self.fusion.finished(view, track)
         persons = self.fusion.update(view, time_s, result.persons)
@@ -68,9 +68,7 @@ class Views:
         # one updates the newest frame (an older one would go back in time for the other camera's people).
         index = self._newest = max(self._newest, int(round(time_s * self.fps)))
         self._hold(index, persons)
-        for at, now in self.fusion.decided:
-            self._hold(int(round(at * self.fps)), [now], replace=False)
-        self.fusion.decided.clear()
+        self._hold_decided()
         return self._settle(index - self._hold_frames), persons, self._ended(time_s)
 
     def _hold(self, index: int, persons: list[PersonNow], replace: bool = True) -> None:
@@ -81,6 +79,12 @@ class Views:
             for person in persons:
                 if replace or person.track not in frame:
                     frame[person.track] = person
+
+    def _hold_decided(self) -> None:
+        """What tracks saw before who they were was decided (``LiveFusion.decided``), into the held frames."""
+        for at, now in self.fusion.decided:
+            self._hold(int(round(at * self.fps)), [now], replace=False)
+        self.fusion.decided.clear()
 
     def _settle(self, until: float) -> list[tuple]:
         """The held frames up to ``until``, in order: (frame, its people)."""
@@ -102,9 +106,7 @@ class Views:
                     leaving.append((track, last_frame))
         if self.several:
             leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self._ended(np.inf, seen=True)]
-            for at, now in self.fusion.decided:
-                self._hold(int(round(at * self.fps)), [now], replace=False)
-            self.fusion.decided.clear()
+            self._hold_decided()
         return self._settle(np.inf), leaving
 
     def _ended(self, time_s: float, seen: bool = False) -> list:
