@@ -259,7 +259,21 @@ def test_opencv_json_cameras_of_any_shape_are_refused_in_one_line(tmp_path_facto
 @pytest.mark.parametrize("fields, needle", [
     ({"camera_matrix": list(range(8))}, "camera_matrix: expected 9 numbers, got 8"),
     ({"rvec": [0, 0]}, "rvec: expected 3 numbers, got 2"),
-    ({"camera_matrix": {"rows": 3, "cols": 3, "data": "abc"}}, "camera_matrix.data: not numeric"),
+    ({"camera_matrix": {"rows": 3, "cols": 3, "data": "abc"}},
+     "camera_matrix.data: expected a list of numbers, got 'abc'"),
+    ({"camera_matrix": {"rows": 3, "cols": 3, "data": [["a"] * 3] * 3}}, "camera_matrix.data: not numeric"),
+    # issue 69: a null size or data that is no list is named, not a TypeError
+    ({"camera_matrix": {"rows": None, "cols": 3, "data": list(range(9))}},
+     "camera_matrix.rows: expected a whole number 1-16, got null"),
+    ({"camera_matrix": {"rows": 3, "cols": None, "data": list(range(9))}},
+     "camera_matrix.cols: expected a whole number 1-16, got null"),
+    ({"camera_matrix": {"rows": 3, "cols": 3, "data": None}},
+     "camera_matrix.data: expected a list of numbers, got null"),
+    ({"camera_matrix": {"rows": 3, "cols": 3, "data": 5}}, "camera_matrix.data: expected a list of numbers, got 5"),
+    ({"camera_matrix": {"rows": 3, "cols": 3, "data": {"0": 1}}}, "camera_matrix.data: expected a list of numbers"),
+    ({"camera_matrix": {"rows": 3, "cols": 3}}, "camera_matrix: expected a list of numbers or OpenCV's"),
+    ({"camera_matrix": None}, "camera_matrix: expected a list of numbers, got null"),
+    ({"tvec": 5}, "tvec: expected a list of numbers, got 5"),
     ({"image_width": "wide"}, "image_width: expected a positive whole number"),
     ({"image_width": ""}, "image_width: expected a positive whole number"),
     ({"R": [], "t": []}, "R: expected 9 numbers, got 0"),
@@ -511,3 +525,142 @@ def test_a_job_and_its_whole_run_answer_bad_arguments_naming_them(tmp_path):
         with pytest.raises(InputError, match=named):
             call()
     assert not (tmp_path / "site").exists()
+
+
+def test_evaluate_answers_bad_arguments_with_input_errors_naming_them(tmp_path, capsys):
+    """``ray3d.evaluate.evaluate``: every bad argument an ``InputError`` naming it, before any work, never a bare
+    ``ValueError``; the command line names its flags (issue 69)."""
+    from ray3d import Camera
+    from ray3d.data.motion import MotionSet
+    from ray3d.data.virtual_cameras import grid
+    from ray3d.evaluate import evaluate
+
+    motion = MotionSet.from_clips([demo_clip()[:20].astype(np.float32)], clip_id=["walk"])
+    seeing = grid("h36m")[:2]
+    overhead = Camera.from_height_pitch(3.0, 20.0, (1000, 1000), hfov_deg=60.0)  # over the clip, not facing it
+    cases = [
+        (dict(refine=True), r"refine: needs a model that predicts every joint.*\(arguments: refine, model\)"),
+        (dict(joints="coco17"), r"joints: expected one of h36m17, h36m14, got 'coco17' \(argument: joints\)"),
+        (dict(cameras=[]), r"cameras: expected a non-empty list of Camera objects.*\(argument: cameras\)"),
+        (dict(cameras="h36m"), r"cameras: expected a non-empty list of Camera objects.*, got str"),
+        (dict(given_cameras=seeing[:1]), r"given_cameras: expected one for each of the 2 cameras, got 1"),
+        (dict(bone_scale=0.0), r"bone_scale: expected a finite number above 0, got 0.0 \(argument: bone_scale\)"),
+        (dict(noise_px=-1.0), r"noise_px: expected a finite number 0 or more, got -1.0"),
+        (dict(noise_px=float("nan")), r"noise_px: expected a finite number 0 or more, got nan"),
+        (dict(cameras=[overhead]), r"cameras: none of the 1 camera\(s\) sees any of the 1 clip\(s\) entirely"),
+    ]
+    for changes, message in cases:
+        with pytest.raises(InputError, match=message):
+            evaluate(**{"model": "rfrh", "motion": motion, "cameras": seeing, **changes})
+    motion.save(tmp_path / "mine.npz")
+    _fails_cleanly(capsys, ["evaluate", "--checkpoint", "rfrh", "--refine", "--mocap", str(tmp_path / "mine.npz"),
+                            "--cameras", "h36m"], "refine: needs a model", "(--refine, --checkpoint)")
+
+
+def _world_without_model(tmp_path, suffix):
+    """A world file as another tool might write it: valid, but no ``model`` (the schema's optional field)."""
+    from ray3d.io.world import LiftResult, World, write_world
+
+    joints = demo_clip()[:6]
+    path = write_world(tmp_path / f"w{suffix}", World({"7": LiftResult(joints, np.zeros((6, 17), bool), 30.0,
+                                                                       np.arange(6))}, cameras.h36m("S9", "54138969"),
+                                                        "test"))
+    if suffix == ".json":
+        document = json.loads(path.read_text())
+        del document["model"]
+        path.write_text(json.dumps(document))
+    elif suffix == ".csv":
+        path.write_text(path.read_text().replace("; model: test", "", 1))
+    else:
+        entries = dict(np.load(path))
+        del entries["model"]
+        np.savez(path, **entries)
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".json", ".csv", ".npz"])
+def test_a_world_file_without_the_optional_model_is_read_and_drawn(suffix, tmp_path, capsys):
+    """``model`` is optional in world.schema.json: a file without it reads as model "unknown" and ``ray3d viz``
+    draws it (issue 69)."""
+    from importlib import resources
+
+    import jsonschema
+
+    path = _world_without_model(tmp_path, suffix)
+    assert "model" not in path.read_text() if suffix != ".npz" else "model" not in np.load(path).files
+    world = read_world(path)
+    assert world.model == "unknown" and list(world.tracks) == ["7"]
+    if suffix == ".json":
+        schema = json.loads(resources.files("ray3d").joinpath("assets", "world.schema.json").read_text())
+        jsonschema.validate(json.loads(path.read_text()), schema)
+    assert main(["viz", str(path), "--html", str(tmp_path / "v.html")]) == 0
+    assert (tmp_path / "v.html").exists() and "error" not in capsys.readouterr().err
+
+
+def test_a_camera_looking_up_or_low_under_small_people_is_doubted(tmp_path, capsys):
+    """A camera 0.3 m high looking 12 degrees up (a pitch of the wrong sign) is doubted by ``Camera.doubts`` and
+    warned of in one line after the lift; one 0.28 m high whose people come out small is asked for its height
+    (issue 69). Real cameras, and cameras looking level or down, raise neither."""
+    from ray3d import Camera
+    from ray3d.cli.printing import low_camera_doubts
+    from ray3d.io.world import LiftResult
+
+    looking_up = Camera.from_height_pitch(0.3, -12.0, (1000, 1002), hfov_deg=60.0, name="floor")
+    assert looking_up.doubts() == ((), ("camera floor looks 12 degrees up from 0.30 m: is its pitch's sign right "
+                                        "(positive looks down)? People are filmed from above or level",))
+    for fine in (Camera.from_height_pitch(0.3, -3.0, (1000, 1002), hfov_deg=60.0),
+                 Camera.from_height_pitch(2.5, 12.0, (1000, 1002), hfov_deg=60.0), cameras.h36m("S9", "54138969")):
+        assert fine.doubts() == ((), ())
+
+    def people(*statures):
+        return {str(k): LiftResult(np.zeros((2, 17, 3)), np.zeros((2, 17), bool), 30.0, np.arange(2),
+                                   refinement={"stature_m": s}) for k, s in enumerate(statures)}
+
+    low = Camera.from_height_pitch(0.3, 0.0, (1000, 1002), hfov_deg=60.0, name="low")
+    (doubt,) = low_camera_doubts(people(0.9, 1.0, 1.7), low)
+    assert doubt.startswith("camera low stands 0.30 m over the floor, below a standing adult's hips, and its people "
+                            "come out 1.00 m tall (median of 3): is its height in metres")
+    assert low_camera_doubts(people(1.7, 1.65), low) == ()  # adults: the camera is believed
+    assert low_camera_doubts(people(0.9), Camera.from_height_pitch(2.5, 12.0, (1000, 1002), hfov_deg=60.0)) == ()
+    assert low_camera_doubts({}, low) == ()
+
+    keypoints = tmp_path / "k.npz"
+    np.savez(keypoints, keypoints=cameras.h36m("S9", "54138969").project(demo_clip()[:60]), fps=50.0)
+    for pitch, needle in (("-12", "looks 12 degrees up from 0.28 m: is its pitch's sign right (positive looks "
+                                  "down)?"),
+                          ("-4", "stands 0.28 m over the floor, below a standing adult's hips")):
+        out = tmp_path / f"o{pitch}.json"
+        assert main(["lift", "--keypoints", str(keypoints), "--camera-height", "0.28", "--pitch", pitch, "--hfov",
+                     "60", "--image-size", "1000x1002", "--out", str(out)]) == 0
+        warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+        assert len(warnings) == 1 and needle in warnings[0], warnings
+
+
+def test_frames_named_by_text_are_said_by_the_commands_that_read_them(tmp_path, capsys):
+    """COCO-style results whose image_ids are text: ``ray3d lift`` and ``ray3d calibrate --from-person`` say how
+    they numbered them and which frames came out, one note; integer ids say nothing (issue 69)."""
+    pixels = cameras.h36m("S9", "54138969").project(demo_clip()[:40])
+    flat = [np.concatenate([p, np.ones((17, 1))], 1).ravel().tolist() for p in pixels]
+
+    def results(name, ids):
+        path = tmp_path / name
+        path.write_text(json.dumps([{"image_id": i, "keypoints": k, "score": 1.0} for i, k in zip(ids, flat)]))
+        return path
+
+    for name, ids, needle in (
+            ("named.json", [f"frame_{k + 3:04d}.jpg" for k in range(40)],
+             "named.json names its frames by text: ordered by the last number in each image name ('frame_000012.png'"
+             " is frame 12), frames 3-42 (40 of them); if that is not the video's order, give each entry its frame "
+             "number"),
+            ("wordy.json", [f"view_{chr(97 + k // 26)}{chr(97 + k % 26)}.jpg" for k in range(40)],
+             "wordy.json names its frames by text: ordered in the order the image names first appear in the file "
+             "(they hold no number), frames 0-39 (40 of them)"),
+            ("numbers.json", list(range(40)), None)):
+        assert main(["lift", "--keypoints", str(results(name, ids)), "--layout", "h36m17", "--fps", "50",
+                     "--camera", CAMERA, "--out", str(tmp_path / f"{name}.out.json")]) == 0
+        notes = [line for line in capsys.readouterr().err.splitlines() if "by text" in line]
+        assert len(notes) == (needle is not None) and all(n.startswith(f"note: {tmp_path / needle}") for n in notes)
+    assert main(["calibrate", "--from-person", str(tmp_path / "named.json"), "--layout", "h36m17", "--image-size",
+                 "1000x1002", "--out", str(tmp_path / "camera.json")]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "by text" in line]
+    assert len(notes) == 1 and notes[0].startswith(f"note: {tmp_path / 'named.json'} names its frames by text")

@@ -63,6 +63,15 @@ def _openpose(tmp, people):
     return _lift(folder)
 
 
+def _opencv_json(tmp, **matrix):
+    """The test camera in OpenCV's JSON form, its camera_matrix {rows, cols, dt, data} changed by ``matrix``."""
+    document = {"camera_matrix": {"rows": 3, "cols": 3, "dt": "d", "data": np.asarray(CAMERA.K).ravel().tolist()}
+                | matrix, "dist_coeffs": np.asarray(CAMERA.dist).tolist(), "R": np.asarray(CAMERA.R).tolist(),
+                "t": np.asarray(CAMERA.t).tolist(), "image_width": CAMERA.image_size[0],
+                "image_height": CAMERA.image_size[1]}
+    return _write(tmp, "c.json", json.dumps(document))
+
+
 def _floor(tmp, rows, name="floor.csv"):
     path = _write(tmp, name, "x,y,u,v\n" + "".join(",".join(map(str, r)) + "\n" for r in rows))
     return ["calibrate", "--floor-points", str(path), "--hfov", "60", "--image-size", "1000x1000",
@@ -108,6 +117,18 @@ CASES = {
                                                "instances"),
     "keypoints: mmpose video with nobody": (lambda t: _results(t, [{"frame_id": 0, "instances": []}]), "no person"),
     "keypoints: results list of boxes only": (lambda t: _results(t, [{"bbox": [1, 2, 3, 4]}]), "keypoints"),
+    "keypoints: COCO image_id 1.5": (lambda t: _results(t, [{"image_id": 1.5, "keypoints": [1.0] * 51}]),
+                                     "image_id 1.5: not a frame number"),
+    "keypoints: COCO image_id a list": (lambda t: _results(t, [{"image_id": [3], "keypoints": [1.0] * 51}]),
+                                        "image_id: expected a frame number or an image name, got [3]"),
+    "keypoints: COCO image_ids of two videos": (lambda t: _results(t, [
+        {"image_id": f"{video}/{frame:04d}.jpg", "keypoints": [1.0] * 51} for video in ("a", "b") for frame in (1, 2)]),
+        "image_id: 'a/0001.jpg' and 'b/0001.jpg' both read as frame 1"),
+    "keypoints: COCO image_ids of names and numbers": (lambda t: _results(t, [
+        {"image_id": 0, "keypoints": [1.0] * 51}, {"image_id": "left.jpg", "keypoints": [1.0] * 51}]),
+        "image_id: 1 image name(s) hold no number ('left.jpg') beside frames given by number"),
+    "keypoints: mmpose frame_id 2.5": (lambda t: _results(t, [{"frame_id": 2.5, "instances": [
+        {"keypoints": [[1.0, 1.0]] * 17}]}]), "frame_id 2.5: not a frame number"),
     "keypoints: OpenPose folder empty": (lambda t: _lift((t / "empty").mkdir() or t / "empty"), "OpenPose"),
     "keypoints: OpenPose 20 numbers": (lambda t: _openpose(t, [{"pose_keypoints_2d": [1.0] * 20}]), "75"),
     "keypoints: OpenPose nobody": (lambda t: _openpose(t, []), "no person"),
@@ -125,6 +146,22 @@ CASES = {
     "camera: YAML without camera_matrix": (lambda t: _lift(_npz(t), camera=_write(
         t, "c.yaml", "%YAML:1.0\nimage_width: 10\n")), "camera_matrix"),
     "camera: unknown bundled camera": (lambda t: _lift(_npz(t), camera="h36m:S99:1"), "S99"),
+    "camera: OpenCV JSON rows null": (lambda t: _lift(_npz(t), camera=_opencv_json(t, rows=None)),
+                                      "c.json: camera_matrix.rows: expected a whole number 1-16, got null"),
+    "camera: OpenCV JSON cols null": (lambda t: _lift(_npz(t), camera=_opencv_json(t, cols=None)),
+                                      "c.json: camera_matrix.cols: expected a whole number 1-16, got null"),
+    "camera: OpenCV JSON data not a list": (lambda t: _lift(_npz(t), camera=_opencv_json(t, data=5)),
+                                            "c.json: camera_matrix.data: expected a list of numbers, got 5"),
+    "camera: OpenCV JSON data null": (lambda t: _lift(_npz(t), camera=_opencv_json(t, data=None)),
+                                                "c.json: camera_matrix.data: expected a list of numbers, got null"),
+    "camera: a misspelt dist": (lambda t: _lift(_npz(t), camera=_write(t, "c.json", json.dumps(
+        {("dsit" if k == "dist" else k): v for k, v in CAMERA.to_dict().items()}))),
+                               "unknown key 'dsit' (did you mean 'dist'?)"),
+    "camera: a misspelt floor_z_m": (lambda t: _lift(_npz(t), camera=_camera_json(t, floor_zm=-0.5)),
+                                     "unknown key 'floor_zm' (did you mean 'floor_z_m'?)"),
+    "site: a zone crossing itself": (lambda t: ["site", str(_world(t)), "--site", str(_write(t, "s.json", json.dumps(
+        {"zones": [{"name": "till", "polygon": [[0, 0], [2, 1], [2, 0], [0, 1]]}]}))), "--out", str(t / "o")],
+                                     "zone 'till' crosses itself"),
     "camera: --image-size without x": (lambda t: ["lift", "--keypoints", str(_npz(t)), "--camera-height", "3",
                                                   "--pitch", "20", "--hfov", "60", "--image-size", "1000",
                                                   "--out", str(t / "o.json")], "image-size"),

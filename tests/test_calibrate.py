@@ -1,4 +1,5 @@
-"""Floor-point calibration recovers a known camera; bad point files are refused clearly."""
+"""Floor-point calibration recovers a known camera; bad point files are refused clearly; a camera's floor is
+settled from its lens's height or two cameras' triangulated ankles and written into its file."""
 
 from __future__ import annotations
 
@@ -240,3 +241,139 @@ def test_bench_calibration_with_several_people_per_camera(test_motion, tmp_path,
     assert abs(rows[0]["pitch_error_deg"]) < 5 and np.isfinite(rows[0]["mrpe_mm"])
     assert main(["bench", "calibration", "--out", str(tmp_path / "x"), "--people", "0"]) == 2
     assert "people must be at least 1, got 0 (--people)" in capsys.readouterr().err
+
+
+# --- a camera's floor settled for good (--floor-of) -------------------------------------------------------------
+
+
+def test_the_lens_height_by_tape_puts_the_floor_of_a_frame_whose_z0_is_moved():
+    from ray3d.calibrate import floor_from_lens_height
+
+    camera = Camera.from_height_pitch(2.45, 20.0, (1280, 720), hfov_deg=70.0, name="door")
+    assert floor_from_lens_height(camera, 2.45).floor_z_m == pytest.approx(0.0, abs=1e-9)
+    board = floor_from_lens_height(camera.with_origin_at_height(0.75), 2.45)  # z = 0 on a table 0.75 m high
+    assert board.floor_z_m == pytest.approx(-0.75, abs=1e-9) and board.how == "lens height" and board.sd_m > 0
+    assert board.message("door") == "camera door's floor lies 0.75 +/- 0.02 m below its z = 0 (from its lens 2.45 m " \
+                                    "over it, by tape)"
+    for nonsense in (-2.45, 0.0, float("nan"), "2.45", True, 40.0):
+        with pytest.raises(InputError) as refused:
+            floor_from_lens_height(camera, nonsense)
+        assert refused.value.arguments == ("lens_height_m",)
+
+
+_FRONT = Camera.from_pose([0.0, 0.0, 1.2], 0.0, np.radians(8.0), 0.0, 640.0, 640.0, 640.0, 360.0, (1280, 720),
+                          name="front")
+_SIDE = Camera.from_pose([4.0, -4.5, 1.5], np.pi / 2, np.radians(10.0), 0.0, 640.0, 640.0, 640.0, 360.0,
+                         (1280, 720), name="side")
+
+
+def _walkers_seen_by(cameras: tuple[Camera, ...], count: int = 3, seed: int = 0) -> list[dict]:
+    """``count`` walkers (the demo clip, adults' statures) 3.5-4.5 m before the front camera, seen at once by
+    each of ``cameras`` through an emulated detector (COCO-17): each camera's {track: (frame ids, pixels)}."""
+    from ray3d.bench.real_video import emulated_detections
+    from ray3d.data.samples import scale_bones
+    from ray3d.demo import demo_clip
+    from ray3d.skeleton import layout_skeleton
+
+    rng = np.random.default_rng(seed)
+    clip = demo_clip()[:90:2].astype(np.float64)
+    clip[..., :2] -= clip[:1, :1, :2]
+    tracks = [{} for _ in cameras]
+    for k in range(count):
+        pose = scale_bones(clip, np.full(clip.shape[:2], rng.normal(1.0, 0.05)))
+        pose = pose + [rng.uniform(3.5, 4.5), rng.uniform(-0.5, 0.5), 0.0]
+        for seen, camera in zip(tracks, cameras):
+            seen[k] = (np.arange(len(pose)) + 100, emulated_detections(pose, camera, rng, layout_skeleton("coco17"),
+                                                                       1.0))
+    return tracks
+
+
+def test_two_cameras_seeing_the_same_walkers_find_the_floor_of_a_frame_whose_z0_is_moved():
+    """The world's z = 0 put 0.10 m above the floor in both camera files: the walkers' ankles triangulated, less
+    the detector's planted-ankle height, put the floor 0.10 m below it, within its sd."""
+    from ray3d.calibrate import floor_from_cameras
+
+    raised = (_FRONT.with_origin_at_height(0.10), _SIDE.with_origin_at_height(0.10))
+    for seed in (0, 1):
+        front, side = _walkers_seen_by((_FRONT, _SIDE), seed=seed)
+        check = floor_from_cameras({"front": (front, raised[0]), "side": (side, raised[1])}, "coco17", 30.0)
+        assert abs(check.floor_z_m + 0.10) < 0.03 and abs(check.floor_z_m + 0.10) < 2 * check.sd_m < 0.06
+        assert check.how == "two cameras" and check.people == 3 and check.seconds > 3
+        assert "below its z = 0 (from 3 people seen by both cameras over 4 s)" in check.message("front")
+
+
+def test_two_cameras_that_never_see_one_person_at_once_are_refused_with_why():
+    from ray3d.calibrate import floor_from_cameras
+
+    front, side = _walkers_seen_by((_FRONT, _SIDE))
+    later = {track: (frames + 10_000, pixels) for track, (frames, pixels) in side.items()}  # not one clock
+    with pytest.raises(InputError, match="no person was seen by front and side at once: their frame ids never"):
+        floor_from_cameras({"front": (front, _FRONT), "side": (later, _SIDE)}, "coco17", 30.0)
+    # The side camera's file in another world frame (its origin 3 m off): the same moments, no rays that cross.
+    elsewhere = Camera.from_pose([7.0, -4.5, 1.5], np.pi / 2, np.radians(10.0), 0.0, 640.0, 640.0, 640.0, 360.0,
+                                 (1280, 720), name="side")
+    with pytest.raises(InputError, match="share frame ids, but no two tracks' pelvis rays cross.*overlap"):
+        floor_from_cameras({"front": (front, _FRONT), "side": (side, elsewhere)}, "coco17", 30.0)
+    with pytest.raises(InputError, match="two cameras"):
+        floor_from_cameras({"front": (front, _FRONT)}, "coco17", 30.0)
+
+
+def _keypoint_file(path, tracks: dict):
+    from ray3d.io.keypoints import Keypoints, write_keypoints_json
+
+    rows = [(track, frame, pixels) for track, (frames, all_pixels) in tracks.items()
+            for frame, pixels in zip(frames, all_pixels)]
+    return write_keypoints_json(path, Keypoints(np.array([r[2] for r in rows]), None, np.array([r[1] for r in rows]),
+                                                np.array([r[0] for r in rows]), "coco17", 30.0, "test"))
+
+
+def test_calibrate_floor_of_writes_the_camera_file_with_its_floor_and_refuses_bad_input(tmp_path, capsys):
+    from ray3d.io.camera_files import floor_z_of_camera_file, read_camera, read_floor, save_cameras
+
+    front_file, side_file = tmp_path / "front.json", tmp_path / "side.json"
+    stage = {"name": "stage", "polygon": [[2, 1], [6, 1], [6, 4], [2, 4]], "height_m": 0.6}
+    front_file.write_text(json.dumps({**_FRONT.with_origin_at_height(0.10).to_dict(), "floor_regions": [stage],
+                                      "description": "a board"}))
+    save_cameras(side_file, [_SIDE.with_origin_at_height(0.10)])
+    front, side = _walkers_seen_by((_FRONT, _SIDE))
+    keypoints = _keypoint_file(tmp_path / "front-kps.json", front), _keypoint_file(tmp_path / "side-kps.json", side)
+    out = tmp_path / "front-floor.json"
+    two_cameras = ["calibrate", "--floor-of", str(front_file), "--keypoints", str(keypoints[0]), "--with-camera",
+                   str(side_file), "--with-keypoints", str(keypoints[1]), "--out", str(out)]
+    assert main(two_cameras) == 0
+    said = capsys.readouterr().out
+    assert said.startswith("camera front's floor lies 0.1") and "from 3 people seen by both cameras" in said
+    assert said.strip().endswith(f"written to {out}: floor_z_m = -0.10")
+    written = json.loads(out.read_text())
+    assert abs(floor_z_of_camera_file(out) + 0.10) < 0.03 and written["description"] == "a board"
+    assert written["floor_check"]["how"] == "two cameras" and written["floor_check"]["people"] == 3
+    assert read_floor(out).regions[0].height_m == pytest.approx(0.6)
+    np.testing.assert_allclose(read_camera(out).t, read_camera(front_file).t, atol=1e-12)
+    # Written once: not again without --force, and never over an input.
+    assert main(two_cameras) == 2 and "already exists" in capsys.readouterr().err
+    assert main([*two_cameras, "--force"]) == 0
+    capsys.readouterr()
+    assert main([*two_cameras[:-1], str(front_file), "--force"]) == 2
+    assert "is also an input" in capsys.readouterr().err and "floor_z_m" not in front_file.read_text()
+    # By tape: a camera that is not ours (H3.6M's) is written in ours, its floor where the lens height puts it.
+    tape = tmp_path / "h36m-floor.json"
+    h36m = read_camera("h36m:S9:54138969")
+    assert main(["calibrate", "--floor-of", "h36m:S9:54138969", "--lens-height", f"{h36m.center[2] + 0.05:.6f}",
+                 "--out", str(tape)]) == 0
+    assert "floor lies 0.05 +/- 0.02 m below its z = 0" in capsys.readouterr().out
+    assert floor_z_of_camera_file(tape) == pytest.approx(-0.05, abs=1e-4)
+    np.testing.assert_allclose(read_camera(tape).R, h36m.R, atol=1e-12)
+    # Refused, one line naming the argument or the files, exit code 2, nothing written.
+    refused = tmp_path / "refused.json"
+    for arguments, why in (
+            (["--lens-height", "-1.5"], "positive number of metres, got -1.5 (--lens-height)"),
+            (["--lens-height", "40"], "more than 5 m"),
+            ([], "pass --lens-height M, or --keypoints FILE"),
+            (["--lens-height", "2", "--keypoints", str(keypoints[0])], "pass --lens-height M"),
+            (["--keypoints", str(keypoints[0]), "--with-camera", str(side_file), "--with-keypoints",
+              str(_keypoint_file(tmp_path / "later.json", {t: (f + 10_000, p) for t, (f, p) in side.items()}))],
+             "frame ids never coincide")):
+        assert main(["calibrate", "--floor-of", str(front_file), *arguments, "--out", str(refused)]) == 2
+        err = capsys.readouterr().err
+        assert why in err and len(err.strip().splitlines()) == 1, err
+    assert not refused.exists()

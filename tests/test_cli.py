@@ -21,6 +21,47 @@ def test_version_and_help(capsys):
         assert command in out
 
 
+def _help(command: str, capsys) -> dict[str, str]:
+    """``ray3d COMMAND --help``: {flag: its help text, on one line}."""
+    import re
+
+    try:
+        main([command, "--help"])
+    except SystemExit as exit_:
+        assert exit_.code == 0
+    flags, flag = {}, None
+    for line in capsys.readouterr().out.splitlines():
+        start = re.match(r"^  (--[a-z0-9-]+)", line)
+        if start:
+            flag = start.group(1)
+            flags[flag] = line[start.end():]
+        elif flag and line.startswith("      "):
+            flags[flag] += line
+    return {name: " ".join(text.split()) for name, text in flags.items()}
+
+
+def test_live_help_says_how_live_smooths_what_it_answers_and_what_smooth_3d_smooths(capsys):
+    """``ray3d live`` smooths its answers as they happen by One-Euro (``LIVE_SMOOTHING``), whatever --smooth-3d
+    says; --smooth-3d (default ``OUTPUT_SMOOTHING``), --smooth-2d, --flip-test and --no-refine shape only
+    world.csv, each person lifted again as they leave; live writes the world frame only."""
+    from ray3d.live.people import LIVE_SMOOTHING
+    from ray3d.temporal import OUTPUT_SMOOTHING, OneEuro
+
+    min_cutoff, beta = LIVE_SMOOTHING
+    assert OneEuro(*LIVE_SMOOTHING).min_cutoff == min_cutoff and OneEuro(*LIVE_SMOOTHING).beta == beta
+    live = _help("live", capsys)
+    smooth_3d = live["--smooth-3d"]
+    assert f"world.csv's joints in time, each person lifted again as they leave (default {OUTPUT_SMOOTHING})" \
+        in smooth_3d
+    assert f"always smoothed causally, by a One-Euro filter ({min_cutoff:g} Hz at rest, its cutoff {beta:g} Hz " \
+        "higher per m/s)" in smooth_3d
+    for flag in ("--smooth-2d", "--flip-test", "--no-refine"):
+        assert "world.csv only" in live[flag], flag
+    assert "camera" not in live["--frame"]
+    offline = _help("video", capsys)  # elsewhere the flags shape every output, as before
+    assert offline["--smooth-3d"].endswith(f"smooth the 3D output in time (default {OUTPUT_SMOOTHING})")
+    assert "world.csv" not in offline["--smooth-2d"] and "camera" in offline["--frame"]
+
 def test_console_script_entry_point():
     result = subprocess.run([sys.executable, "-m", "ray3d.cli", "--version"], capture_output=True, text=True,
                             timeout=120)

@@ -11,6 +11,7 @@ from ray3d import evaluate as evaluation
 from ray3d.cli import main
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import grid
+from ray3d.errors import InputError
 from ray3d.models.presets import preset
 
 
@@ -132,5 +133,5 @@ def test_refined_evaluation_lifts_each_clip_as_a_track(monkeypatch):
     trusting = evaluation.evaluate(Model(), motion, [camera], refine=RefineConfig(depth_sd=(1e-6, 0.0)))
     assert trusting["refine_config"]["depth_sd"] == (1e-6, 0.0)
     assert trusting["mrpe_mm"] > 0.9 * plain["mrpe_mm"]  # told the network's depth is exact, it keeps it
-    with pytest.raises(ValueError, match="RFRH predicts only the root"):
+    with pytest.raises(InputError, match="rfrh predicts only the root"):
         evaluation.evaluate("rfrh", motion, [camera], refine=True)

@@ -88,7 +88,8 @@ def test_frames_named_by_text_say_how_they_were_ordered(tmp_path):
     first appearance; the keypoints say which (issue 49), integer ids say nothing."""
     import json
 
-    from ray3d.io.keypoints import FRAME_ORDERS, read_keypoints
+    from ray3d.io.frame_names import FRAME_ORDERS
+    from ray3d.io.keypoints import read_keypoints
 
     person = [float(v) for j in range(17) for v in (100 + j, 200 + 3 * j, 0.9)]
 

@@ -150,3 +150,26 @@ def test_a_straight_walk_reads_its_own_velocity_centred_and_causal(vx, vy, fps, 
         assert np.all(moved[~moving] == 0) and np.all(span <= before + after + 1e-9)
     _, causal_span = velocity(times, points, window_s, 0.0)
     assert causal_span[0] == 0 and np.all(np.diff(causal_span) >= -1e-12)  # a causal window only grows, then holds
+
+
+def test_each_camera_of_a_job_is_lifted_with_its_own_options_and_their_floors_must_agree(tmp_path):
+    """Two keypoint files of one site: only the second camera's file says where the floor lies; that is the
+    site's floor for both (it was dropped when every camera took the first's options). Two files that place
+    one floor differently are refused, naming the argument."""
+    other = cameras.h36m("S9", "55011271")
+    walk = demo_clip()[:120]
+    np.savez(tmp_path / "one.npz", keypoints=CAMERA.project(walk), fps=50.0)
+    np.savez(tmp_path / "other.npz", keypoints=other.project(walk), fps=50.0)
+    files = []
+    for name, camera, floor_z in (("one", CAMERA, None), ("other", other, -0.1)):
+        document = camera.to_dict() if floor_z is None else {**camera.to_dict(), "floor_z_m": floor_z}
+        (tmp_path / f"{name}.json").write_text(json.dumps(document))
+        files.append(tmp_path / f"{name}.json")
+    job = Job((tmp_path / "one.npz", tmp_path / "other.npz"), tuple(CameraChoice(str(f)) for f in files))
+    done = run_job(job, tmp_path / "site.json", progress=False)
+    planes = [next(iter(r.world.tracks.values())).refinement["ankle_plane"] for r in done.inputs]
+    assert [(p["decision"], p["floor_z_m"]) for p in planes] == [("given", -0.1), ("given", -0.1)]
+    (tmp_path / "one.json").write_text(json.dumps({**CAMERA.to_dict(), "floor_z_m": 0.05}))
+    with pytest.raises(InputError, match="one floor") as refused:
+        run_job(job, tmp_path / "again.json", progress=False)
+    assert "floor_z" in refused.value.arguments

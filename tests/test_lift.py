@@ -89,6 +89,45 @@ def test_batches_and_tracks_share_one_world(lifter, camera):
     assert len(gappy.joints) == 7 and gappy.interpolated[3:5].all()
 
 
+def test_lift_with_frame_numbers_fills_the_gaps_as_lift_tracks_does(lifter, camera):
+    """One person's rows with the frame number of each: the frames skipped are filled in, and the result is
+    ``lift_tracks``' for the same detections; without frame numbers the rows are consecutive frames."""
+    pixels = camera.project(_walk(40))
+    numbers = np.array([*range(100, 112), *range(118, 140)])  # frames 112-117 missed: six frames
+    rows, scores = pixels[numbers - 100], np.random.default_rng(1).uniform(0.5, 1.0, (len(numbers), 17))
+    for confidences in (None, scores):
+        one = lifter.lift(rows, camera, confidences, fps=30.0, frames=numbers)
+        tracked = lifter.lift_tracks({5: (numbers, rows) if confidences is None else (numbers, rows, confidences)},
+                                     camera, fps=30.0)[5]
+        np.testing.assert_array_equal(one.frames, np.arange(100, 140))
+        np.testing.assert_array_equal(one.frames, tracked.frames)
+        np.testing.assert_array_equal(one.interpolated, tracked.interpolated)
+        assert one.interpolated[12:18].all() and not one.interpolated[:12].any()
+        np.testing.assert_allclose(one.joints, tracked.joints, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(one.position_sd, tracked.position_sd, rtol=0, atol=1e-9)
+    unbroken = lifter.lift(rows, camera, fps=30.0)  # as before: 34 consecutive frames
+    assert len(unbroken.joints) == len(rows) and not unbroken.interpolated.any()
+    np.testing.assert_array_equal(unbroken.frames, np.arange(len(rows)))
+    batch = lifter.lift(np.stack([rows, rows]), camera, fps=30.0, frames=np.stack([numbers, numbers]))
+    np.testing.assert_array_equal(batch[1].joints, one.joints)
+
+
+@pytest.mark.parametrize("frames, why", [
+    (np.arange(9), "keypoints' 10 rows"),                               # one short
+    (np.arange(20).reshape(10, 2), "keypoints' 10 rows"),               # not one number a row
+    ([0, 1, 2, 3, 4, 5, 6, 7, 8, 8], "must increase"),                  # a frame twice
+    ([0, 1, 2, 3, 4, 9, 6, 7, 8, 10], "must increase"),                 # out of order
+    (np.arange(10) + 0.5, "whole numbers"),
+    ([0, 1, 2, 3, 4, 5, 6, 7, 8, np.nan], "whole numbers"),
+    (["a"] * 10, "not numeric"),
+])
+def test_lift_refuses_frame_numbers_that_are_not_one_increasing_whole_number_a_row(lifter, camera, frames, why):
+    with pytest.raises(InputError, match=f"^frames: .*{why}") as refused:
+        lifter.lift(camera.project(_walk(10)), camera, frames=frames)
+    assert refused.value.arguments in ((), ("frames",))
+    with pytest.raises(InputError, match="^frames: "):
+        lifter.lift(camera.project(_walk(10))[None], camera, frames=np.arange(10))  # (B, T) for B sequences
+
 def test_chunks_give_the_same_results(lifter, camera):
     pixels = camera.project(_walk(500))
     whole = lifter.lift(pixels, camera, chunk=10_000).joints

@@ -263,7 +263,7 @@ def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answ
     for track, result in world.tracks.items():
         person = int(np.argmin(np.linalg.norm(people[result.frames[0], :, 0] - result.joints[0, 0], axis=-1)))
         offline = lifter.lift_tracks({0: (seen, detector.pixels[seen, person])}, CAMERA, "h36m17", world.fps,
-                                     seen_before=tuple(earlier), **LiftOptions().lift_arguments())
+                                     **LiftOptions(seen_before=tuple(earlier)).lift_arguments())
         expected = offline[0]  # at the stream's rate (played fast)
         earlier += [e for e in offline.evidence.values() if e is not None]
         np.testing.assert_allclose(result.joints, expected.joints, atol=2e-5)  # CSV keeps 5 decimals
@@ -281,20 +281,13 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     """Two cameras facing each other see the same two people: the events and the page are of two people (each
     crossing counted once), each camera writes its own world file, and the fused world has two tracks, each
     seen by both cameras, near the truth."""
-    from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import local_inputs, run_live_job
+    from ray3d.jobs.live import run_live_job
     from ray3d.live.runner import LiveOptions
 
     people = _scene()
-    facing = cameras.h36m("S9", "55011271")
     # Every frame processed (as from files read as fast as they are processed): what is tested is who is who
     # across the cameras, not keeping up, which a loaded machine may not (then a person's frames are dropped).
-    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", waits=True)
-               for c in (CAMERA, facing)]
-    job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)),
-              video=VideoOptions(min_track_s=0.5))
-    inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
-                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)])
+    job, inputs, _ = _two_cameras_facing(people)
     summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
                            LiveOptions(page=False))
     assert summary.ending == "ended" and summary.processed == summary.read == 2 * len(people)
@@ -349,6 +342,21 @@ def test_live_fusion_joins_a_hand_over_and_never_makes_one_person_of_two_a_camer
     for k in range(1000, 1005):  # somebody new, long after: a new id, never one of those gone
         later += [now.track for now in fusion.update(0, k / 10, [at(9, 0.0, 0.0)])]
     assert set(later) == {str(max(map(int, seen)) + 1)}
+
+
+def _two_cameras_facing(people: np.ndarray):
+    """A live job of two cameras facing each other over ``people`` (every frame waited for), its inputs and its
+    frame sources."""
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import local_inputs
+
+    facing = cameras.h36m("S9", "55011271")
+    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", waits=True)
+               for c in (CAMERA, facing)]
+    job = Job(tuple(s.name for s in sources), (CameraChoice(made=CAMERA), CameraChoice(made=facing)),
+              video=VideoOptions(min_track_s=0.5))
+    return job, local_inputs(job, SourceGroup(sources), [CAMERA, facing],
+                             [_ScriptedDetector(people, c) for c in (CAMERA, facing)]), sources
 
 
 @pytest.mark.parametrize("late_by", [0, 1, 2])
@@ -678,3 +686,82 @@ def test_each_live_camera_in_this_process_lifts_on_its_own_floor(tmp_path):
             view.finisher.close()
         for source in sources:
             source.close()
+
+
+def _lifted_people(finished: list) -> list[int]:
+    """How many people each lifted track's floor was found from (``ankle_plane.people``), in the order lifted."""
+    return [next(iter(f.world.tracks.values())).refinement["ankle_plane"]["people"] for f in finished]
+
+
+def test_the_cameras_of_a_live_run_lift_on_one_floor_from_all_their_people(tmp_path):
+    """Two cameras of one run (one world frame, one floor) pool what their people show of it
+    (``live.floor.FloorPool``): the second camera's lifts count the first camera's people too."""
+    people = _scene(20)
+    _, inputs, sources = _two_cameras_facing(people)
+    followed = inputs.followed
+    lifted = []
+    for view, source in zip(followed.views, sources):  # the first camera's people all lifted before the second's
+        done = [f for frame in iter(source.next, None) for f in view.process(frame).done]
+        lifted.append(done + view.finish()[1])
+    first, second = len(lifted[0]), len(lifted[1])
+    assert first >= 2 and second >= 2
+    assert _lifted_people(lifted[0]) == list(range(1, first + 1))
+    assert _lifted_people(lifted[1]) == list(range(first + 1, first + second + 1))  # on their own: 1, 2, ...
+    assert len(followed.floor.evidence()) == first + second
+    # Each lifted track brings its rays of the pelvis and ankles, to be crossed where the join finds two one.
+    floor = lifted[1][0].floor
+    assert floor.rays.shape == (len(floor.frames), 3, 3) and floor.seen.all() and len(floor.evidence) == 1
+
+
+def test_the_page_state_carries_each_cameras_floor_as_its_latest_lift_decided_it(tmp_path, monkeypatch):
+    """Once a person's track is lifted, the page's state (``/state``) says where its camera's people put the floor
+    and what was done with it, in one line (``AnklePlane.message``) and in numbers; the page draws the line."""
+    from importlib import resources
+
+    from ray3d.live.server import LiveBoard
+
+    published = []
+    publish = LiveBoard.publish
+    monkeypatch.setattr(LiveBoard, "publish", lambda board, snapshot: (published.append(snapshot),
+                                                                      publish(board, snapshot)))
+    people = _scene(50)
+    detector = _ScriptedDetector(people)
+    detector.unseen = {(frame, 1) for frame in range(10, 50)}  # the second person leaves early: lifted meanwhile
+    _run(tmp_path, people, fps=FPS, detector=detector)
+    assert published[0]["floor"] == []  # nobody lifted yet
+    floor = published[-1]["floor"]
+    assert [line["camera"] for line in floor] == [CAMERA.name] and floor[0]["people"] == 1
+    from ray3d.refine.ankle_plane import AnklePlane
+
+    lifted_first = next(iter(read_world(tmp_path / "live" / "world.csv").tracks.values()))  # the one who left
+    plane = AnklePlane.from_summary(lifted_first.refinement["ankle_plane"])
+    assert floor[0]["line"] == plane.message(CAMERA.name) and CAMERA.name in floor[0]["line"]
+    assert floor[0]["decision"] == plane.decision and floor[0]["chance_off"] == pytest.approx(plane.chance_off,
+                                                                                               abs=1e-3)
+    assert floor[0]["observed_sd_m"] > 0 and abs(floor[0]["observed_m"]) < 0.5
+    page = resources.files("ray3d").joinpath("assets", "live.html").read_text()
+    assert 'id="floor"' in page and "state.floor" in page
+
+
+def test_two_cameras_tracks_joined_as_one_person_are_crossed_once_both_are_lifted_whichever_comes_first():
+    """``live.floor.JoinedAnkles``: a person two cameras saw at once, their ankle keypoints 0.1 m up (the detector's
+    planted ankle), is the floor itself at 0 once both tracks are lifted, the join decided before or after."""
+    from ray3d.live.floor import JoinedAnkles, TrackFloor
+
+    frames = np.arange(20)  # 2 s at 10 frames/s
+    standing = np.array([[0.0, 0.0, 0.95], [0.1, 0.0, 0.1], [-0.1, 0.0, 0.1]])  # pelvis, ankles
+
+    def lifted(centre) -> TrackFloor:
+        rays = np.repeat((standing - centre)[None], len(frames), axis=0).astype(np.float32)
+        return TrackFloor((), "h36m17", 0.1, np.array(centre), frames, rays, np.ones((len(frames), 3), bool), FPS)
+
+    first, second = lifted([4.0, 0.0, 2.5]), lifted([0.0, 4.0, 2.5])
+    joins = JoinedAnkles(lambda view, frames: frames)
+    assert joins.joined([(0, "a"), (1, "b")]) == [] and joins.lifted(0, "a", first) == []
+    [(crossing, pair)] = joins.lifted(1, "b", second)
+    assert pair == (0, 1) and crossing.height_m == pytest.approx(0.0, abs=1e-5) and crossing.seconds == 2.0
+    assert joins.lifted(0, "c", first) == [] and joins.lifted(1, "d", second) == []
+    assert [pair for _, pair in joins.joined([(0, "c"), (1, "d")])] == [(0, 1)]
+    assert joins.lifted(0, "e", first) == [] and joins.joined([(0, "e")]) == []  # one camera's alone: nothing
+    assert joins.lifted(1, "f", None) == [] and joins.joined([(0, "g"), (1, "f")]) == []
+    assert joins.lifted(0, "g", first) == []  # its other camera's track gave no rays (too short, say)

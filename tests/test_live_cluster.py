@@ -94,6 +94,38 @@ def test_each_camera_in_a_ray_actor_gives_the_world_of_the_run_in_this_process(t
     assert sum(e["event"] == "track started" for e in events) == sum(e["event"] == "track ended" for e in events) == 2
 
 
+def test_the_camera_actors_of_a_ray_run_share_one_floor_pool_through_an_actor_of_its_own():
+    """Each camera's lifts run in its own actor: the run's floor pool (``live.floor.FloorPool``) is an actor that
+    every camera worker and the run's loop reach (``RemoteFloorPool``), so what one camera's people showed is in
+    another camera's next lift; once the pool is gone (the run ending) it gives and takes nothing."""
+    from ray3d.live.cluster import RemoteFloorPool
+    from ray3d.live.floor import FloorPool
+    from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence
+
+    if ray.is_initialized():
+        ray.shutdown()
+    ray.init(num_cpus=1, include_dashboard=False)
+    try:
+        pool = RemoteFloorPool(ray.remote(num_cpus=0)(FloorPool).remote())
+
+        @ray.remote(num_cpus=0)
+        def camera_lifts(pool, evidence):  # as a camera worker's Finisher: what is pooled, then its own added
+            seen = pool.evidence()
+            pool.add(evidence)
+            return seen
+
+        earlier, first, second = SizeEvidence(2.0, -0.2, 1.0), SizeEvidence(2.5, -0.4, 2.0), SeenTwice(0.0, 0.02, 1.0)
+        pool.remember((earlier,))
+        assert ray.get(camera_lifts.remote(pool, (first,))) == (earlier,)
+        assert ray.get(camera_lifts.remote(pool, (second,))) == (earlier, first)
+        assert pool.evidence() == (earlier, first, second)
+        ray.kill(pool.actor)
+        pool.add((first,))
+        assert pool.evidence() == ()
+    finally:
+        ray.shutdown()
+
+
 def test_a_camera_actor_killed_mid_stream_is_started_again_and_its_stream_goes_on(tmp_path, scene):
     people, video = scene
     job = _job(video, people)

@@ -2,7 +2,8 @@
 (nothing overwritten, ids apart, the gap between them recorded) and ``ray3d site --store`` reports over both; two
 cameras on one walk count exactly what one counts; a stream served over RTSP that goes down three times is
 reopened three times, each gap recorded, nobody counted across one; events on MQTT, in order, the occupancy
-retained and the zones and lines announced to Home Assistant; --until; and no image anywhere."""
+retained and the zones and lines announced to Home Assistant; a run killed outright closed by its restart, the
+counts on MQTT going on; --until; and no image anywhere."""
 
 from __future__ import annotations
 
@@ -18,21 +19,21 @@ import pytest
 from ray3d.io.world import read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup
-from ray3d.site import Site
+from ray3d.site import Site, Zone
 from ray3d.store import RunRecorder, read_record
 
 from browser import CHROMIUM, console_errors
 from services import RtspStream, mosquitto_broker, needs_rtsp
-from test_live import CAMERA, DOOR, FPS, ROOM, _frames, _scene, _ScriptedDetector
+from test_live import ACROSS, CAMERA, DOOR, FPS, LOOKING, ROOM, SPOT, _frames, _scene, _ScriptedDetector
 
 FIXTURES = Path(__file__).parent / "fixtures"
 
 
 def _live(out: Path, people: np.ndarray, views=(CAMERA,), site: Site = Site((ROOM,), (DOOR,)), store=None,
-          mqtt=None, start=None, **options):
+          mqtt=None, start=None, frame_sleep_s: float = 0.0, **options):
     """A live job over the scene as each camera of ``views`` sees it (every frame processed, faster than the
-    clock: ``start``, a datetime, places its frame 0), recorded to ``store`` (default OUT/site.db): its summary
-    and its recorder."""
+    clock unless each frame comes ``frame_sleep_s`` after the last: ``start``, a datetime, places its frame 0),
+    recorded to ``store`` (default OUT/site.db): its summary and its recorder."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job, start_record
     from ray3d.live.runner import LiveOptions
@@ -40,7 +41,7 @@ def _live(out: Path, people: np.ndarray, views=(CAMERA,), site: Site = Site((ROO
     names = tuple(f"scene from {c.name} ({k + 1})" for k, c in enumerate(views))
     job = Job(names, tuple(CameraChoice(made=c) for c in views), video=VideoOptions(min_track_s=0.5))
     recorder = start_record(job, store or out / "site.db", "test", site, start)
-    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, name, waits=True)
+    sources = [FrameSource(_frames(len(people), frame_sleep_s, people=people, camera=c), FPS, name, waits=True)
                for c, name in zip(views, names)]
     inputs = local_inputs(job, SourceGroup(sources), list(views), [_ScriptedDetector(people, c) for c in views],
                           recorder.id_prefix)
@@ -89,6 +90,15 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
     assert (out / "world.csv").read_text().startswith(world_before)
     assert set(read_world(out / "world.csv").tracks) == {"1-0", "1-1", "2-0", "2-1"}
     assert (out / "run2" / "site" / "report.html").exists()  # the second run's report beside the first's
+    # Each run's report is of its own people, and says so, naming the store's report over every run.
+    import csv
+
+    for run, folder in ((1, out / "site"), (2, out / "run2" / "site")):
+        with (folder / "tracks.csv").open() as handle:
+            assert {row["track"] for row in csv.DictReader(handle)} == {f"{run}-0", f"{run}-1"}
+        said = (folder / "README.txt").read_text()
+        assert f"covers run {run} of the store {out / 'site.db'} only: its 2 people" in said
+        assert f"ray3d site --store {out / 'site.db'} --site SITE" in said
     record = read_record(out / "site.db")
     assert len(record.events) == len(both) and [r["ending"] for r in record.runs] == ["ended", "ended"]
     assert [g["why"] for g in record.gaps] == ["the service was down"]
@@ -98,12 +108,13 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
                                 "lines": [{"name": "door", "start": DOOR.start.tolist(), "end": DOOR.end.tolist()}]}))
     assert main(["site", "--store", str(out / "site.db"), "--site", str(site), "--out", str(tmp_path / "report"),
                  "--every", "1s"]) == 0
-    said = capsys.readouterr().out
+    said = capsys.readouterr()
+    assert [line for line in said.err.splitlines() if line.startswith("note: camera")]  # the floor its runs decided
+    said = said.out
     crossings = _counts(both)
     assert f"line door: {crossings[('line crossed', 'door', 'forward')]} forward, " \
            f"{crossings[('line crossed', 'door', 'back')]} back" in said
     assert "over 2 run(s); 1 gap(s) in the record" in said
-    import csv
 
     with (tmp_path / "report" / "by-time.csv").open() as handle:
         buckets = list(csv.DictReader(handle))
@@ -123,7 +134,7 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
                                  "lines": [{"name": "door", "start": DOOR.start.tolist(), "end": DOOR.end.tolist()}]}))
     assert main(["site", "--store", str(out / "site.db"), "--site", str(other), "--out", str(tmp_path / "hall")]) == 0
     said = capsys.readouterr()
-    assert said.err.strip().splitlines() == ["note: zone 'hall': no run of the record followed it; its entries and "
+    assert [line for line in said.err.strip().splitlines() if "zone" in line] == ["note: zone 'hall': no run of the record followed it; its entries and "
                                              "exits are not in it (its occupancy and heat map come from the "
                                              "positions)"]
     assert "zone hall: 0 entries, 0 exits" in said.out
@@ -198,7 +209,7 @@ def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_ho
     import jsonschema
     import paho.mqtt.client as mqtt
 
-    from ray3d.live.mqtt import MqttPublisher, sensors
+    from ray3d.live.mqtt import MqttPublisher, announcements
 
     with mosquitto_broker() as port:
         received: list[tuple[str, bytes, bool]] = []
@@ -224,6 +235,12 @@ def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_ho
         events = _lines(tmp_path / "live" / "events.jsonl")
         on_the_bus = [json.loads(payload) for topic, payload, _ in received if topic == "site/event"]
         assert on_the_bus == events and publisher.published == len(events) and publisher.dropped == 0
+        # What Home Assistant automates on: each crossing and visit again on its place's topic, with its type.
+        on_the_line = [json.loads(payload) for topic, payload, _ in received if topic == "site/line/door/crossing"]
+        assert on_the_line == [{"event_type": e["direction"], **e} for e in events if e["event"] == "line crossed"]
+        visits = [json.loads(payload) for topic, payload, _ in received if topic == "site/zone/room/event"]
+        assert visits == [{"event_type": e["event"].split()[1], **e} for e in events
+                          if e["event"] in ("zone entered", "zone left")] and visits
         # a subscriber arriving later reads the state at once: retained
         received.clear()
         late = subscriber()
@@ -234,15 +251,33 @@ def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_ho
         crossings = _counts(events)
         assert retained["site/zone/room/occupancy"] == "0"  # everybody gone at the end
         assert retained["site/line/door/forward"] == str(crossings[("line crossed", "door", "forward")])
+        assert retained["site/zone/room/exits"] == str(crossings.get(("zone left", "room"), 0))
         assert retained["site/status"] == "offline"  # the run ended
-        schema = json.loads((FIXTURES / "ha_mqtt_sensor.schema.json").read_text())
         announced = {topic: json.loads(payload) for topic, payload in retained.items()
                      if topic.startswith("homeassistant/")}
-        assert announced == dict(sensors(site, "site")) and len(announced) == 4
+        # room: occupancy, entries, exits and its events; door: each way and its crossings; the site's falls
+        assert announced == dict(announcements(site, "site")) and len(announced) == 8
         for topic, payload in announced.items():
-            assert re.fullmatch(r"homeassistant/sensor/[A-Za-z0-9_-]+/[A-Za-z0-9_-]+/config", topic)
-            jsonschema.validate(payload, schema)
-            assert payload["state_topic"] in retained
+            component = re.fullmatch(r"homeassistant/(sensor|event)/[A-Za-z0-9_-]+/[A-Za-z0-9_-]+/config", topic)[1]
+            jsonschema.validate(payload, json.loads((FIXTURES / f"ha_mqtt_{component}.schema.json").read_text()))
+            if component == "sensor":
+                assert payload["state_topic"] in retained
+        assert {p["state_topic"]: p["event_types"] for t, p in announced.items() if "/event/" in t} == {
+            "site/line/door/crossing": ["forward", "back"], "site/fall": ["fall"],
+            "site/zone/room/event": ["entered", "left", "occupancy_above_limit", "dwell_above_limit"]}
+
+
+def test_names_become_topics_by_one_rule_and_two_that_would_share_one_are_refused():
+    from ray3d import InputError
+    from ray3d.live.mqtt import MqttPublisher, topic_name
+    from ray3d.site import CountingLine
+
+    assert topic_name("line A (middle)") == "line_A_middle" and topic_name("Caisse n°2") == "Caisse_n_2"
+    assert topic_name("east-junction") == "east-junction" and topic_name("(?)") == "unnamed"
+    twins = Site((), (CountingLine("line A", DOOR.start, DOOR.end), CountingLine("line_A", DOOR.end, DOOR.start)))
+    with pytest.raises(InputError, match=r"mqtt: lines 'line A' and 'line_A' would share the topic "
+                                         r"shop/line/line_A; rename one \(argument: site\)"):
+        MqttPublisher("mqtt://127.0.0.1:1/shop", twins)
 
 
 def test_a_broker_that_is_down_never_holds_up_the_stream():
@@ -401,3 +436,151 @@ def test_the_same_live_run_gives_the_same_store_and_report_on_postgresql_as_on_s
     assert len(on_postgresql.events) > 4 and len(on_postgresql.positions["at"]) > 4
     for table in ("places.csv", "events.csv", "people.csv", "gaps.csv", "by-time.csv"):
         assert (tmp_path / "report-lite" / table).read_text() == (tmp_path / "report-postgres" / table).read_text()
+
+
+def _people_counted(out: Path) -> list[int]:
+    """How many people each of a run's tracks had its floor found from (``ankle_plane.people``), in order."""
+    return sorted(t.refinement["ankle_plane"]["people"] for t in read_world(out / "world.csv").tracks.values())
+
+
+def test_a_live_run_starts_on_what_earlier_runs_showed_of_its_cameras_floor_where_the_camera_stands(tmp_path):
+    """The store remembers what each camera's people showed of its floor (issue 66): a second run on it lifts its
+    first person with the first run's people too; the same camera moved 5 cm (recalibrated) starts afresh, and
+    ``ray3d site --store``'s floor is that of the camera as it stands now."""
+    from ray3d.store import floor_decisions
+
+    people, store = _scene(), tmp_path / "site.db"
+    _live(tmp_path / "first", people, store=store)
+    first = _people_counted(tmp_path / "first")
+    assert first == list(range(1, len(first) + 1)) and len(first) >= 2
+    assert floor_decisions(store)[CAMERA.name].people == len(first)
+    _live(tmp_path / "second", people, store=store)
+    assert _people_counted(tmp_path / "second") == [n + len(first) for n in first]
+    moved = CAMERA.with_origin_at_height(-0.05)  # the same camera's name, its centre 5 cm higher
+    _live(tmp_path / "moved", people, views=(moved,), store=store)
+    again = _people_counted(tmp_path / "moved")
+    assert again == list(range(1, len(again) + 1))
+    decided = floor_decisions(store)
+    assert list(decided) == [CAMERA.name] and decided[CAMERA.name].people == len(again)
+    from ray3d import body  # for the keypoints the store knows the camera's detector gives
+
+    assert decided[CAMERA.name].contact_m == pytest.approx(body.keypoint_source("h36m17").planted_ankle_m)
+
+
+def test_two_cameras_cross_the_ankles_of_the_people_they_both_see_into_the_floor_they_share(tmp_path):
+    """Where the live join decides that two cameras' tracks are one person, their ankle keypoints' rays are
+    crossed (``refine.ankle_plane.seen_twice``): the floor itself (the keypoints' planted-ankle height taken off)
+    within 2 cm of the scene's, kept in the store under each camera and counted in its decision."""
+    import sqlite3
+
+    from ray3d import cameras
+    from ray3d.store import floor_decisions
+
+    facing = cameras.h36m("S9", "55011271")
+    _live(tmp_path / "two", _scene(), views=(CAMERA, facing))
+    joined = (tmp_path / "two" / "joined.jsonl").read_text().splitlines()
+    with sqlite3.connect(tmp_path / "two" / "site.db") as connection:
+        rows = connection.execute("SELECT camera, height_m, sd_m FROM floor_evidence WHERE kind = 'ankles'").fetchall()
+    assert len(rows) == 2 * len(joined) and len(joined) == 2  # each person under each camera
+    assert sorted(camera for camera, _, _ in rows) == sorted([CAMERA.name, facing.name] * 2)
+    assert all(abs(height) < 0.02 and 0 < sd < 0.1 for _, height, sd in rows)  # about 5 mm off
+    decided = floor_decisions(tmp_path / "two" / "site.db")
+    assert {camera: plane.seen_twice for camera, plane in decided.items()} == {CAMERA.name: 2, facing.name: 2}
+
+
+# A zone both people are in around the middle of their walk (the door line lies beside it).
+MIDDLE = Zone("middle", np.array([SPOT + a * ACROSS + b * LOOKING for a, b in ((-0.8, -3), (0.3, -3), (0.3, 3),
+                                                                               (-0.8, 3))]))
+KILLED_LIVE = """
+import sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+from test_live_site import MIDDLE, _live
+from test_live import DOOR, ROOM, _scene
+from ray3d.live.mqtt import MqttPublisher
+from ray3d.site import Site
+site = Site((ROOM, MIDDLE), (DOOR,))
+_live(Path(sys.argv[2]), _scene(), site=site, mqtt=MqttPublisher(sys.argv[3], site), frame_sleep_s=0.2)
+"""
+
+
+def _whole_lines(path: Path) -> list[dict]:
+    """The events of a log being written: its whole lines."""
+    text = path.read_text() if path.exists() else ""
+    return [json.loads(line) for line in text[:text.rfind("\n") + 1].splitlines()]
+
+
+def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts_go_on(tmp_path):
+    """SIGKILL while two people are in view, one in a zone, after a crossing; the same run again: every "track
+    started" in the store has its "track ended" (the killed run's people ended at its last commit, "the service
+    stopped", their visits left), in the store and events.jsonl; the counts on MQTT go on from the store's."""
+    import signal
+    import subprocess
+    import sys
+
+    import paho.mqtt.client as mqtt
+
+    from ray3d.live.mqtt import MqttPublisher
+
+    out, site = tmp_path / "live", Site((ROOM, MIDDLE), (DOOR,))
+    with mosquitto_broker() as port:
+        url = f"mqtt://127.0.0.1:{port}/site"
+        with (tmp_path / "stderr").open("w") as stderr:
+            first = subprocess.Popen([sys.executable, "-c", KILLED_LIVE, str(Path(__file__).parent), str(out), url],
+                                     stdout=subprocess.DEVNULL, stderr=stderr)
+        try:
+            deadline = time.monotonic() + 300
+            while True:  # until a crossing is counted and somebody is in the middle zone
+                assert first.poll() is None and time.monotonic() < deadline, (tmp_path / "stderr").read_text()
+                events = _whole_lines(out / "events.jsonl")
+                inside = _counts([e for e in events if e.get("zone") == "middle"])
+                if any(e["event"] == "line crossed" for e in events) and \
+                        inside.get(("zone entered", "middle"), 0) > inside.get(("zone left", "middle"), 0):
+                    break
+                time.sleep(0.05)
+            time.sleep(0.6)  # the store's commit of it
+            first.send_signal(signal.SIGKILL)
+        finally:
+            first.kill()
+            first.wait()
+        logged = _whole_lines(out / "events.jsonl")
+        before = read_record(out / "site.db")
+        started = {e["track"] for e in before.events if e["event"] == "track started"}
+        open_tracks = started - {e["track"] for e in before.events if e["event"] == "track ended"}
+        open_visits = {(e["track"], e["zone"]) for e in before.events if e["event"] == "zone entered"} - \
+            {(e["track"], e["zone"]) for e in before.events if e["event"] == "zone left"}
+        assert open_tracks == {"1-0", "1-1"} and ("middle" in {zone for _, zone in open_visits})
+
+        _, recorder = _live(out, _scene(), site=site, mqtt=MqttPublisher(url, site))  # the service restarted
+        closed = recorder.closed
+        assert {e["track"] for e in closed if e["event"] == "track ended"} == open_tracks
+        assert {(e["track"], e["zone"]) for e in closed if e["event"] == "zone left"} == open_visits
+        assert all(e["reason"] == "the service stopped" for e in closed)
+        record = read_record(out / "site.db")
+        ends = [e["track"] for e in record.events if e["event"] == "track ended"]
+        assert sorted(ends) == sorted(e["track"] for e in record.events if e["event"] == "track started")
+        assert {"2-0", "2-1"} <= set(ends) and [r["ending"] for r in record.runs] == ["cut off", "ended"]
+        # events.jsonl: what the killed run wrote, then what closed it, then the new run's
+        after = _lines(out / "events.jsonl")
+        assert after[:len(logged)] == logged and after[len(logged):len(logged) + len(closed)] == closed
+        assert {e["track"][:2] for e in after[len(logged) + len(closed):]} == {"2-"}
+
+        # MQTT: the counts over both runs, as the store's report counts them, not the second run's alone
+        received: dict[str, str] = {}
+        late = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        late.on_message = lambda c, u, message: received.update({message.topic: message.payload.decode()})
+        late.connect("127.0.0.1", port)
+        late.subscribe("site/#", 1)
+        late.loop_start()
+        time.sleep(1.0)
+        late.loop_stop()
+        late.disconnect()
+    counted, second = _counts(record.events), _counts([e for e in record.events if e["run"] == 2])
+    for direction in ("forward", "back"):
+        assert received[f"site/line/door/{direction}"] == str(counted.get(("line crossed", "door", direction), 0))
+    assert sum(n for key, n in counted.items() if key[0] == "line crossed") > \
+        sum(n for key, n in second.items() if key[0] == "line crossed")  # the killed run's crossings go on counting
+    for zone in ("middle", "room"):
+        assert received[f"site/zone/{zone}/entries"] == str(counted.get(("zone entered", zone), 0))
+        assert received[f"site/zone/{zone}/exits"] == str(counted.get(("zone left", zone), 0))
+    assert received["site/zone/middle/exits"] != str(second.get(("zone left", "middle"), 0))

@@ -56,8 +56,10 @@ def test_the_command_line_names_the_flags_of_a_camera_given_twice(tmp_path, caps
 def test_lift_options_are_checked_once_and_say_none_as_none():
     assert LiftOptions(smooth_2d="none", smooth_3d="none").lift_arguments() == {
         "smooth_2d": None, "smooth_3d": None, "flip_test": False, "refine": True, "floor": FLAT_FLOOR,
-        "floor_z": None}
+        "floor_z": None, "seen_before": ()}
     assert LiftOptions().smooth_3d == "savgol" and LiftOptions().frame == "world"
+    with pytest.raises(InputError, match="seen_before: SizeEvidence and SeenTwice"):
+        LiftOptions(seen_before=[0.1])
     with pytest.raises(InputError, match="smooth_3d: unknown smoothing 'kalman'"):
         LiftOptions(smooth_3d="kalman")
     with pytest.raises(InputError, match="frame must be one of world, camera"):

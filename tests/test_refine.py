@@ -215,6 +215,11 @@ def test_a_detectors_ankle_stands_higher_than_the_mocaps():
     assert RefineConfig.for_model({}, "h36m17").contact_ankle_height_m == body.PLANTED_ANKLE_HEIGHT_M
     assert body.DETECTOR_PLANTED_ANKLE_HEIGHT_M > body.PLANTED_ANKLE_HEIGHT_M
     assert RefineConfig.for_model({}, "coco17", contact_ankle_height_m=0.1).contact_ankle_height_m == 0.1
+    # Each detector's ankle rays meet a planted foot at its own height, which the floor's evidence is read against.
+    assert RefineConfig.for_model({}, "blazepose33").keypoint_ankle_height_m == body.KEYPOINT_SOURCES[
+        "blazepose33"].planted_ankle_m == 0.149
+    assert RefineConfig.for_model({}, "h36m17").keypoint_ankle_height_m == body.PLANTED_ANKLE_HEIGHT_M
+    assert RefineConfig.for_model({}, "body25").keypoint_ankle_height_m < body.DETECTOR_PLANTED_ANKLE_HEIGHT_M
 
 
 def test_frames_the_network_put_at_the_camera_follow_their_neighbours():

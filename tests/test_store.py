@@ -54,7 +54,8 @@ def test_a_run_is_read_back_as_written(tmp_path):
     store = tmp_path / "site.db"
     recorder = _one_run(store)
     record = read_record(store)
-    assert recorder.run == 1 and recorder.written == {"events": 2, "positions": 3, "people": 1, "gaps": 1}
+    assert recorder.run == 1 and recorder.written == {"events": 2, "positions": 3, "people": 1, "gaps": 1,
+                                                      "floor": 0}
     assert [e["event"] for e in record.events] == ["track started", "track ended"]
     assert record.events[1]["at"] == pytest.approx(1_000_000.0 + 2.9) and record.events[0]["track"] == "1-0"
     # one position per whole second of stream time: frames 0, 10 and 20
@@ -138,22 +139,91 @@ def test_the_schema_version_is_kept_a_newer_store_refused_and_an_older_migrated(
         assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == (
             str(schema.SCHEMA_VERSION),)
         connection.execute("UPDATE store_meta SET value = '99' WHERE name = 'schema_version'")
-    with pytest.raises(InputError, match=r"schema version 99, written by a newer ray3d \(this one reads up to 1\)"):
+    with pytest.raises(InputError, match=r"schema version 99, written by a newer ray3d \(this one reads up to "
+                                         rf"{schema.SCHEMA_VERSION}\)"):
         read_record(store)
+    now = schema.SCHEMA_VERSION
     with sqlite3.connect(store) as connection:
-        connection.execute("UPDATE store_meta SET value = '1' WHERE name = 'schema_version'")
-    # A version 2 that adds a column: a version 1 store is migrated, its record kept.
-    monkeypatch.setattr(schema, "SCHEMA_VERSION", 2)
-    monkeypatch.setattr(schema, "MIGRATIONS", {1: ("ALTER TABLE people ADD COLUMN note TEXT",)})
+        connection.execute("UPDATE store_meta SET value = ? WHERE name = 'schema_version'", (str(now),))
+    # A next version that adds a column: a store of this one is migrated, its record kept.
+    monkeypatch.setattr(schema, "SCHEMA_VERSION", now + 1)
+    monkeypatch.setattr(schema, "MIGRATIONS", {**schema.MIGRATIONS, now: ("ALTER TABLE people ADD COLUMN note TEXT",)})
     from ray3d.store import database
 
-    monkeypatch.setattr(database, "SCHEMA_VERSION", 2)
+    monkeypatch.setattr(database, "SCHEMA_VERSION", now + 1)
     monkeypatch.setattr(database, "MIGRATIONS", schema.MIGRATIONS)
     record = read_record(store)
     assert len(record.events) == 2
     with sqlite3.connect(store) as connection:
-        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("2",)
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == (
+            str(now + 1),)
         assert "note" in [row[1] for row in connection.execute("PRAGMA table_info(people)")]
+
+
+HALL, DOOR = np.array([1.0, 2.0, 2.5]), np.array([6.0, 2.0, 1.2])  # two cameras' centres
+
+
+def _floor_run(store, cameras: dict, ankles=()) -> RunRecorder:
+    """A run whose cameras ({name: (centre, their people's SizeEvidence)}) saw ``ankles`` (SeenTwice) at once."""
+    recorder = RunRecorder(store, "ray3d live", list(cameras), [False] * len(cameras))
+    for name, (centre, people) in cameras.items():
+        recorder.floor(name, centre, people, "coco17")
+        recorder.floor(name, centre, ankles)  # a person two cameras saw is each camera's evidence
+    recorder.close("ended")
+    return recorder
+
+
+def test_what_each_cameras_people_showed_of_the_floor_is_kept_run_after_run_where_the_camera_stands(tmp_path):
+    from ray3d import body
+    from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence, observe_ankle_plane
+    from ray3d.store import floor_decisions
+    from ray3d.store.reader import remembered_floor
+
+    store = tmp_path / "site.db"
+    hall = tuple(SizeEvidence(2.5, float(np.log(1.6 / 2.5)) + d, 3.0) for d in (-0.05, 0.0, 0.05))
+    door = (SizeEvidence(1.2, float(np.log(1.6 / 1.2)), 2.0),)
+    twice = SeenTwice(0.02, 0.03, 1.5)
+    first = _floor_run(store, {"hall": (HALL, hall), "door": (DOOR, door)}, (twice,))
+    assert first.written["floor"] == len(hall) + len(door) + 2
+    # A later run starts on it, where each camera stands (within 1 cm); the person seen by both counted once.
+    assert set(remembered_floor(store, [("hall", HALL + [0.005, 0, 0])])) == {*hall, twice}
+    both = remembered_floor(store, [("hall", HALL), ("door", DOOR)])
+    assert len(both) == 5 and set(both) == {*hall, *door, twice}
+    assert remembered_floor(store, [("door", DOOR + [0, 0, 0.02])]) == ()  # moved 2 cm: another calibration
+    assert remembered_floor(store, [("hall", HALL)], kept=1) != () and len(remembered_floor(
+        store, [("hall", HALL)], kept=1)) == 2  # the latest of each kind
+    # ``ray3d site --store``: each camera's floor from all its runs, for its detector's keypoints.
+    source = body.keypoint_source("coco17")
+    decided = floor_decisions(store)
+    assert list(decided) == ["door", "hall"]
+    expected = observe_ankle_plane(list(hall), 0.0, source.planted_ankle_sd_m, body.ADULT_BODY_SIZE_M,
+                                   source.read_size_sd, (twice,)).standing(source.planted_ankle_m)
+    assert decided["hall"] == expected and decided["hall"].people == 3 and decided["hall"].seen_twice == 1
+    assert "hall" in decided["hall"].message("hall")
+    # The door moved: from its next run on, only what it showed where it stands now.
+    _floor_run(store, {"door": (DOOR + [0.5, 0, 0], door * 2)})
+    assert floor_decisions(store)["door"].people == 2 and floor_decisions(store)["door"].seen_twice == 0
+    assert floor_decisions(store)["hall"] == expected
+
+
+def test_an_older_store_without_the_floor_table_opens_and_gains_it(tmp_path):
+    from ray3d.refine.ankle_plane import SizeEvidence
+    from ray3d.store import floor_decisions
+
+    store = tmp_path / "site.db"
+    _one_run(store)
+    with sqlite3.connect(store) as connection:  # as version 1 left it
+        connection.execute("DROP TABLE floor_evidence")
+        connection.execute("UPDATE store_meta SET value = '1' WHERE name = 'schema_version'")
+    assert len(read_record(store).events) == 2 and floor_decisions(store) == {}
+    again = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False])
+    assert again.remembered_floor([("cam", HALL)]) == ()
+    again.floor("cam", HALL, (SizeEvidence(2.5, -0.4, 2.0),), "h36m17")
+    again.close("ended")
+    with sqlite3.connect(store) as connection:
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == (
+            str(schema.SCHEMA_VERSION),)
+    assert floor_decisions(store)["cam"].people == 1 and len(read_record(store).runs) == 2
 
 
 def test_what_is_not_a_store_is_refused_in_one_line(tmp_path, capsys):
@@ -188,6 +258,16 @@ def test_the_same_run_gives_the_same_record_on_postgresql_as_on_sqlite(tmp_path)
         # two processes' runs on one PostgreSQL site: numbered apart
         again = _one_run(url, source="other.avi")
         assert again.run == 2 and {e["track"] for e in read_record(url).events} == {"1-0", "2-0"}
+        # what the cameras' people showed of the floor: the same decision from either
+        from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence
+        from ray3d.store import floor_decisions
+
+        seen = {"hall": (HALL, (SizeEvidence(2.5, -0.45, 3.0), SizeEvidence(2.5, -0.5, 2.0))),
+                "door": (DOOR, (SizeEvidence(1.2, 0.3, 2.0),))}
+        for location in (tmp_path / "floor.db", url):
+            _floor_run(location, seen, (SeenTwice(0.02, 0.03, 1.5),))
+        assert floor_decisions(url) == floor_decisions(tmp_path / "floor.db")
+        assert floor_decisions(url)["hall"].people == 2 and floor_decisions(url)["hall"].seen_twice == 1
 
 
 def test_no_password_of_a_stream_or_a_database_is_recorded_or_said(tmp_path):
@@ -208,3 +288,158 @@ def test_no_password_of_a_stream_or_a_database_is_recorded_or_said(tmp_path):
     again.close("ended")
     assert b"s3cret" not in b"".join(path.read_bytes() for path in tmp_path.iterdir())
     assert read_record(tmp_path / "site.db").gaps[0]["camera"] == "rtsp://admin@cam.local/live"
+
+
+HOLDER = textwrap.dedent("""
+    import sys, time
+    from ray3d.store import RunRecorder
+    recorder = RunRecorder(sys.argv[1], "the first service", ["rtsp://cam"], [False])
+    print("writing", flush=True)
+    time.sleep(600)
+""")
+
+
+def _one_writer_at_a_time(store, tmp_path) -> None:
+    """A second recorder on ``store`` refused while a first (in this process, then in another one) writes it,
+    naming the first; once that process is killed outright, the store opens at once."""
+    import os
+    import re
+    import socket
+
+    first = RunRecorder(store, "the first service", ["rtsp://cam"], [False])
+    started = r"started \d{4}-\d\d-\d\dT\d\d:\d\d:\d\d[+-]\d\d:\d\d"
+    with pytest.raises(InputError, match=rf"store: .+: ray3d live \(pid {os.getpid()} on "
+                                         rf"{re.escape(socket.gethostname())}, {started}\) writes it; one process "
+                                         "writes a store at a time"):
+        RunRecorder(store, "the second", ["rtsp://cam"], [False])
+    assert [r["command"] for r in read_record(store).runs] == ["the first service"]  # nothing of the second
+    first.close("ended")
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(store)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "writing"
+        with pytest.raises(InputError, match=rf"\(pid {holder.pid} on "):
+            RunRecorder(store, "while it writes", ["rtsp://cam"], [False])
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+        if str(store).startswith("postgresql://"):  # the server notices the connection gone
+            time.sleep(0.5)
+        opened = time.monotonic()
+        again = RunRecorder(store, "restarted", ["rtsp://cam"], [False])  # not blocked by the killed one's lock
+        assert time.monotonic() - opened < 2.0
+        again.close("ended")
+    finally:
+        if holder.poll() is None:
+            holder.kill()
+            holder.wait()
+    assert [r["command"] for r in read_record(store).runs] == ["the first service", "the first service", "restarted"]
+
+
+def test_one_process_writes_a_store_a_second_refused_naming_it_a_killed_ones_lock_never_blocking(tmp_path, capsys):
+    store = tmp_path / "site.db"
+    _one_writer_at_a_time(store, tmp_path)
+    # The command line: exit 2, one line naming the running one, before anything else is opened.
+    from ray3d.cli import main
+
+    holding = RunRecorder(store, "ray3d live", ["clip.mp4"], [True])
+    try:
+        assert main(["live", str(tmp_path / "clip.mp4"), "--camera", "h36m:S9:54138969", "--out", str(tmp_path),
+                     "--no-page"]) == 2
+        said = capsys.readouterr().err.strip().splitlines()
+        assert len(said) == 1 and said[0].startswith(f"ray3d live: error: store: {store}: ray3d live (pid ") and \
+            said[0].endswith("give this run another store (--store)")
+    finally:
+        holding.close("ended")
+    assert main(["live", str(tmp_path / "clip.mp4"), "--camera", "h36m:S9:54138969", "--out", str(tmp_path),
+                 "--no-page"]) == 2
+    said = capsys.readouterr().err
+    assert "writes it" not in said and "clip.mp4" in said  # past the store: what stops it now is the missing video
+
+
+def test_one_process_writes_a_postgresql_store_its_lock_going_with_its_connection(tmp_path):
+    with postgresql_server() as url:
+        _one_writer_at_a_time(url, tmp_path)
+
+
+CUT_OFF_WRITER = textwrap.dedent("""
+    import sys, time
+    import numpy as np
+    from ray3d.geometry.uncertainty import PersonNow
+    from ray3d.store import RunRecorder
+
+    recorder = RunRecorder(sys.argv[1], "writer", ["cam"], [False], origin=1000.0)
+
+    def event(kind, n, frame, **fields):
+        return {"event": kind, "track": f"1-{n}", "time_s": frame / 10, "place_m": [n + frame / 100, 0.0],
+                "frames": [frame], **fields}
+
+    # Person n is seen from frame 10 n for 3 s; in the zone from 0.2 s on, leaving it at 1.5 s if n is even (an odd
+    # one's visit ends with their track: no exit).
+    for frame in range(100000):
+        events, here = [], []
+        for n in range(frame // 10 + 1):
+            age = frame - 10 * n
+            if age > 30:
+                continue
+            events += [event(kind, n, frame, **fields) for due, kind, fields in (
+                (0, "track started", {}), (2, "zone entered", {"zone": "door"}),
+                (15 if n % 2 == 0 else -1, "zone left", {"zone": "door", "dwell_s": 1.3}),
+                (30, "track ended", {})) if due == age]
+            if age < 30:
+                joints = np.zeros((17, 3))
+                joints[:, 0] = n + frame / 100
+                here.append(PersonNow(f"1-{n}", joints, np.array([0.1, 0.1]), 1.7))
+        recorder.events(events)
+        recorder.positions(frame / 10, here, "cam")
+        recorder.progress("cam", frame, frame / 10)
+        print(frame, flush=True)
+        time.sleep(0.01)
+""")
+
+
+def test_a_run_killed_outright_has_what_it_left_open_closed_by_the_next_at_its_last_commit(tmp_path):
+    store = tmp_path / "site.db"
+    writer = subprocess.Popen([sys.executable, "-c", CUT_OFF_WRITER, str(store)], stdout=subprocess.PIPE, text=True)
+    while int(writer.stdout.readline()) < 75:  # persons 0-7 seen; 5, 6 and 7 in view
+        pass
+    writer.send_signal(signal.SIGKILL)
+    writer.wait()
+    before = read_record(store)
+    started = {e["track"]: e for e in before.events if e["event"] == "track started"}
+    open_tracks = set(started) - {e["track"] for e in before.events if e["event"] == "track ended"}
+    visits = {(e["track"], e["zone"]): e for e in before.events if e["event"] == "zone entered"}
+    open_visits = {visit for visit in visits if visit[0] in open_tracks} - \
+        {(e["track"], e["zone"]) for e in before.events if e["event"] == "zone left"}
+    assert len(open_tracks) >= 2 and open_visits and before.runs[0]["ending"] is None
+    last_at = before.runs[0]["last_at"]
+    last_place = {}
+    for person, x, y in zip(before.positions["person"], before.positions["x"], before.positions["y"]):
+        last_place[person] = [x, y]
+
+    again = RunRecorder(store, "writer", ["cam"], [False])
+    closed = again.closed
+    assert {e["track"] for e in closed if e["event"] == "track ended"} == open_tracks
+    assert {(e["track"], e["zone"]) for e in closed if e["event"] == "zone left"} == open_visits
+    for event in closed:
+        assert event["reason"] == "the service stopped" and event["frames"] == []
+        assert event["time_s"] == pytest.approx(last_at - 1000.0, abs=1e-3)  # at the last commit, on its clock
+        assert event["place_m"] == pytest.approx(last_place[event["track"]], abs=1e-3)
+        if event["event"] == "zone left":
+            entered = visits[(event["track"], event["zone"])]
+            assert event["dwell_s"] == pytest.approx(last_at - entered["at"], abs=1e-3)
+    # Each visit's exit before its track's end, as a live run writes them.
+    for track in open_tracks:
+        mine = [e["event"] for e in closed if e["track"] == track]
+        assert mine[-1] == "track ended" and all(kind == "zone left" for kind in mine[:-1])
+    # What the next run begins on: the counts so far, its closing exits among them.
+    entries = sum(e["event"] == "zone entered" for e in before.events)
+    exits = sum(e["event"] == "zone left" for e in before.events) + len(open_visits)
+    assert again.counted == {"door": {"entered": entries, "left": exits}}
+    again.close("ended")
+    after = read_record(store)
+    ends = [e for e in after.events if e["event"] == "track ended"]
+    assert sorted(e["track"] for e in ends) == sorted(started)  # every track started has its end
+    assert all(e["run"] == 1 and e["at"] == pytest.approx(last_at) for e in after.events if "reason" in e)
+    assert [r["ending"] for r in after.runs] == ["cut off", "ended"]
+    third = RunRecorder(store, "writer", ["cam"], [False])  # nothing left open: nothing more closed
+    assert third.closed == []
+    third.close("ended")

@@ -632,6 +632,6 @@ def test_two_videos_of_one_site_are_lifted_on_one_floor_found_where_both_see_peo
         (tmp_path / f"{name}.json").write_text(json.dumps({**camera.to_dict(), "name": name}))
     assert main(["video", str(front_video), str(side_video), *cameras, "--detector", "stub",
                  "--out", str(tmp_path / "site")]) == 0
-    notes = [line for line in capsys.readouterr().err.splitlines() if "ankles meet" in line]
-    assert len(notes) == 2 and all("3 seen by two cameras at once" in line for line in notes)
+    notes = [line for line in capsys.readouterr().err.splitlines() if "floor" in line and "people" in line]
+    assert len(notes) == 2 and all("3 by two cameras at once" in line for line in notes)
     assert len(read_world(tmp_path / "site" / "world.json").tracks) == 3

@@ -9,6 +9,8 @@ joint) and scaled by the head joint's height, 0.94 of stature (shoulders at 0.81
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ray3d.skeleton import H36M17
@@ -53,6 +55,60 @@ ADULT_BODY_SIZE_SD = 0.12    # relative
 _RAISED = {joint: offset[2] for joint, offset in DETECTOR_JOINT_OFFSETS_M.items()}
 DETECTOR_BODY_SIZE_M = (ADULT_BODY_SIZE_M - _RAISED["hip"] + (_RAISED["hip"] - _RAISED["knee"])
                         + (_RAISED["knee"] - _RAISED["ankle"]))
+@dataclasses.dataclass(frozen=True)
+class KeypointSource:
+    """How one kind of keypoints stands a person on the floor, shared by everybody it sees (what many people do not
+    average away): its ankle keypoint of a planted, shod foot stands ``planted_ankle_m`` +/- ``planted_ankle_sd_m``
+    over the floor (where its ankle rays meet the floor), while the refined pose's lowest ankle, the network's
+    drawn only part of the way to those rays, rests ``pose_ankle_m`` over it; it gives an adult of the prior's size a size chain of ``body_size_m``, and the network's pose
+    on its keypoints' rays reads that adult's size chain as ``read_size_m`` (what people's sizes tell of the floor
+    from), known to a relative ``read_size_sd``."""
+
+    planted_ankle_m: float
+    planted_ankle_sd_m: float
+    pose_ankle_m: float
+    body_size_m: float
+    read_size_m: float
+    read_size_sd: float
+
+
+# A site's people against the prior's mean size (a population 4 % taller or shorter is common), in log size.
+POPULATION_SIZE_SD = 0.035
+# The size chain ``ray3d-real``'s pose on a detector's keypoints reads for an adult of the prior's size: on
+# MediaPipe BlazePose's keypoints 1.28 m (``vtest.avi``'s 23 people, 431 s of them standing, put the floor where its
+# true camera's z = 0 is with it, if they are of the prior's mean size: docs/RESULTS.md "The floor on evidence"), on
+# the benchmarks' emulated detector 1.385 m (``level-test``, 54 cameras, ten people each, seed 1); another
+# detector's, between them.
+BLAZEPOSE_READ_SIZE_M = 1.28
+EMULATED_READ_SIZE_M = 1.385
+# Measured per detector: the mocap's joints (exact 2D: the training performers' own); MediaPipe BlazePose's planted
+# ankles triangulated from real-near's four views, 0.149 m up (docs/RESULTS.md, "Where people stand, observed");
+# OpenPose BODY-25's about 0.10 m on an indoor recording (issue 66) and 0.12-0.14 m on real-near; other detectors'
+# layouts (COCO-17 from any of several) the mean offsets above, known less well.
+# The refined pose's lowest ankle rests at ``DETECTOR_PLANTED_ANKLE_HEIGHT_M`` for every detector (on real-near's
+# BlazePose keypoints, whose rays meet the floor 0.149 m up, it halved the pelvis's floor error; 0.149 doubled it).
+KEYPOINT_SOURCES = {
+    "h36m17": KeypointSource(PLANTED_ANKLE_HEIGHT_M, 0.01, PLANTED_ANKLE_HEIGHT_M, ADULT_BODY_SIZE_M,
+                             ADULT_BODY_SIZE_M, 0.02),
+    "blazepose33": KeypointSource(0.149, 0.015, DETECTOR_PLANTED_ANKLE_HEIGHT_M, DETECTOR_BODY_SIZE_M,
+                                  BLAZEPOSE_READ_SIZE_M, 0.03),
+    **{layout: KeypointSource(ankle, ankle_sd, DETECTOR_PLANTED_ANKLE_HEIGHT_M, DETECTOR_BODY_SIZE_M,
+                              (BLAZEPOSE_READ_SIZE_M + EMULATED_READ_SIZE_M) / 2, 0.04)
+       for layout, ankle, ankle_sd in (("body25", 0.11, 0.02), ("coco17", DETECTOR_PLANTED_ANKLE_HEIGHT_M, 0.025),
+                                       ("halpe26", DETECTOR_PLANTED_ANKLE_HEIGHT_M, 0.025))},
+}
+# The emulated detector of the benchmarks (``data.samples.DETECTOR_JOINT_OFFSETS_M`` scaled 0.5-1.5 per person),
+# whatever layout it reports.
+EMULATED_DETECTOR = KeypointSource(DETECTOR_PLANTED_ANKLE_HEIGHT_M, 0.025, DETECTOR_PLANTED_ANKLE_HEIGHT_M,
+                                   DETECTOR_BODY_SIZE_M, EMULATED_READ_SIZE_M, 0.03)
+
+
+def keypoint_source(layout: str) -> KeypointSource:
+    """The ``KeypointSource`` of keypoints in ``layout`` (a layout name); an unknown detector's is COCO-17's."""
+    return KEYPOINT_SOURCES.get(layout, KEYPOINT_SOURCES["coco17"])
+
+
+
 # An upright person's head joint stands this many times their size chain over the floor.
 HEAD_HEIGHT_OF_BODY_SIZE = AXIS_HEIGHTS["head"] * ADULT_STATURE_M / ADULT_BODY_SIZE_M
 

@@ -1,5 +1,7 @@
 """Camera set-up without a lab: the camera's pose from floor points with known positions (OpenCV solvePnP), or
-its height, pitch, roll (and focal length) from a person walking on the floor."""
+its height, pitch, roll (and focal length) from a person walking on the floor; and where the floor lies in a
+calibrated camera's frame, settled for good (``FloorCheck``): from the lens's height measured by tape, or from two
+calibrated cameras' triangulated ankles."""
 
 from __future__ import annotations
 
@@ -12,7 +14,14 @@ from scipy.optimize import least_squares
 from ray3d.body import ADULT_STATURE_M, ADULT_STATURE_SD_M, AXIS_HEIGHTS, AXIS_JOINTS
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, parse_image_size
+from ray3d.geometry.floor import LARGEST_FLOOR_Z_M
+from ray3d.io.detections import TrackDetections
+from ray3d.lifting.inputs import prepare_track
+from ray3d.lifting.tracks import CameraTracks, people_seen_twice, progress_labels
+from ray3d.refine import RefineConfig
+from ray3d.refine.ankle_plane import TRIANGULATION_SD_M
 from ray3d.skeleton import H36M17, convert_keypoints, layout_skeleton
+from ray3d.temporal import check_frame_rate
 
 
 def from_floor_points(floor_xy: np.ndarray, pixels: np.ndarray, intrinsics: Camera | tuple, image_size=None,
@@ -263,3 +272,111 @@ class _PersonProblem:
                     start = [pitch, 0.0, np.log(camera_height)] + ([] if focal is None else [np.log(focal)])
                     fits.append(self._fit(np.array(start)))
         return min(fits, key=lambda fit: fit.cost)
+
+
+# A tape held to a camera finds the height of its housing; the lens's centre inside it is judged by eye.
+TAPE_SD_M = 0.02
+
+
+@dataclasses.dataclass(frozen=True)
+class FloorCheck:
+    """Where the floor people stand on lies in a camera file's frame (``floor_z_m``, metres; 0: at its z = 0),
+    one sd ``sd_m``, and how it was found: ``how`` "lens height" (``lens_height_m`` by tape) or "two cameras"
+    (``people`` seen by both at once over ``seconds``, their planted ankles triangulated)."""
+
+    floor_z_m: float
+    sd_m: float
+    how: str
+    people: int = 0
+    seconds: float = 0.0
+    lens_height_m: float | None = None
+
+    def message(self, camera: str = "") -> str:
+        """One line: where the floor lies against the camera's z = 0, and from what."""
+        which = f"camera {camera}'s" if camera else "the camera's"
+        source = (f"its lens {self.lens_height_m:.2f} m over it, by tape" if self.how == "lens height" else
+                  f"{self.people} {'person' if self.people == 1 else 'people'} seen by both cameras over "
+                  f"{self.seconds:.0f} s")
+        return (f"{which} floor lies {abs(self.floor_z_m):.2f} +/- {self.sd_m:.2f} m "
+                f"{'above' if self.floor_z_m > 0 else 'below'} its z = 0 (from {source})")
+
+    def to_dict(self) -> dict:
+        """How it was found: its record beside ``floor_z_m`` in the camera file written."""
+        return {key: round(value, 4) if isinstance(value, float) else value
+                for key, value in dataclasses.asdict(self).items() if key != "floor_z_m" and value is not None}
+
+
+def floor_from_lens_height(camera: Camera, lens_height_m: float) -> FloorCheck:
+    """The floor of ``camera``'s frame from its lens's height over the floor measured by tape: it lies at
+    ``camera.center[2] - lens_height_m`` (a camera file whose z = 0 is on the floor gets about 0)."""
+    if isinstance(lens_height_m, bool) or not isinstance(lens_height_m, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(lens_height_m) or lens_height_m <= 0:
+        raise InputError(f"the lens's height over the floor: expected a positive number of metres, got "
+                         f"{lens_height_m!r}", arguments=("lens_height_m",))
+    floor_z = float(camera.center[2] - lens_height_m)
+    if abs(floor_z) > LARGEST_FLOOR_Z_M:
+        raise InputError(f"the lens {lens_height_m:g} m over the floor puts the floor {abs(floor_z):.2f} m "
+                         f"{'above' if floor_z > 0 else 'below'} camera {camera.name or ''}'s z = 0 (its lens is "
+                         f"{camera.center[2]:.2f} m over it), more than {LARGEST_FLOOR_Z_M:g} m: a height in "
+                         "metres, of this camera?", arguments=("lens_height_m",))
+    return FloorCheck(floor_z, TAPE_SD_M, "lens height", lens_height_m=float(lens_height_m))
+
+
+def floor_from_cameras(views: dict, layout: str = "h36m17", fps: float | None = None) -> FloorCheck:
+    """The floor of two (or more) calibrated cameras' common world frame from the people they see at once:
+    {view name: (tracks, Camera)} as ``Lifter.lift_cameras`` takes them (tracks: {track id: (frame ids (N,),
+    pixels (N, J, 2) of ``layout``[, confidences (N, J)])}, every view's frame ids on one clock; ``fps`` their
+    rate, default the model's 60). Each person seen by two cameras at once gives the height of their planted
+    ankle keypoints, triangulated (``lifting.tracks.people_seen_twice``); less the detector's planted-ankle height
+    for ``layout`` (``RefineConfig.keypoint_ankle_height_m``), that is the floor. People are combined by the inverse
+    variance of their own spread; the calibrations' share of it (``TRIANGULATION_SD_M``) is every person's alike
+    and kept whole (a person three cameras see counts once per pair). No network is run. Refused when nobody was
+    seen by two cameras at once."""
+    if len(views) < 2:
+        raise InputError(f"two cameras that see the same people are needed, got {len(views)}", ("views",))
+    if fps is not None:
+        check_frame_rate(fps, "the keypoints' frame rate")
+    cameras, spans = [], []
+    for name, (tracks, camera) in views.items():
+        view, span = _rays_of_tracks(name, tracks, camera, layout, fps)
+        cameras.append(view)
+        spans.append(span)
+    crossings = people_seen_twice(list(zip(cameras, spans)))
+    if not crossings:
+        raise InputError(f"no person was seen by {' and '.join(map(str, views))} at once: "
+                         + _why_nobody_was_seen_twice(spans))
+    # Each crossing's sd is its own spread and the calibrations' share (hypot): only the first averages over people.
+    own = np.array([np.sqrt(max(c.sd_m ** 2 - TRIANGULATION_SD_M ** 2, 1e-8)) for c in crossings])
+    weights = 1 / own ** 2
+    height = float(np.sum(weights * [c.height_m for c in crossings]) / weights.sum())
+    contact = RefineConfig.for_model({}, layout).keypoint_ankle_height_m
+    return FloorCheck(height - contact, float(np.hypot(weights.sum() ** -0.5, TRIANGULATION_SD_M)), "two cameras",
+                      len(crossings), float(sum(c.seconds for c in crossings)))
+
+
+def _rays_of_tracks(name, tracks: dict, camera: Camera, layout: str, fps: float | None) -> tuple[CameraTracks, dict]:
+    """One camera's tracks made rays as the lifter makes them (``prepare_track``, reading H36M-17 joints as the
+    shipped models do) -> its ``CameraTracks`` and {track: its (T,) frame ids}. A track that cannot be used is
+    left out; a camera none of whose tracks can be is refused, the first reason given."""
+    prepared, spans, failures = {}, {}, []
+    for track, entry in tracks.items():
+        try:
+            spans[track], pixels, confidences = TrackDetections(*entry).dense(f"{name}: track {track}")
+            prepared[track] = prepare_track(pixels, camera, confidences, fps, layout, None, lambda skeleton: H36M17)
+        except InputError as err:
+            failures.append(err)
+    if not prepared:
+        raise InputError(f"{name}: {failures[0].message}" if failures else f"{name}: no tracks",
+                         failures[0].arguments if failures else ())
+    return CameraTracks(prepared, camera, progress_labels(prepared, False)), spans
+
+
+def _why_nobody_was_seen_twice(spans: list[dict]) -> str:
+    """What keeps two cameras' tracks ({track: frame ids} each) from showing one person at once."""
+    shared = [np.intersect1d(np.concatenate(list(a.values())), np.concatenate(list(b.values())))
+              for i, a in enumerate(spans) for b in spans[i + 1:]]
+    if not any(len(frames) for frames in shared):
+        return ("their frame ids never coincide: the keypoint files must count frames on one clock (the same id at "
+                "the same moment)")
+    return ("their tracks share frame ids, but no two tracks' pelvis rays cross for half a second with the ankles "
+            "seen: do the cameras overlap, and are both calibrated in one world frame?")

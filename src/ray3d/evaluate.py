@@ -13,13 +13,13 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 import torch
 
 from ray3d import metrics
 from ray3d.body import POSTURES, postures
 from ray3d.baselines.rfrh import rfrh_root
 from ray3d.checkpoints import RFRH, load_model
+from ray3d.console import progress_bar
 from ray3d.data import motion as motion_data
 from ray3d.data.motion import MotionSet
 from ray3d.data.samples import SampleConfig, observe, scale_bones
@@ -100,6 +100,25 @@ def _summarise(parts: list[dict[str, np.ndarray]]) -> dict:
     return summary
 
 
+def _check_cameras(cameras, given_cameras) -> None:
+    """``cameras`` a non-empty list of ``Camera``s, and ``given_cameras`` none or one ``Camera`` for each."""
+    for name, listed in (("cameras", cameras), ("given_cameras", given_cameras or cameras)):
+        if isinstance(listed, (str, Camera)) or not isinstance(listed, (list, tuple)) or not listed \
+                or not all(isinstance(c, Camera) for c in listed):
+            raise InputError(f"{name}: expected a non-empty list of Camera objects (evaluation_cameras reads a set "
+                             f"or a file), got {type(listed).__name__}", (name,))
+    if given_cameras and len(given_cameras) != len(cameras):
+        raise InputError(f"given_cameras: expected one for each of the {len(cameras)} cameras, got "
+                         f"{len(given_cameras)}", ("given_cameras",))
+
+
+def _check_number(name: str, value, expected: str, holds) -> None:
+    """``value`` a finite number for which ``holds``, else an ``InputError`` naming the argument ``name``."""
+    number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+    if not (number and np.isfinite(value) and holds(value)):
+        raise InputError(f"{name}: expected a finite number {expected}, got {value!r:.40}", (name,))
+
+
 def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camera], flip_test: bool = False,
              frame_stride: int = 1, given_cameras: list[Camera] | None = None, bone_scale: float = 1.0,
              joints: str = "h36m17", noise_px: float = 0.0, seed: int = 0, refine: bool | RefineConfig = False,
@@ -121,7 +140,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     (``ray3d.body.postures``).
     """
     if refine and model == RFRH:
-        raise ValueError("refine needs a model that predicts every joint; RFRH predicts only the root")
+        raise InputError("refine: needs a model that predicts every joint; rfrh predicts only the root",
+                         ("refine", "model"))
     if precision != "fp32" and model == RFRH:
         raise InputError(f"precision: {precision} needs a network; rfrh has none (fp32 only)", ("precision",))
     rng = np.random.default_rng(seed)
@@ -129,7 +149,10 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
         raise InputError(f"frame_stride: expected a whole number of frames, at least 1, got {frame_stride!r}",
                          arguments=("frame_stride",))
     if joints not in SCORED_LAYOUTS:
-        raise ValueError(f"joints must be one of {SCORED_LAYOUTS}, got {joints!r}")
+        raise InputError(f"joints: expected one of {', '.join(SCORED_LAYOUTS)}, got {joints!r:.40}", ("joints",))
+    _check_cameras(cameras, given_cameras)
+    _check_number("bone_scale", bone_scale, "above 0", lambda v: v > 0)
+    _check_number("noise_px", noise_px, "0 or more", lambda v: v >= 0)
     scored = [H36M17.index(name) for name in layout_skeleton(joints).joint_names]
     document = {}
     if isinstance(model, str) and model != RFRH:
@@ -150,8 +173,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     given_cameras = given_cameras or cameras
     windows = [sequence_windows(clip, window)[::frame_stride] for clip in clips]
     skipped = 0
-    for camera, given in tqdm(list(zip(cameras, given_cameras)), desc="evaluating", unit="camera", disable=not progress,
-                              leave=False):
+    for camera, given in progress_bar(list(zip(cameras, given_cameras)), shown=progress, desc="evaluating",
+                                      unit="camera", leave=False):
         # All clips this camera sees go through the network together; errors are split back per clip.
         seen = [i for i, clip in enumerate(clips) if camera.sees(clip)]
         skipped += len(clips) - len(seen)
@@ -186,7 +209,9 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
             per_camera[camera.name].append(part)
             per_clip[str(motion.clips["clip_id"][i])].append(part)
     if not per_camera:
-        raise ValueError("no camera sees any clip entirely: nothing to evaluate")
+        raise InputError(f"cameras: none of the {len(cameras)} camera(s) sees any of the {len(clips)} clip(s) "
+                         "entirely: nothing to evaluate (the clips are centred at the origin; point the cameras "
+                         "there)", ("cameras",))
     everything = [e for parts in per_camera.values() for e in parts]
     geometry = {c.name: {"height_m": c.camera_height, "pitch_deg": float(np.degrees(c.pitch)),
                          "horizontal_distance_m": float(np.linalg.norm(c.center[:2]))} for c in cameras}

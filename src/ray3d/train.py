@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from ray3d.checkpoints import MODEL_PREFIX, TRAINED_PREFIX, prefixed, read_checkpoint, save_checkpoint, unprefixed
+from ray3d.console import progress_bar
 from ray3d.data.motion import MotionSet, load_shipped
 from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
@@ -290,8 +290,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
             group["lr"] = config.learning_rate * config.lr_decay ** epoch
         model.train()
         started, totals = time.perf_counter(), np.zeros(3)
-        bar = tqdm(range(config.batches_per_epoch), desc=f"epoch {epoch + 1}/{config.epochs}",
-                   disable=not progress or rank != 0, leave=False)
+        bar = progress_bar(range(config.batches_per_epoch), shown=progress and rank == 0,
+                           desc=f"epoch {epoch + 1}/{config.epochs}", leave=False)
         for step in bar:
             totals += training_step(trained, model, optimizer, generator, config.batch_size, device,
                                     slice(rank * local_batch, (rank + 1) * local_batch))

@@ -21,9 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from tqdm import tqdm
 
 from ray3d.batch.manifest import Entry, read_manifest
+from ray3d.console import progress_bar
 from ray3d.errors import InputError
 from ray3d.io.atomic import atomic_path
 from ray3d.jobs.cluster import start_ray
@@ -152,7 +152,7 @@ def run(manifest: str | Path, out: str | Path, address: str | None = None, worke
             limit = workers or len(todo)
             waiting, running = list(todo), {}
             threads = max(1, int(cpus_per_task))
-            with tqdm(total=len(todo), desc="inputs", unit="input", disable=not progress) as bar:
+            with progress_bar(shown=progress, total=len(todo), desc="inputs", unit="input") as bar:
                 while waiting or running:
                     while waiting and len(running) < limit:
                         entry = waiting.pop(0)

@@ -106,6 +106,7 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
     plane = lifted.refinement["ankle_plane"] if lifted.refinement else None
     if plane:
         row["floor_z_found_m"], row["floor_z_sd_m"] = plane["floor_z_m"], plane["sd_m"]
+        row["floor_decision"], row["floor_chance_off"] = plane["decision"], plane["chance_off"]
     frames_seen, pixels_seen = his[longest]
     guess = floor_guess(pixels_seen, camera)
     true_pelvis = truth[frames_seen, 0]
@@ -152,7 +153,8 @@ def run(data_dir: str | Path, detector: str, lifter: Lifter, views: tuple[str, .
                      if not isinstance(pooled[k], InputError)]
         plane = next(iter(pooled.values())).ankle_plane
         rows.append({**_fused_row(f"fused ({len(one_floor)} views, one floor)", one_floor, truth, detector, lifter),
-                     "floor_offset_m": floor_offset_m, "floor_z_found_m": plane.floor_z_m, "floor_z_sd_m": plane.sd_m})
+                     "floor_offset_m": floor_offset_m, "floor_z_found_m": plane.floor_z_m, "floor_z_sd_m": plane.sd_m,
+                     "floor_decision": plane.decision, "floor_chance_off": plane.chance_off})
     return rows
 
 
@@ -168,7 +170,8 @@ def _fused_row(name: str, worlds: list[World], truth: np.ndarray, detector: str,
 
 COLUMNS = ("view", "detector", "tracks_on_the_man", "frames_detected", "median_2d_error_px", "ms_per_frame",
            "abs_mpjpe_mm", "pelvis_floor_error_m", "guess_floor_error_m", "pelvis_over_guess", "within_1sd",
-           "within_2sd", "across_within_1sd", "across_within_2sd", "floor_offset_m", "floor_z_found_m", "floor_z_sd_m")
+           "within_2sd", "across_within_1sd", "across_within_2sd", "floor_offset_m", "floor_z_found_m", "floor_z_sd_m",
+           "floor_decision", "floor_chance_off")
 
 
 def write(out_dir: str | Path, rows: list[dict]) -> list[Path]:

@@ -22,7 +22,13 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "port": "--port", "page": "--no-page", "offsets": "--offsets", "cameras": "WORLDS", "format": "--format",
          "frame_stride": "--frame-stride", "clips_per_camera": "--clips-per-camera", "max_frames": "--max-frames",
          "floor_offset": "--floor-offset", "camera_step": "--camera-step", "floor_z": "--floor-z",
-         "site": "--site", "every_s": "--every", "start_time": "--start-time"}
+         "population_scale": "--population-scale",
+         "site": "--site", "every_s": "--every", "start_time": "--start-time", "store": "--store", "mqtt": "--mqtt",
+         "lens_height_m": "--lens-height"}
+# Where a command calls a library argument by another flag than FLAGS' (``cameras`` is ``ray3d fuse``'s WORLDS).
+COMMAND_FLAGS = {"evaluate": {"model": "--checkpoint", "cameras": "--cameras", "given_cameras": "--cameras",
+                              "joints": "--joints", "refine": "--refine", "noise_px": "--noise-px",
+                              "precision": "--precision"}}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -36,7 +42,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.handler(args)
     except InputError as err:
-        print(f"ray3d {args.command}: error: {err.message_for(FLAGS)}", file=sys.stderr)
+        print(f"ray3d {args.command}: error: {err.message_for({**FLAGS, **COMMAND_FLAGS.get(args.command, {})})}",
+              file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"ray3d {args.command}: interrupted", file=sys.stderr)

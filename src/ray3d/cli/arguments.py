@@ -40,25 +40,45 @@ def add_precision(parser: argparse.ArgumentParser) -> None:
                              "bf16 or int8 (faster; accuracy cost in docs/RESULTS.md)")
 
 
-def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTPUT_SMOOTHING) -> None:
+def add_lifting_arguments(parser: argparse.ArgumentParser, smooth_3d: str = OUTPUT_SMOOTHING,
+                          live_smoothing: str | None = None) -> None:
+    """The lifting flags. ``live_smoothing``: for ``ray3d live``, how its answers as they happen are smoothed
+    (in words); there --smooth-2d, --smooth-3d, --flip-test and --no-refine shape only the world file, each
+    person lifted again offline as they leave, and their help says so, and the world file is in the world frame
+    (--frame world only)."""
+    offline = " (world.csv only: each person lifted again as they leave)" if live_smoothing else ""
     parser.add_argument("--checkpoint", help="shipped model name or checkpoint path (default: ray3d for H36M-17 "
                         "keypoints, ray3d-real, trained for detectors, for any detector's layout and for videos)")
     add_precision(parser)
-    parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help="smooth the 2D input in time")
+    parser.add_argument("--smooth-2d", choices=["savgol", "one-euro"], help=f"smooth the 2D input in time{offline}")
     parser.add_argument("--smooth-3d", choices=["savgol", "one-euro", "none"], default=smooth_3d,
-                        help=f"smooth the 3D output in time (default {smooth_3d})")
-    parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+                        help=f"smooth the 3D output in time (default {smooth_3d})" if not live_smoothing else
+                        f"smooth world.csv's joints in time, each person lifted again as they leave (default "
+                        f"{smooth_3d}); the answers as they happen (events, the page, MQTT, the store's positions) are "
+                        f"always smoothed causally, {live_smoothing}")
+    parser.add_argument("--flip-test", action="store_true",
+                        help=f"average with the mirrored input's prediction{offline}")
     parser.add_argument("--no-refine", action="store_true",
-                        help="keep the network's output: no track-level refinement (feet on the floor, one body size)")
+                        help="keep the network's output: no track-level refinement (feet on the floor, one body size)"
+                             + ("; world.csv only: the answers as they happen are always refined causally"
+                                if live_smoothing else ""))
     parser.add_argument("--floor", help="a JSON file declaring floor regions (floor_regions: stages, platforms, "
                         "ramps; docs/floor.md) the refinement rests the feet on (default: the camera file's own, "
                         "else the plain floor z = 0)")
     parser.add_argument("--floor-z", type=float, metavar="M",
                         help="where the floor people stand on lies in the camera's frame, metres (0: at its z = 0; "
-                             "default: the camera file's floor_z_m, else observed from the people in view)")
-    parser.add_argument("--frame", choices=["world", "camera"], default="world",
-                        help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
-                             "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
+                             "default: the camera file's floor_z_m, else its z = 0 unless the people in view show it "
+                             "off)")
+    parser.add_argument("--no-floor-memory", action="store_true",
+                        help="neither weigh in nor keep what the camera's people showed of its floor in earlier runs "
+                             "(default: kept beside its camera file, CAMERA.floor.json, or in a live run's store)")
+    if live_smoothing:
+        parser.add_argument("--frame", choices=["world"], default="world",
+                            help="frame of the output joints: world (z up, floor z = 0), the only one live writes")
+    else:
+        parser.add_argument("--frame", choices=["world", "camera"], default="world",
+                            help="frame of the output joints: world (z up, floor z = 0; default) or camera (OpenCV: x "
+                                 "right, y down, z forward, metres from the lens; .json, .csv and .npz)")
 
 
 def add_time_buckets(parser: argparse.ArgumentParser) -> None:
@@ -132,7 +152,8 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
                overlay=not (getattr(args, "no_overlay", False) or getattr(args, "privacy", False)),
                find_offsets=getattr(args, "find_offsets", False), overwrite=getattr(args, "force", False),
                site=getattr(args, "site", None), every_s=getattr(args, "every", None),
-               start_time=getattr(args, "start_time", None))
+               start_time=getattr(args, "start_time", None),
+               remember_floor=not getattr(args, "no_floor_memory", False))
 
 
 def parse_offsets(text: str | None) -> list[float] | None:

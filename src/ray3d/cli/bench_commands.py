@@ -103,7 +103,8 @@ def level(args: argparse.Namespace) -> int:
                          arguments=("clips_per_camera", "max_frames", "camera_step"))
     _check_floor_offset(args.floor_offset)
     rows = run(load_lifter(args.checkpoint), motion_data.load_shipped(args.data_dir, "test"), args.clips_per_camera,
-               args.seed, args.max_frames, grid("level-test")[::args.camera_step], args.floor_offset, args.floor_z)
+               args.seed, args.max_frames, grid("level-test")[::args.camera_step], args.floor_offset, args.floor_z,
+               args.population_scale)
     return _show(write(args.out, rows))
 
 
@@ -228,9 +229,11 @@ def add_parser(commands) -> None:
     level_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
                        help="give the lifter and the guess each camera with its z = 0 this far above the floor (a "
                             "calibration board on a table; negative: below), default 0")
+    level_parser.add_argument("--population-scale", type=float, default=1.0, metavar="F",
+                              help="every person's size times F (1.04: a population 4 %% taller than the prior's)")
     level_parser.add_argument("--camera-step", type=int, default=1, metavar="N", help="every Nth camera of the set (default 1)")
     level_parser.add_argument("--floor-z", type=float, metavar="M", help="tell the lifter the floor lies here in the given "
-                       "camera's frame (0: its z = 0 assumed to be the floor; default: observed from the people)")
+                       "camera's frame (0: its z = 0 assumed to be the floor; default: decided on the people)")
     add_data_dir(level_parser)
     level_parser.set_defaults(handler=level)
     speed_bench_parser = bench_commands_parser.add_parser("speed", help="inference and training speed of every model preset")

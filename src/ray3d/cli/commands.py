@@ -7,6 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
 
@@ -32,11 +33,15 @@ def calibrate(args: argparse.Namespace) -> int:
     from ray3d.io.camera_files import read_camera, save_cameras
     from ray3d.io.floor_points import read_floor_points
 
-    if (args.floor_points is None) == (args.from_person is None):
-        raise InputError("calibrate: pass exactly one of --floor-points FILE and --from-person KEYPOINTS")
-    check_output(args.out, (args.floor_points, args.from_person, args.intrinsics))
+    if sum(way is not None for way in (args.floor_points, args.from_person, args.floor_of)) != 1:
+        raise InputError("calibrate: pass exactly one of --floor-points FILE, --from-person KEYPOINTS and "
+                         "--floor-of CAMERA")
+    check_output(args.out, (args.floor_points, args.from_person, args.intrinsics, args.floor_of, args.keypoints,
+                            args.with_camera, args.with_keypoints))
     if args.from_person is not None:
         return _calibrate_from_person(args)
+    if args.floor_of is not None:
+        return _calibrate_floor(args)
     floor_xy, pixels = read_floor_points(args.floor_points)
     if args.intrinsics:
         intrinsics, image_size = read_camera(args.intrinsics), None
@@ -72,9 +77,49 @@ def _calibrate_from_person(args: argparse.Namespace) -> int:
     save_cameras(args.out, [result.camera], overwrite=args.force, calibration="from person",
                  person_height_m=args.person_height, tracks=[str(t) for t in people], **result.to_dict())
     print(f"{result.summary()} (people {args.person_height:.2f} m tall on average) -> {args.out}")
+    print_keypoint_notes(args.from_person, keypoints)
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     return 0
+
+
+def _calibrate_floor(args: argparse.Namespace) -> int:
+    from ray3d.calibrate import floor_from_cameras, floor_from_lens_height
+    from ray3d.io.atomic import refuse_existing
+    from ray3d.io.camera_files import read_camera, save_camera_with_floor_z
+
+    pair = [given is not None for given in (args.keypoints, args.with_camera, args.with_keypoints)]
+    by_tape, by_two_cameras = args.lens_height is not None and not any(pair), args.lens_height is None and all(pair)
+    if not (by_tape or by_two_cameras):
+        raise InputError("calibrate --floor-of: pass --lens-height M, or --keypoints FILE with --with-camera CAMERA "
+                         "and --with-keypoints FILE")
+    refuse_existing(args.out, args.force)  # before the work
+    camera = read_camera(args.floor_of)
+    check = (floor_from_lens_height(camera, args.lens_height) if by_tape
+             else floor_from_cameras(*_two_views(args, camera)))
+    save_camera_with_floor_z(args.floor_of, args.out, check.floor_z_m, args.force, floor_check=check.to_dict())
+    print(f"{check.message(camera.name or Path(args.floor_of).stem)}; written to {args.out}: floor_z_m = "
+          f"{check.floor_z_m:.2f}")
+    return 0
+
+
+def _two_views(args: argparse.Namespace, camera) -> tuple[dict, str, float | None]:
+    """``floor_from_cameras``' arguments from ``--keypoints`` (seen by ``--floor-of``'s ``camera``) and
+    ``--with-keypoints`` (seen by ``--with-camera``): one layout and one frame rate for both."""
+    from ray3d.io.camera_files import read_camera
+    from ray3d.io.keypoints import read_keypoints
+
+    files = [read_keypoints(path, args.layout, args.fps) for path in (args.keypoints, args.with_keypoints)]
+    if files[0].layout != files[1].layout:
+        raise InputError(f"{args.keypoints} holds {files[0].layout} keypoints and {args.with_keypoints} "
+                         f"{files[1].layout}: triangulated ankles need one detector's", arguments=("layout",))
+    rates = {f.fps for f in files if f.fps is not None}
+    if len(rates) > 1:
+        raise InputError(f"{args.keypoints} and {args.with_keypoints} state frame rates {sorted(rates)}: frames on "
+                         "one clock have one rate", arguments=("fps",))
+    views = {args.keypoints: (files[0].by_track(), camera),
+             args.with_keypoints: (files[1].by_track(), read_camera(args.with_camera))}
+    return views, files[0].layout, next(iter(rates), None)
 
 
 def batch(args: argparse.Namespace) -> int:
@@ -97,7 +142,7 @@ def viz(args: argparse.Namespace) -> int:
     from ray3d.io.camera_files import read_camera
     from ray3d.temporal import check_frame_rate
     from ray3d.io.world import read_world
-    from tqdm import tqdm
+    from ray3d.console import progress_bar
 
     from ray3d.viz.animation import check_animation_path, frame_span, render_frames, save_animation
     from ray3d.viz.html_viewer import write_viewer
@@ -133,10 +178,12 @@ def viz(args: argparse.Namespace) -> int:
             inputs = {name: keypoints.h36m_pixels(name.split(":")[-1], result.frames)
                       for name, result in sequences.items()}
         first, last = frame_span(sequences)
-        images = tqdm(render_frames(sequences, camera, inputs, stride=args.stride, fps=fps), desc="rendering",
-                      unit="frame", total=(last - first) // args.stride + 1, leave=False)
+        images = progress_bar(render_frames(sequences, camera, inputs, stride=args.stride, fps=fps), desc="rendering",
+                              unit="frame", total=(last - first) // args.stride + 1, leave=False)
         save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
         print(f"wrote {args.animation}")
+        if args.keypoints is not None:
+            print_keypoint_notes(args.keypoints, keypoints)
     return 0
 
 
@@ -184,7 +231,8 @@ def add_parser(commands) -> None:
     viz_parser.set_defaults(handler=viz)
 
     calibrate_parser = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
-                                                      "person walking on the floor")
+                                                      "person walking on the floor; or where a calibrated camera's "
+                                                      "floor lies (--floor-of)")
     calibrate_parser.add_argument("--floor-points", type=Path,
                            help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
     calibrate_parser.add_argument("--from-person", type=Path, metavar="KEYPOINTS",
@@ -193,7 +241,19 @@ def add_parser(commands) -> None:
     calibrate_parser.add_argument("--person-height", type=float, default=ADULT_STATURE_M,
                            help=f"with --from-person: the person's stature in metres (default {ADULT_STATURE_M:.2f})")
     calibrate_parser.add_argument("--track", help="with --from-person: only this track (default: every track, jointly)")
-    calibrate_parser.add_argument("--layout", help="with --from-person: joint layout of the keypoints")
+    calibrate_parser.add_argument("--layout", help="with --from-person or --keypoints: joint layout of the keypoints")
+    calibrate_parser.add_argument("--floor-of", metavar="CAMERA",
+                           help="instead: a calibrated camera whose floor to settle (docs/floor.md), from "
+                                "--lens-height or from two cameras' keypoints; written to --out with floor_z_m set")
+    calibrate_parser.add_argument("--lens-height", type=float, metavar="M",
+                           help="with --floor-of: the lens's height over the floor in metres, measured by tape")
+    calibrate_parser.add_argument("--keypoints", type=Path, metavar="FILE",
+                           help="with --floor-of: 2D keypoints seen by that camera (any format ray3d lift reads)")
+    calibrate_parser.add_argument("--with-camera", metavar="CAMERA",
+                           help="with --keypoints: a second calibrated camera of the same world frame, overlapping")
+    calibrate_parser.add_argument("--with-keypoints", type=Path, metavar="FILE",
+                           help="with --with-camera: its keypoints of the same people, frame ids on the same clock")
+    calibrate_parser.add_argument("--fps", type=float, help="with --keypoints: their frame rate (default: the files')")
     calibrate_parser.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
     add_lens_arguments(calibrate_parser, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
     calibrate_parser.add_argument("--out", required=True, type=Path, help="camera JSON to write")

@@ -7,7 +7,8 @@ import argparse
 import sys
 
 from ray3d.cli.arguments import job_from_args, parse_offsets
-from ray3d.cli.printing import print_ankle_plane, print_fusion, print_refinements
+from ray3d.cli.printing import (print_ankle_plane, print_fusion, print_keypoint_notes, print_notes,
+                                print_refinements)
 from ray3d.io.atomic import check_output
 
 
@@ -37,20 +38,19 @@ def lift(args: argparse.Namespace) -> int:
 
 def lift_one(args: argparse.Namespace) -> int:
     """``ray3d lift`` of one keypoint file and its camera."""
+    from ray3d.console import showing_progress
     from ray3d.jobs import run_job
 
     check_output(args.out, (args.camera,))
-    lifted = run_job(job_from_args(args, [args.keypoints], "keypoint files", "file"), args.out).inputs[0]
+    done = run_job(job_from_args(args, [args.keypoints], "keypoint files", "file"), args.out,
+                   progress=showing_progress())
+    print_notes(done.notes)
+    lifted = done.inputs[0]
     keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
     if keypoints.fps is None:
         print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
               "another; speeds and smoothing depend on it)", file=sys.stderr)
-    if keypoints.frame_order:
-        print(f"note: {args.keypoints} names its frames by text: ordered {keypoints.frame_order}", file=sys.stderr)
-    if keypoints.untracked_dropped:
-        print(f"note: {args.keypoints} has several people in some frames but no track ids: lifted each frame's "
-              f"most confident person, {keypoints.untracked_dropped} other detection(s) left out (give track ids, "
-              "e.g. AlphaPose --pose_track, to lift everybody)", file=sys.stderr)
+    print_keypoint_notes(args.keypoints, keypoints)
     frames = sum(len(r.joints) for r in world.tracks.values())
     filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
     written = ", ".join(str(p) for p in lifted.files.values())
@@ -67,11 +67,14 @@ def lift_one(args: argparse.Namespace) -> int:
 def lift_several(args: argparse.Namespace) -> int:
     """``ray3d lift`` with several keypoint files, one per camera (``--camera`` once each, in order): each lifted
     as one camera's, then one fused world in --out (.json)."""
+    from ray3d.console import showing_progress
     from ray3d.jobs import run_job
 
     job = job_from_args(args, args.keypoints, "keypoint files", "file")
-    done = run_job(job, args.out)
+    done = run_job(job, args.out, progress=showing_progress())
+    print_notes(done.notes)
     for path, lifted, choice in zip(job.inputs, done.inputs, job.cameras):
+        print_keypoint_notes(path, lifted.keypoints)
         print(f"{path}: {len(lifted.world.tracks)} track(s) through camera {lifted.camera.name or choice.file}")
     print_ankle_plane(done.inputs[0].world.tracks)
     print_fusion(done.fusion, [str(path) for path in args.keypoints])

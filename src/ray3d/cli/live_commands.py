@@ -6,11 +6,14 @@ OUT/camera<k>_<name>/, fused into OUT/world.json at the end. With --address, eac
 
 Every event, each person's position once a second and each person's summary go to the site's store as they happen
 (OUT/site.db, or --store); a run started again on the same store appends to it (a file is taken up where it was
-left). A network stream that stalls or breaks off is opened again (--reconnect-max), its gap recorded.
+left) and first ends the people a killed run left in view; one run writes a store at a time (a second is refused,
+exit 2, naming the first). A network stream that stalls or breaks off is opened again (--reconnect-max), its gap
+recorded.
 
 Exit codes: 0 the stream ended, or --until came; 3 it stalled (no frame for --stall-timeout seconds); 4 it broke off
 (3 and 4: files, or streams with --reconnect-max 0); 130 / 143 stopped by SIGINT (Ctrl-C) / SIGTERM; 2 bad input
-(not a video, a bad camera, site or store). Every output is complete in each case."""
+(not a video, a bad camera, site or store, or the store written by another run now). Every output is complete in
+each case."""
 
 from __future__ import annotations
 
@@ -34,6 +37,10 @@ def live(args: argparse.Namespace) -> int:
 
     plan = read_site(args.site) if args.site else None
     job = job_from_args(args, args.source, "sources", "source")
+    if plan is not None:  # a site drawn in pixels would count nobody, for ever
+        from ray3d.cli.printing import known_cameras, print_site_doubts
+
+        print_site_doubts(args.site, plan, known_cameras(job))
     offsets = parse_offsets(args.offsets)
     if args.start_time is not None and args.every is None:
         from ray3d.errors import InputError
@@ -43,12 +50,12 @@ def live(args: argparse.Namespace) -> int:
         from ray3d.errors import InputError
 
         raise InputError(f"--until: {args.until:g} s from now: that moment has passed")
-    mqtt = MqttPublisher(args.mqtt, plan or Site()) if args.mqtt else None
+    # The store first: a second service on it is refused before it says anything on the broker.
+    recorder = start_record(job, args.store or args.out / "site.db", " ".join(sys.argv), plan, args.start_time)
     try:
-        recorder = start_record(job, args.store or args.out / "site.db", " ".join(sys.argv), plan, args.start_time)
+        mqtt = MqttPublisher(args.mqtt, plan or Site()) if args.mqtt else None
     except BaseException:
-        if mqtt is not None:
-            mqtt.close(wait_s=0.0)
+        recorder.discard()
         raise
     try:
         inputs = open_live(job, False if args.unpaced else None, args.stall_timeout, args.address, args.workers,
@@ -61,6 +68,13 @@ def live(args: argparse.Namespace) -> int:
     taken_up = [f"{r.source} at frame {r.first_index}" for r in recorder.resumes if r.first_index]
     print(f"store {recorder.shown}: run {recorder.run}" + (f", taking up {', '.join(taken_up)}" if taken_up else ""),
           file=sys.stderr, flush=True)
+    if recorder.closed:
+        from ray3d.site.events import TRACK_ENDED
+
+        tracks = sum(e["event"] == TRACK_ENDED.name for e in recorder.closed)
+        print(f"store {recorder.shown}: a run was cut off (killed): the {tracks} people it left in view and "
+              f"{len(recorder.closed) - tracks} zone visits of theirs ended at its last commit (\"the service "
+              "stopped\")", file=sys.stderr, flush=True)
     if inputs.on_ray:
         print(f"on Ray ({args.address}): {len(job.inputs)} camera actor(s), each reading and decoding its stream, "
               "finding and lifting its people", file=sys.stderr, flush=True)
@@ -87,6 +101,9 @@ def live(args: argparse.Namespace) -> int:
           f"{recorder.written['positions']} positions, {recorder.written['people']} people, "
           f"{recorder.written['gaps']} gaps written" + (f"; {recorder.lost} rows lost" if recorder.lost else ""),
           file=sys.stderr)
+    if "site" in summary.files:
+        print(f"site report of run {recorder.run} only: {summary.files['site']}; over every run: ray3d site --store "
+              f"{recorder.shown} --site {args.site} --out REPORT", file=sys.stderr)
     if mqtt is not None:
         print(f"mqtt: {mqtt.published} events published, {mqtt.dropped} messages dropped", file=sys.stderr)
     if summary.webhook:
@@ -102,6 +119,7 @@ def add_parser(commands) -> None:
     from pathlib import Path
 
     from ray3d.cli.arguments import add_camera_arguments, add_lifting_arguments, add_time_buckets, until
+    from ray3d.live.people import LIVE_SMOOTHING
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     parser = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
@@ -132,8 +150,9 @@ def add_parser(commands) -> None:
     parser.add_argument("--port", type=int, default=8765, help="the page's port (default 8765; 0: any free one)")
     parser.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
     parser.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
-    parser.add_argument("--store", help="the site's store: every event, position and person, appended by each run "
-                                      "(default OUT/site.db, SQLite; or postgresql://USER@HOST/DB; docs/live.md)")
+    parser.add_argument("--store", help="the site's store: every event, position and person, appended by each run, "
+                                      "one run writing it at a time (default OUT/site.db, SQLite; or "
+                                      "postgresql://USER@HOST/DB; docs/live.md)")
     parser.add_argument("--mqtt", help="publish events and zone occupancy to an MQTT broker, mqtt://HOST[:PORT]/PREFIX, "
                                      "with Home Assistant discovery")
     parser.add_argument("--until", type=until, help="end the run on purpose after a duration (8h, 30min) or at a "
@@ -146,5 +165,10 @@ def add_parser(commands) -> None:
     parser.add_argument("--address", help="run each camera in a Ray actor: local (a local Ray started for the run), "
                       "auto or ray://HOST:10001 (a running cluster); default: every camera in this process")
     parser.add_argument("--workers", type=int, help="with --address local: the local Ray's CPUs (default all)")
-    add_lifting_arguments(parser)
+    add_lifting_arguments(parser, live_smoothing=live_smoothing_words(*LIVE_SMOOTHING))
     parser.set_defaults(handler=live)
+
+
+def live_smoothing_words(min_cutoff_hz: float, beta: float) -> str:
+    """How ``ray3d live`` smooths its answers as they happen (``ray3d.live.people.LIVE_SMOOTHING``), in words."""
+    return f"by a One-Euro filter ({min_cutoff_hz:g} Hz at rest, its cutoff {beta:g} Hz higher per m/s)"

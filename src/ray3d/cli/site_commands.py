@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ray3d.io.atomic import check_output, refuse_existing
-from ray3d.cli.printing import print_site_report
+from ray3d.cli.printing import print_ankle_plane, print_site_doubts, print_site_report
 
 
 def site(args: argparse.Namespace) -> int:
@@ -26,6 +26,8 @@ def site(args: argparse.Namespace) -> int:
     check_site_outputs(args.out, (args.world, args.site), args.force, args.every)
     plan = read_site(args.site)  # a bad site file is refused before the world file is read
     world = read_world(args.world)
+    print_ankle_plane(world.tracks, world.camera)  # where the people stand rests on it
+    print_site_doubts(args.site, plan, world.cameras, world)  # a site drawn in pixels counts nobody
     print_site_report(site_report(world, plan, args.out, f"{args.world.name} on {args.site.name}", args.force,
                                   args.every, args.start_time), world)
     return 0
@@ -35,7 +37,7 @@ def store_report(args: argparse.Namespace, read_site) -> int:
     """``ray3d site --store``: the record over --from .. --to, and its gaps said."""
     from ray3d.errors import InputError
     from ray3d.site.record import analyse_record, record_outputs, unfollowed_places
-    from ray3d.store import read_record
+    from ray3d.store import floor_decisions, read_record
 
     if args.start_time is not None:
         raise InputError("--start-time: a store's record carries its own clock; give --from / --to")
@@ -51,6 +53,8 @@ def store_report(args: argparse.Namespace, read_site) -> int:
     if low is not None and high is not None and not high > low:
         raise InputError("--to: it must come after --from")
     record = read_record(args.store, low, high)
+    for camera, plane in floor_decisions(args.store).items():  # where the people stand rests on it
+        print(f"note: {plane.message(camera)}", file=sys.stderr)
     for line in unfollowed_places(record, plan):
         print(f"note: {line}", file=sys.stderr)
     places, paths = analyse_record(record, plan, args.out, args.every, f"{record.location} on {args.site.name}",

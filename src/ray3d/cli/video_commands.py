@@ -6,15 +6,21 @@ from __future__ import annotations
 import argparse
 
 from ray3d.cli.arguments import job_from_args
-from ray3d.cli.printing import print_refinements
+from ray3d.cli.printing import print_notes, print_refinements
 
 
 def video(args: argparse.Namespace) -> int:
-    from ray3d.cli.printing import print_fusion, print_site_report
+    from ray3d.cli.printing import known_cameras, print_fusion, print_site_doubts, print_site_report
+    from ray3d.console import showing_progress
     from ray3d.jobs import run_job
 
     job = job_from_args(args, args.input, "videos", "video")
-    done = run_job(job, args.out)
+    said = frozenset()
+    if job.site is not None:  # a site drawn in pixels, said before the videos are read
+        plan = job.site_plan()
+        said = print_site_doubts(job.site, plan, known_cameras(job))
+    done = run_job(job, args.out, progress=showing_progress())
+    print_notes(done.notes)
     for path, result in zip(job.inputs, done.inputs):
         _print_video(path, args.detector, result)
     if done.fusion is not None:
@@ -22,6 +28,7 @@ def video(args: argparse.Namespace) -> int:
         print(f"{len(done.world.tracks)} people from {len(job.inputs)} cameras -> {done.files['world']}, "
               f"{done.files['viewer']}")
     if done.site is not None:
+        print_site_doubts(job.site, plan, done.world.cameras, done.world, said)  # and where nobody went
         print_site_report(done.site, done.world)
     return 0
 

@@ -17,6 +17,9 @@ from ray3d.geometry.arrays import Array, check_points, like, namespace, numeric_
 # Real calibration files write rotations with 7 significant digits (|R R^T - I| ~ 1e-6): within this, R is taken
 # as the nearest rotation; beyond it, it is refused.
 ORTHONORMAL_TOLERANCE = 1e-4
+# A camera whose optical axis rises more than this above the horizontal is doubted: people are filmed from above
+# or level with them, and a pitch typed with the wrong sign (positive looks down) looks up.
+LOOKS_UP_DEG = 5.0
 
 
 DICT_FIELDS = ("fx", "fy", "cx", "cy", "dist", "R", "t", "width", "height")
@@ -271,7 +274,7 @@ class Camera:
         the camera. Unusable: a lens whose distortion turns back inside the image (its rays cannot be recovered
         there). Implausible: a field of view across the image under 3 or over 170 degrees; a principal point more
         than an image's size outside it; an image whose lowest row looks above the horizon (the floor where
-        people stand unseen)."""
+        people stand unseen); else an optical axis rising more than ``LOOKS_UP_DEG`` (a pitch of the wrong sign)."""
         name = f"camera {self.name}" if self.name else "the camera"
         width, height = self.image_size
         fx, fy, cx, cy = self.intrinsics
@@ -297,6 +300,9 @@ class Camera:
             doubts.append(f"{name} ({self.camera_height:.2f} m high, pitch {np.degrees(self.pitch):+.0f} degrees) "
                           "looks above the horizon at the bottom of its image: the floor where people stand is not in "
                           "view (positive pitch looks down)")
+        elif np.degrees(self.pitch) < -LOOKS_UP_DEG:
+            doubts.append(f"{name} looks {-np.degrees(self.pitch):.0f} degrees up from {self.camera_height:.2f} m: is "
+                          "its pitch's sign right (positive looks down)? People are filmed from above or level")
         return (), tuple(doubts)
 
     def sees(self, points_world: np.ndarray) -> bool:

@@ -17,7 +17,9 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry import Camera, parse_image_size
 from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import FLAT_FLOOR, Floor, FloorRegion, checked_floor_z
-from ray3d.io.atomic import atomic_path
+from ray3d.io.atomic import atomic_path, check_output
+from ray3d.io.camera_keys import (FLOOR_KEY, FLOOR_Z_KEY, OPENCV_FIELDS, check_camera_document,
+                                  refuse_near_misses)
 from ray3d.io.text_files import read_json
 
 
@@ -32,6 +34,7 @@ def load_cameras(path: str | Path) -> list[Camera]:
     """Read a camera list, or a single camera object, from JSON."""
     path = Path(path)
     document = read_json(path)
+    check_camera_document(document, path)
     entries = document.get("cameras", [document]) if isinstance(document, dict) else document
     if not isinstance(entries, list) or not entries:
         raise InputError(f"{path}: expected a camera object or {{\"cameras\": [...]}}")
@@ -49,14 +52,21 @@ def load_cameras(path: str | Path) -> list[Camera]:
 def _matrix(value: Any, path: Path, field: str, sizes: tuple[int, ...]) -> np.ndarray:
     """A field's finite numbers from a nested list, a flat list, or OpenCV's JSON {rows, cols, data}, checked to
     hold one of ``sizes`` numbers before anything reshapes them."""
-    if isinstance(value, dict) and "data" in value:
+    if isinstance(value, dict):
+        if "data" not in value:
+            raise InputError(f"{path}: {field}: expected a list of numbers or OpenCV's {{rows, cols, data}}, got an "
+                             f"object without data")
         rows, cols = value.get("rows", 1), value.get("cols", None)
-        for name, size in (("rows", rows), ("cols", cols)):
-            if size is not None and (isinstance(size, bool) or not isinstance(size, int) or not 0 < size <= 16):
-                raise InputError(f"{path}: {field}.{name}: expected a whole number 1-16, got {size!r}")
+        for name, size in (("rows", rows), ("cols", cols)):  # given, each must be a size (null is not one)
+            if name in value and (isinstance(size, bool) or not isinstance(size, int) or not 0 < size <= 16):
+                raise InputError(f"{path}: {field}.{name}: expected a whole number 1-16, got {_shown(size)}")
+        if not isinstance(value["data"], list):
+            raise InputError(f"{path}: {field}.data: expected a list of numbers, got {_shown(value['data'])}")
         data = numeric_array(value["data"], f"{path}: {field}.data").ravel()
         if cols is not None and data.size != rows * cols:
             raise InputError(f"{path}: {field}: {rows} x {cols} needs {rows * cols} numbers in data, got {data.size}")
+    elif not isinstance(value, (list, tuple, np.ndarray)):
+        raise InputError(f"{path}: {field}: expected a list of numbers, got {_shown(value)}")
     else:
         data = numeric_array(value, f"{path}: {field}").ravel()
     if data.size not in sizes:
@@ -65,6 +75,12 @@ def _matrix(value: Any, path: Path, field: str, sizes: tuple[int, ...]) -> np.nd
     if not np.isfinite(data).all():
         raise InputError(f"{path}: {field}: contains NaN or infinite values")
     return data
+
+
+def _shown(value: Any) -> str:
+    """A value as the file wrote it, short: JSON's null, not Python's None."""
+    text = "null" if value is None else repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _image_side(value: Any, path: Path, field: str) -> int:
@@ -107,10 +123,6 @@ def _from_opencv_fields(fields: dict[str, Any], path: Path) -> Camera:
     return Camera(K, dist, R, t, (sides["width"], sides["height"]), name=path.stem)
 
 
-OPENCV_FIELDS = ("camera_matrix", "dist_coeffs", "distortion_coefficients", "rvec", "tvec", "R", "t",
-                 "image_width", "image_height", "width", "height")
-
-
 class _OpenCVYaml(yaml.SafeLoader):
     """YAML as OpenCV's FileStorage writes it: an ``!!opencv-matrix`` is its mapping {rows, cols, dt, data}."""
 
@@ -149,6 +161,7 @@ def _read_opencv_storage(path: Path) -> Camera:
                              Loader=_OpenCVYaml)
     if not isinstance(document, dict):
         raise InputError(f"{path}: not an OpenCV camera file (expected fields such as camera_matrix at the top)")
+    refuse_near_misses(document, path)
     return _from_opencv_fields({k: v for k, v in document.items() if k in OPENCV_FIELDS and v is not None}, path)
 
 
@@ -216,6 +229,7 @@ def read_camera(spec: str | Path, index: int = 0) -> Camera:
         return _read_opencv_storage(path)
     document = read_json(path)
     if isinstance(document, dict) and "camera_matrix" in document:
+        refuse_near_misses(document, path)
         return _from_opencv_fields(document, path)
     cams = load_cameras(path)
     if not 0 <= index < len(cams):
@@ -258,9 +272,6 @@ def _camera_of_options(camera, camera_height, pitch, image_size, roll, focal, hf
     return Camera.from_height_pitch(camera_height, pitch, size, roll or 0.0, focal, hfov)
 
 
-FLOOR_KEY = "floor_regions"
-
-
 @reads_file("floor file")
 def read_floor(path: str | Path) -> Floor:
     """The floor regions a JSON file declares under ``"floor_regions"`` (a camera file of ours may carry them
@@ -270,6 +281,7 @@ def read_floor(path: str | Path) -> Floor:
     regions overlap the first listed decides; outside every region the floor is z = 0."""
     path = Path(path)
     document = read_json(path)
+    check_camera_document(document, path)
     entries = document.get(FLOOR_KEY) if isinstance(document, dict) else None
     if not isinstance(entries, list) or not entries:
         raise InputError(f"{path}: {FLOOR_KEY}: expected a list of regions "
@@ -308,15 +320,30 @@ def floor_of_camera_file(camera: str | Path | None) -> Floor:
     return read_floor(camera) if FLOOR_KEY in _our_camera_document(camera) else FLAT_FLOOR
 
 
-FLOOR_Z_KEY = "floor_z_m"
-
-
 def floor_z_of_camera_file(camera: str | Path | None) -> float | None:
     """Where a camera file of ours says the floor people stand on lies in its frame (``"floor_z_m"``: a
     calibration whose z = 0 is a board on a table says -0.75), None when it does not say (then it is observed
     from the people: ``ray3d.refine.ankle_plane``)."""
     document = _our_camera_document(camera)
     return checked_floor_z(document[FLOOR_Z_KEY], f"{camera}: {FLOOR_Z_KEY}", ()) if FLOOR_Z_KEY in document else None
+
+
+def save_camera_with_floor_z(camera: str | Path, out: str | Path, floor_z_m: float, overwrite: bool = False,
+                             **info: Any) -> Path:
+    """The camera file ``camera`` written to ``out`` with ``"floor_z_m"`` set (and any extra top-level ``info``),
+    atomically; ``out`` may not be ``camera`` itself. A JSON file of ours keeps every other key as it was (its
+    floor regions, how it was made); any other camera (OpenCV's, a calibration TOML's, ``h36m:...``) is written
+    in ours (``save_cameras``)."""
+    floor_z_m = checked_floor_z(floor_z_m, "floor_z_m", ("floor_z_m",))
+    check_output(out, (camera,))
+    document = _our_camera_document(camera)
+    if not document or "camera_matrix" in document:  # not ours: the camera as we write cameras
+        save_cameras(out, [read_camera(camera)], overwrite, **info, **{FLOOR_Z_KEY: round(floor_z_m, 4)})
+        return Path(out)
+    read_camera(camera)  # what is written must read back as a camera
+    with atomic_path(out, overwrite) as temporary:
+        temporary.write_text(json.dumps({**document, **info, FLOOR_Z_KEY: round(floor_z_m, 4)}, indent=1))
+    return Path(out)
 
 
 def _our_camera_document(camera: str | Path | None) -> dict:

@@ -16,6 +16,7 @@ from ray3d.geometry.arrays import numeric_array
 from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.detections import TrackDetections
+from ray3d.io.frame_names import FrameNames
 from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.io.safe_npz import read_npz_entries
 from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_named_by, layout_skeleton
@@ -36,6 +37,7 @@ class Keypoints:
     path: Path | None = None
     untracked_dropped: int = 0  # detections left out: several people in a frame of a file without track ids
     frame_order: str | None = None  # how frames named by text (image names) were put in order, where they were
+    # (``io.frame_names.FRAME_ORDERS``' words)
 
     def by_track(self) -> dict[object, TrackDetections]:
         """{track id: its detections} for ``Lifter.lift_tracks``."""
@@ -155,25 +157,6 @@ def read_ours_json(path: Path, document: dict, layout, fps) -> Keypoints:
 # with Halpe-26. Their face, hand and foot points are not used.
 _BODY_PREFIX = {17: "coco17", 26: "halpe26", 133: "coco17", 136: "halpe26"}
 
-FRAME_ORDERS = {"digits": "by the last number in each image name ('frame_000012.png' is frame 12)",
-                "appearance": "in the order the image names first appear in the file (they hold no number)"}
-
-
-def _frame_number(path: Path, image_id, order: dict, rules: set[str]) -> int:
-    """A frame index from an ``image_id``: an integer, or an image name such as "12.jpg" or "frame_000012.png"
-    (its last digits); other names are numbered in order of first appearance. ``rules`` collects which of
-    ``FRAME_ORDERS`` named frames needed."""
-    if isinstance(image_id, bool) or image_id is None:
-        raise InputError(f"{path}: every entry needs an 'image_id' or 'frame_index'")
-    if isinstance(image_id, (int, float)) and float(image_id).is_integer():
-        return int(image_id)
-    digits = "".join(c if c.isdigit() else " " for c in Path(str(image_id)).stem).split()
-    if digits:
-        rules.add("digits")
-        return int(digits[-1])
-    rules.add("appearance")
-    return order.setdefault(str(image_id), len(order))
-
 
 def _track_id(path: Path, value):
     """AlphaPose's ``idx`` (a number, or a list of them after PoseFlow), a ``track_id`` or OpenPose's
@@ -191,19 +174,19 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
     COCO-17, Halpe-26 or Halpe-136), and mmpose 1.x predictions (``keypoints`` as [[x, y], ...] with
     ``keypoint_scores``): one image's list of instances, or a video's ``[{"frame_id", "instances": [...]}]``."""
     entries = []  # (frame, track or None, keypoints, scores or None, detection score)
-    order: dict = {}
-    rules: set[str] = set()
+    names = FrameNames(path)
     if all(isinstance(d, dict) and "instances" in d for d in document):
         for k, frame in enumerate(document):
             if not isinstance(frame["instances"], list):
                 raise InputError(f"{path}: frame {k}: 'instances' must be a list")
-            number = _frame_number(path, frame.get("frame_id", k), order, rules)
+            number = names.number(frame.get("frame_id", k), "frame_id")
             entries += [(number, _track_id(path, i.get("track_id")), i.get("keypoints"), i.get("keypoint_scores"),
                          i.get("bbox_score", i.get("score", 1.0))) for i in frame["instances"] if isinstance(i, dict)]
     elif all(isinstance(d, dict) and "keypoints" in d for d in document):
         image_level = not any("image_id" in d or "frame_index" in d for d in document)
         for d in document:  # one image's mmpose instances carry no frame
-            frame = 0 if image_level else _frame_number(path, d.get("frame_index", d.get("image_id")), order, rules)
+            field = "frame_index" if "frame_index" in d else "image_id"
+            frame = 0 if image_level else names.number(d.get(field), field)
             entries.append((frame, _track_id(path, d.get("track_id", d.get("idx"))), d["keypoints"],
                             d.get("keypoint_scores"), d.get("score", d.get("bbox_score", 1.0))))
         if image_level:  # several people in one image are several tracks
@@ -211,6 +194,7 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
     else:
         raise InputError(f"{path}: a results list needs 'keypoints' in every entry (COCO, AlphaPose) or "
                          "'instances' in every entry (mmpose)")
+    names.check()
     if not entries:
         raise InputError(f"{path}: the results list holds no person")
     rows = _numeric(path, "keypoints", [e[2] for e in entries])
@@ -246,7 +230,7 @@ def read_results_list(path: Path, document: list, layout, fps) -> Keypoints:
         tracks, dropped = np.array(tracks), 0
     read = _finish(path, pixels, scores, frames, tracks, layout, fps, "results list")
     return dataclasses.replace(read, untracked_dropped=dropped,
-                               frame_order="; ".join(FRAME_ORDERS[r] for r in sorted(rules)) or None)
+                               frame_order=names.order)
 
 
 def read_openpose_folder(path: Path, layout, fps) -> Keypoints:

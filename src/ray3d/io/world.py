@@ -88,6 +88,9 @@ class World:
     cameras: tuple[Camera, ...] = ()  # every camera, the first being ``camera``, when several saw the people
     rejoined: dict[str, list] = dataclasses.field(default_factory=dict)  # track -> the re-joins it holds (.json)
     in_part: dict[str, list[int]] = dataclasses.field(default_factory=dict)  # track -> frames the edge cut (.json)
+    # What its people showed of the floor itself (``LiftedTracks.evidence`` and ``ankles``; not written to files):
+    # what a camera's floor memory keeps (``io.floor_memory``).
+    floor_evidence: tuple = ()
 
     def __post_init__(self) -> None:
         if not self.tracks:
@@ -303,14 +306,16 @@ def _read_csv(path: Path) -> World:
     position_sd = np.frombuffer(sd, dtype=np.float64).reshape(-1, 2)[:count]
     tracks_read = _from_rows(joints, np.frombuffer(frames, dtype=np.int64)[:count], tracks[:count], flags,
                              float(fields["fps"]), list(names), refinements, position_sd)
-    return World(tracks_read, camera, fields["model"], fields["units"], _frame_described(fields["axes"]), path)
+    return World(tracks_read, camera, fields.get("model", UNKNOWN_MODEL), fields["units"],
+                 _frame_described(fields["axes"]), path)
 
 
 def _optional_array(values) -> np.ndarray | None:
     return None if values is None else np.array(values, dtype=np.float64)
 
 
-WORLD_FIELDS = ("units", "axes", "joint_names", "fps", "camera", "model", "tracks")
+WORLD_FIELDS = ("units", "axes", "joint_names", "fps", "camera", "tracks")
+UNKNOWN_MODEL = "unknown"  # a file that does not name the model that lifted its people (``model`` is optional)
 TRACK_FIELDS = ("frames", "joints")  # what every version wrote; the fields added since are optional
 
 
@@ -345,7 +350,8 @@ def read_world(path: str | Path) -> World:
             tracks = _from_rows(data["joints"], data["frames"], data["tracks"], data["interpolated"],
                                 float(data["fps"]), [str(n) for n in data["joint_names"]],
                                 json.loads(str(data.get("refinement_json", "{}"))), data.get("position_sd"))
-            return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))), str(data["model"]),
+            return World(tracks, Camera.from_dict(json.loads(str(data["camera_json"]))),
+                         str(data.get("model", UNKNOWN_MODEL)),
                          str(data["units"]), _frame_described(str(data["axes"])), path)
         if suffix == ".json":
             document = read_json(path)
@@ -367,7 +373,7 @@ def read_world(path: str | Path) -> World:
                                          np.array(e["frames"], dtype=np.int64), tuple(document["joint_names"]),
                                          e.get("refinement"), _optional_array(e.get("position_sd_m")), seen_by(e))
                       for t, e in document["tracks"].items()}
-            return World(tracks, Camera.from_dict(document["camera"]), str(document["model"]),
+            return World(tracks, Camera.from_dict(document["camera"]), str(document.get("model", UNKNOWN_MODEL)),
                          str(document["units"]), _frame_described(str(document["axes"])), path, cameras=cameras,
                          rejoined=_per_track(document, "rejoined", path), in_part=_per_track(document, "in_part", path))
         return _read_csv(path)

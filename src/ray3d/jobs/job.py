@@ -11,9 +11,11 @@ from typing import Any
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.camera_files import camera_from_options, floor_of_camera_file, floor_z_of_camera_file, read_floor
+from ray3d.io.floor_memory import floor_memory_path, input_key, read_floor_memory, remember_floor
 from ray3d.io.world import WRITTEN_FORMATS
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.models.precision import check_precision
+from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")
 
@@ -54,7 +56,9 @@ class Job:
     (``video.DEFAULT_DETECTOR`` when None) with ``video`` options; each input's world written as ``world_format``, a video's ``overlay`` drawn, outputs
     replaced only with ``overwrite``; several inputs are several cameras of one scene, their clocks found from
     the people with ``find_offsets``; with a ``site`` file, the people's report on its zones and lines (time
-    buckets of ``every_s`` seconds from ``start_time``, a ``datetime``)."""
+    buckets of ``every_s`` seconds from ``start_time``, a ``datetime``). With ``remember_floor``, what each
+    camera's people show of its floor is kept beside its camera file and weighed in by the next job
+    (``io.floor_memory``)."""
 
     inputs: tuple  # paths; a live job's may be device numbers or stream URLs
     cameras: tuple[CameraChoice, ...]
@@ -74,6 +78,7 @@ class Job:
     site: str | Path | None = None
     every_s: float | None = None
     start_time: Any = None
+    remember_floor: bool = True
     _lifters: dict = dataclasses.field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -108,10 +113,42 @@ class Job:
         return input_kind(self.inputs[0])
 
     def lift_options(self, k: int) -> LiftOptions:
-        """Input ``k``'s lifting options, with the floor it rests on."""
+        """Input ``k``'s lifting options, with the floor it rests on and, where that is to be observed, what its
+        camera's people showed of it in earlier jobs (``remembered_floor``)."""
         floor = read_floor(self.floor_file) if self.floor_file else floor_of_camera_file(self.cameras[k].file)
         floor_z = self.lift.floor_z if self.lift.floor_z is not None else floor_z_of_camera_file(self.cameras[k].file)
-        return dataclasses.replace(self.lift, floor=floor, floor_z=floor_z)
+        remembered = self.remembered_floor(k) if floor_z is None else ()
+        return dataclasses.replace(self.lift, floor=floor, floor_z=floor_z,
+                                   seen_before=(*self.lift.seen_before, *remembered))
+
+    def floor_memory(self, k: int) -> Path | None:
+        """Where input ``k``'s camera's floor memory lies (beside its camera file); None for a camera without a
+        file or a job that does not remember."""
+        return floor_memory_path(self.cameras[k].file) if self.remember_floor and self.cameras[k].file else None
+
+    def remembered_floor(self, k: int) -> tuple:
+        """What input ``k``'s camera's people showed of its floor in earlier jobs (not this one's inputs again):
+        its people's sizes and, once per earlier job, the ankles two of this job's cameras saw at once."""
+        key = input_key(*self.inputs)
+        earlier_jobs = set()
+        for j in range(k):
+            path = self.floor_memory(j)
+            if path is not None:
+                earlier_jobs |= {run.key for run in read_floor_memory(path, self.cameras[j].camera())}
+        path = self.floor_memory(k)
+        runs = [run for run in ([] if path is None else read_floor_memory(path, self.cameras[k].camera()))
+                if run.key != key]
+        return (*(e for run in runs for e in run.people),
+                *(e for run in runs if run.key not in earlier_jobs for e in run.ankles))
+
+    def remember_floor_seen(self, k: int, evidence: tuple) -> None:
+        """Keeps what input ``k``'s camera's people showed of its floor in this job (``World.floor_evidence``) in
+        its floor memory, in place of what the same inputs showed before."""
+        path = self.floor_memory(k)
+        if path is not None and evidence:
+            remember_floor(path, self.cameras[k].camera(), input_key(*self.inputs),
+                           tuple(e for e in evidence if isinstance(e, SizeEvidence)),
+                           tuple(e for e in evidence if isinstance(e, SeenTwice)))
 
     def lifter(self, layout: str | None = None):
         """The ``Lifter`` for keypoints of ``layout`` (``load_lifter``; None: H36M-17), loaded once per layout."""

@@ -10,6 +10,7 @@ import functools
 import threading
 from pathlib import Path
 
+from ray3d.io.atomic import write_text
 from ray3d.jobs.job import Job
 from ray3d.jobs.run import camera_and_detector, fuse_and_write, site_report
 
@@ -122,8 +123,9 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
     """Follow ``inputs`` (``open_live``) until they end, stall, break off or ``stop`` is set (``live.runner.follow``:
     with the store's ``recorder`` and ``mqtt``, a ``live.mqtt.MqttPublisher``); then fuse several cameras' world
     files into ``out_dir``/world.json and write the site's report in ``out_dir``/site (a run continuing a store's
-    record: in ``out_dir``/run<N>/, nothing written before is replaced). Returns the ``LiveSummary``, its
-    ``files`` naming every output."""
+    record: in ``out_dir``/run<N>/, nothing written before is replaced). With a ``recorder`` the report is of this
+    run's people only, and its ``COVERS`` file says so and names the store's report, the one over every run.
+    Returns the ``LiveSummary``, its ``files`` naming every output."""
     from ray3d.io.world import read_world, write_world
     from ray3d.live.runner import LiveOptions, follow
     from ray3d.live.views import JOINED_FILE, read_joined
@@ -161,7 +163,35 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
             summary.tracks = len(fusion.world.tracks)  # the world's people, not each camera's tracks
         summary.files["world"] = fused_path
     if site is not None and (site.zones or site.lines) and summary.files["world"].exists():
-        summary.files["site"] = site_report(read_world(summary.files["world"]), site, ends_in / "site",
-                                            f"ray3d live: {inputs.followed.name}", every_s=options.every_s,
-                                            start_time=options.start_time).folder
+        world = read_world(summary.files["world"])
+        if recorder is None:
+            summary.files["site"] = site_report(world, site, ends_in / "site", f"ray3d live: {inputs.followed.name}",
+                                                every_s=options.every_s, start_time=options.start_time).folder
+        elif (world := this_run(world, recorder.id_prefix)) is not None:
+            folder = site_report(world, site, ends_in / "site", f"ray3d live: {inputs.followed.name}, run "
+                                 f"{recorder.run} only", every_s=options.every_s,
+                                 start_time=options.start_time).folder
+            write_text(folder / COVERS, covers(recorder, len(world.tracks)))
+            summary.files["site"] = folder
     return summary
+
+
+COVERS = "README.txt"  # in a run's site report: what it covers, and where the report over every run is
+
+
+def this_run(world, id_prefix: str):
+    """The people of one run of a world file every run of a store appends to (their ids begin with the run's
+    ``id_prefix``); None where it has none."""
+    mine = {track: result for track, result in world.tracks.items() if track.startswith(id_prefix)}
+    return dataclasses.replace(world, tracks=mine) if mine else None
+
+
+def covers(recorder, people: int) -> str:
+    """What a run's site report covers, said beside it: its run only, and the store's report as the one over
+    every run."""
+    return (f"This report covers run {recorder.run} of the store {recorder.shown} only: its {people} people, from "
+            "the world file (each person lifted again whole once they left, so its counts can differ a little from "
+            "the live events').\n"
+            "The record of every run is the store: its report is the one to count by,\n"
+            f"    ray3d site --store {recorder.shown} --site SITE --out REPORT\n"
+            "(SITE: the site file the runs followed; --from / --to for a period).\n")

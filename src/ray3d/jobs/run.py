@@ -47,13 +47,14 @@ class SiteReport:
 class JobResult:
     """What a whole job gave: each input's ``InputResult``, the job's ``world`` (the one input's, or the cameras'
     fused), the ``fusion`` (several cameras), the ``site`` report (a job with a site) and every file written
-    ({role: path})."""
+    ({role: path}) and ``notes``, what the user should know that did not stop it."""
 
     inputs: list[InputResult]
     world: World
     files: dict[str, Path]
     fusion: object = None
     site: SiteReport | None = None
+    notes: list[str] = dataclasses.field(default_factory=list)  # what the user should know that did not stop it
 
 
 def run_job(job: Job, out: str | Path, progress: bool = True) -> JobResult:
@@ -78,6 +79,12 @@ def run_job(job: Job, out: str | Path, progress: bool = True) -> JobResult:
     else:
         results = lift_cameras_together(job, progress) if several else [run_input(job, 0, out, progress)]
     done = JobResult(results, results[0].world, dict(results[0].files) if not several else dict(fused))
+    for k, result in enumerate(results):
+        try:
+            job.remember_floor_seen(k, result.world.floor_evidence)
+        except OSError as err:  # a camera file in a folder it may not write: the job's outputs still stand
+            done.notes.append(f"{job.floor_memory(k)}: could not keep what this run's people showed of the floor "
+                              f"({err.strerror or err}); the next run will not weigh it in")
     if several:
         done.fusion = fuse_and_write([r.world for r in results], fused["world"], find_offsets=job.find_offsets,
                                      viewer_path=fused.get("viewer"), overwrite=job.overwrite)
@@ -183,10 +190,20 @@ def run_videos_together(job: Job, outs: list[str | Path], progress: bool = True)
 
     opened = [video_input(job, k) for k in range(len(job.inputs))]
     results = lift_videos([(info, camera, out, detector) for (info, camera, detector), out in zip(opened, outs)],
-                          job.lifter(opened[0][2].layout), job.lift_options(0), job.video, job.world_format,
-                          job.overlay, job.overwrite, progress, one_clock=not job.find_offsets)
+                          job.lifter(opened[0][2].layout), [job.lift_options(k) for k in range(len(opened))],
+                          job.video, job.world_format, job.overlay, job.overwrite, progress,
+                          one_clock=not job.find_offsets)
     return [InputResult(result.world, camera, result.frames, result.files, video=result)
             for result, (_, camera, _) in zip(results, opened)]
+
+
+def each_cameras_options(job: Job) -> dict:
+    """``Lifter.lift_cameras``' options of a several-camera ``job``, each camera's its own (the floor regions and
+    where the floor lies that its camera file declares): {option: {input index: value}}; the refinement is the
+    job's."""
+    options = [job.lift_options(k).lift_arguments() for k in range(len(job.inputs))]
+    return {name: {k: own[name] for k, own in enumerate(options)} if name != "refine" else job.lift.refine
+            for name in options[0]}
 
 
 def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
@@ -203,12 +220,13 @@ def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     lifted = lifter.lift_cameras({k: (keypoints.by_track(), camera) for k, (keypoints, camera)
                                   in enumerate(zip(files, cameras))}, layouts,
                                  {k: keypoints.fps for k, keypoints in enumerate(files)}, progress,
-                                 one_clock=not job.find_offsets, **job.lift_options(0).lift_arguments())
+                                 one_clock=not job.find_offsets, **each_cameras_options(job))
     results = []
     for k, (path, keypoints, camera) in enumerate(zip(job.inputs, files, cameras)):
         if isinstance(lifted[k], InputError):
             raise InputError(f"{path}: {lifted[k].message}", lifted[k].arguments)
-        world = World(lifted[k], camera, lifter.name, unliftable=lifted[k].unliftable)
+        world = World(lifted[k], camera, lifter.name, unliftable=lifted[k].unliftable,
+                      floor_evidence=lifted[k].floor_evidence())
         frames = len({int(f) for result in world.tracks.values() for f in result.frames})
         results.append(InputResult(world, camera, frames, {}, keypoints=keypoints))
     return results

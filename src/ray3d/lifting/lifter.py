@@ -13,10 +13,10 @@ import threading
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from ray3d import temporal
 from ray3d.checkpoints import default_model, load_model
+from ray3d.console import progress_bar
 from ray3d.errors import InputError
 from ray3d.geometry import Camera, CameraBatch
 from ray3d.geometry.arrays import numeric_array
@@ -28,17 +28,38 @@ from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.precision import check_precision, with_precision
 from ray3d.models.tensor_batch import TensorBatch
+from ray3d.lifting.floor_pass import lift_views
 from ray3d.lifting.options import LiftOptions
-from ray3d.refine import (AnklePlane, RefineConfig, given_ankle_plane, network_position_sd, observe_ankle_plane,
-                          on_observed_rays, refine_track, size_evidence)
+from ray3d.refine import RefineConfig
 from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, camera_rays, prepare_track
 from ray3d.lifting.stream import LiftStream
-from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, people_seen_twice, progress_labels
-from ray3d.skeleton import H36M17, Skeleton, conversion_matrix
+from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, progress_labels
+from ray3d.skeleton import Skeleton, conversion_matrix
 
 SMALL_BATCHES_BEFORE_TRACING = 3
 
 
+def _with_gaps(frames, keypoints: np.ndarray, confidences) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """``Lifter.lift``'s rows at ``frames``, their frame numbers -> (every frame number from the first to the last
+    (T',), keypoints (T', J, 2) NaN and confidences (T', J) 0 in the frames skipped), as ``lift_tracks`` fills a
+    track's gaps (``TrackDetections.dense``). Refused: frame numbers that are not one per row, not whole numbers,
+    or not increasing."""
+    numbers, rows = numeric_array(frames, "frames"), len(keypoints) if keypoints.ndim else 0
+    if numbers.ndim != 1 or len(numbers) != rows:
+        raise InputError(f"frames: the frame number of each of the keypoints' {rows} rows expected, got "
+                         f"shape {numbers.shape}", arguments=("frames",))
+    if not (np.isfinite(numbers).all() and (numbers == np.round(numbers)).all()):
+        raise InputError("frames: whole numbers expected", arguments=("frames",))
+    if (np.diff(numbers) <= 0).any():
+        row = int(np.flatnonzero(np.diff(numbers) <= 0)[0]) + 1
+        raise InputError(f"frames: frame numbers must increase row by row; row {row} has {numbers[row]:.0f} after "
+                         f"{numbers[row - 1]:.0f}", arguments=("frames",))
+    if confidences is not None:
+        scores = numeric_array(confidences, "confidences")
+        if scores.shape != keypoints.shape[:2]:
+            raise InputError(f"confidences: expected shape {keypoints.shape[:-1]}, got {scores.shape}",
+                             arguments=("confidences",))
+    return TrackDetections(numbers, keypoints, confidences).dense("frames")
 
 
 class Lifter:
@@ -100,7 +121,8 @@ class Lifter:
     def lift(self, keypoints, camera: Camera, confidences=None, fps: float | None = None, layout: str = "h36m17",
              smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
              chunk: int = 8192, refine: bool | RefineConfig = True, progress: bool | str = False,
-             floor: Floor = FLAT_FLOOR, floor_z: float | None = None) -> LiftResult | list[LiftResult]:
+             floor: Floor = FLAT_FLOOR, floor_z: float | None = None,
+             frames=None) -> LiftResult | list[LiftResult]:
         """Lift one person's pixels (T, J, 2) seen by ``camera``; (B, T, J, 2) lifts B sequences.
 
         Args:
@@ -109,129 +131,48 @@ class Lifter:
             smooth_2d / smooth_3d: ``"savgol"`` or ``"one-euro"`` on the input pixels / output joints.
             refine: move the person along their rays so the feet rest on the ``floor``, one body size (``ray3d.refine``;
                 a ``RefineConfig`` sets its uncertainties); False keeps the network's (either has its uncertainty).
-            floor_z: where the floor people stand on lies in the camera's frame (0: at its z = 0); None observes
-                it from the person (``ray3d.refine.ankle_plane``; ``lift_tracks`` observes it from everybody).
-                The result's ``ankle_plane`` says what was found and applied.
+            floor_z: where the floor people stand on lies in the camera's frame (0: at its z = 0); None decides it
+                on what the person shows against the camera's z = 0 (``ray3d.refine.ankle_plane``; ``lift_tracks``
+                decides it on everybody). Refined, ``result.refinement["ankle_plane"]`` says what was decided.
             progress: a progress bar over the frames (a string labels it) for sequences longer than a chunk.
+            frames: optional (T,) frame number of each row (increasing whole numbers; (B, T) for B sequences):
+                frames the rows skip are filled in like missing joints, as ``lift_tracks`` fills a track's gaps,
+                and ``result.frames`` are the frame numbers from the first row's to the last's. Without it the rows
+                are taken as consecutive frames and ``result.frames`` counts them from 0.
         """
         keypoints = numeric_array(keypoints, "keypoints")
         if keypoints.ndim == 4:
             scores = [None] * len(keypoints) if confidences is None else confidences
+            numbers = [None] * len(keypoints) if frames is None else numeric_array(frames, "frames")
+            if frames is not None and (numbers.ndim != 2 or len(numbers) != len(keypoints)):
+                raise InputError(f"frames: the (B, T) frame numbers of {len(keypoints)} sequences of keypoints "
+                                 f"expected, got shape {numbers.shape}", arguments=("frames",))
             return [self.lift(k, camera, c, fps, layout, smooth_2d, smooth_3d, flip_test, chunk, refine, progress,
-                              floor, floor_z) for k, c in zip(keypoints, scores)]
-        view = CameraTracks({0: self._prepare(keypoints, camera, confidences, fps, layout, smooth_2d)}, camera,
-                            {0: progress})
-        (lifted,), _ = self._lift_views([view], flip_test, chunk, refine, floor, floor_z, smooth_3d)
+                              floor, floor_z, f) for k, c, f in zip(keypoints, scores, numbers)]
+        span = None
+        if frames is not None:
+            span, keypoints, confidences = _with_gaps(frames, keypoints, confidences)
+        options = LiftOptions(smooth_2d, smooth_3d, flip_test, refine, floor=floor, floor_z=floor_z)
+        view = CameraTracks({0: self._prepare(keypoints, camera, confidences, fps, layout, options.smooth_2d)}, camera,
+                            {0: progress}, options)
+        (lifted,), _ = lift_views(self, [view], chunk)
         if isinstance(lifted[0], InputError):
             raise lifted[0]
-        return lifted[0]
+        return lifted[0] if span is None else dataclasses.replace(lifted[0], frames=span)
 
     def _prepare(self, keypoints: np.ndarray, camera: Camera, confidences, fps: float | None, layout: str,
                  smooth_2d: str | None) -> PreparedTrack:
         return prepare_track(keypoints, camera, confidences, fps, layout, smooth_2d, self.input_skeleton)
 
-    def _network(self, prepared: PreparedTrack, camera: Camera, flip_test: bool, chunk: int,
-                 progress: bool | str) -> np.ndarray:
-        """(T, 17, 3) world joints of a prepared track as the network puts them."""
+    def network(self, prepared: PreparedTrack, camera: Camera, flip_test: bool, chunk: int,
+                progress: bool | str) -> np.ndarray:
+        """(T, 17, 3) world joints of a prepared track as the network puts them (``floor_pass`` runs it)."""
         fps, pixels, scores = prepared.fps, prepared.pixels, prepared.scores
         resampled = temporal.needs_resampling(fps, MODEL_FPS)
         if resampled:
             pixels, scores = temporal.resample(pixels, fps, MODEL_FPS), temporal.resample(scores, fps, MODEL_FPS)
         joints = self._lift_pixels(pixels, camera, flip_test, chunk, progress, scores)
         return temporal.resample_back(joints, MODEL_FPS, fps, len(prepared.pixels)) if resampled else joints
-
-    def _lift_views(self, views: list[CameraTracks], flip_test: bool, chunk: int, refine: bool | RefineConfig,
-                    floor: Floor, floor_z: float | None, smooth_3d: str | None, seen_before: tuple = (),
-                    spans: list[dict] | None = None) -> tuple[list[dict], AnklePlane | None]:
-        """Cameras of one floor, each's tracks on their way (``CameraTracks``) -> for each {track: LiftResult, or
-        the InputError that stopped it}, and the ankle plane they were refined on: given (``floor_z``), or observed
-        from every track, the ``SizeEvidence`` of tracks seen before and, with each view's {track: frame ids} on one
-        clock (``spans``), the people two cameras saw at once (``_settle``). Each view's ``found`` keeps its
-        tracks' evidence."""
-        if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
-            raise InputError(f"chunk: frames per network call, a whole number of at least 1; got {chunk!r}",
-                             ("chunk",))
-        for view in views:
-            self._run_network(view, 0.0, flip_test, chunk)
-        config = self._refine_config(refine, next((v.prepared for v in views if v.prepared), {}))
-        if not refine or not any(view.lifted() for view in views):
-            return [self._unrefined(view, config, smooth_3d) for view in views], None
-        crossings = people_seen_twice(list(zip(views, spans))) if spans else []
-        plane = self._settle(views, floor_z, seen_before, config, flip_test, chunk, crossings)
-        return [self._refined(view, plane, config, floor, smooth_3d) for view in views], plane
-
-    def _refine_config(self, refine: bool | RefineConfig, prepared: dict) -> RefineConfig:
-        skeleton = next(iter(prepared.values())).skeleton if prepared else H36M17
-        return refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(self.document, skeleton)
-
-    def _run_network(self, view: CameraTracks, depth: float, flip_test: bool, chunk: int) -> None:
-        """The view's tracks through the network with its camera's z = 0 moved to ``depth`` (where the floor is
-        thought to be); from the first run (the camera as given) each track's ``SizeEvidence`` of the ankle plane."""
-        camera = view.camera.with_origin_at_height(depth) if depth else view.camera
-        view.depth, view.networks = depth, {}
-        for track, entry in view.prepared.items():
-            try:
-                view.networks[track] = self._network(entry, camera, flip_test, chunk, view.progress[track])
-            except InputError as err:
-                view.networks[track] = err
-        if not depth:
-            view.found = {track: size_evidence(on_observed_rays(joints, camera.center, view.prepared[track].rays),
-                                               camera.center, view.prepared[track].feet_seen
-                                               & view.prepared[track].observed, view.prepared[track].fps)
-                          for track, joints in view.networks.items() if not isinstance(joints, InputError)}
-
-    def _settle(self, views: list[CameraTracks], floor_z: float | None, seen_before: tuple, config: RefineConfig,
-                flip_test: bool, chunk: int, crossings: list = ()) -> AnklePlane:
-        """The ankle plane of ``views`` (one floor): given, or observed from their people, ``seen_before`` and the
-        ``crossings`` of people two cameras saw at once (``people_seen_twice``); where
-        it puts the floor off the camera's z = 0, every view's network is run again with the camera's height over
-        that floor (the network reads the camera's height as given). (Reading people's sizes again from that run
-        moved the plane by under 2 mm on ``level-test``: it is read once.)"""
-        contact = config.contact_ankle_height_m
-        plane = given_ankle_plane(floor_z, contact) if floor_z is not None else observe_ankle_plane(
-            [*seen_before, *(e for view in views for e in view.found.values())], contact, config.body_size_m,
-            tuple(crossings))
-        depth = plane.floor_z_m
-        for view in views:
-            if view.depth != depth:
-                self._run_network(view, depth, flip_test, chunk)
-        return plane
-
-    def _unrefined(self, view: CameraTracks, config: RefineConfig, smooth_3d: str | None) -> dict:
-        return {track: joints if isinstance(joints, InputError) else self._result(
-            view.prepared[track], joints, network_position_sd(joints, view.camera, config), None, smooth_3d)
-            for track, joints in view.networks.items()}
-
-    def _refined(self, view: CameraTracks, plane: AnklePlane, config: RefineConfig, floor: Floor,
-                 smooth_3d: str | None) -> dict:
-        """A view's tracks refined on ``plane`` (the network having read the camera's height over the floor
-        found: ``_settle``), the feet resting there; the output in the camera file's frame. {track: LiftResult,
-        or the InputError that stopped it}."""
-        depth = view.depth
-        camera, floor = view.camera.with_origin_at_height(depth), floor.lowered(depth)
-        config = dataclasses.replace(config, ankle_plane_sd_m=plane.sd_m)
-        results = {}
-        for track, joints in view.networks.items():
-            entry = view.prepared[track]
-            try:
-                if isinstance(joints, InputError):
-                    raise joints
-                joints, refined = refine_track(joints, camera, entry.fps, entry.rays, entry.observed, config,
-                                               feet_seen=entry.feet_seen, floor=floor)
-            except InputError as err:
-                results[track] = err
-                continue
-            joints = joints + [0.0, 0.0, depth]  # back in the camera file's frame
-            refined = dataclasses.replace(refined, floor_height_m=refined.floor_height_m + depth)
-            results[track] = self._result(entry, joints, refined.position_sd_m,
-                                          {**refined.summary(), "ankle_plane": plane.summary()}, smooth_3d)
-        return results
-
-    @staticmethod
-    def _result(prepared: PreparedTrack, joints: np.ndarray, position_sd: np.ndarray, refinement: dict | None,
-                smooth_3d: str | None) -> LiftResult:
-        return LiftResult(temporal.smooth(joints, smooth_3d, prepared.fps), prepared.missing, prepared.fps,
-                          np.arange(len(joints)), refinement=refinement, position_sd=position_sd)
 
     def input_skeleton(self, skeleton: Skeleton) -> Skeleton:
         """The model's input layout, after checking that keypoints of ``skeleton`` give its joints."""
@@ -250,42 +191,52 @@ class Lifter:
                     floor: Floor = FLAT_FLOOR, floor_z: float | None = None, seen_before: tuple = ()) -> LiftedTracks:
         """Several people: {track id: ``TrackDetections`` or (frame indices (N,), keypoints (N, J, 2)[,
         confidences (N, J)])} -> {track id: LiftResult} in one world frame; the options as for ``lift``. Frames a
-        track skips are filled in like missing joints. What the tracks share, where their ankles meet the floor,
-        is observed from all of them together (``LiftedTracks.ankle_plane``) and from the ``SizeEvidence`` of
-        tracks the camera saw before (``seen_before``: live keeps them; ``LiftedTracks.evidence`` gives these
-        tracks'), unless ``floor_z`` gives it. A track that cannot be lifted (say, its root never seen) is left
-        out and named in the result's ``unliftable`` with why; only when no track can be lifted is that an error."""
-        prepared, spans, failures = self._prepare_tracks(tracks, camera, fps, layout, smooth_2d)
-        view = CameraTracks(prepared, camera, progress_labels(prepared, progress))
-        (lifted,), plane = self._lift_views([view], flip_test, chunk, refine, floor, floor_z, smooth_3d,
-                                            tuple(seen_before))
-        return gathered(LiftedTracks(view.found), tracks, lifted, spans, failures, plane)
+        track skips are filled in like missing joints (each result's ``frames``: its track's first to its last).
+        What the tracks share, where their ankles meet the floor, is decided on what all of them show together
+        (``LiftedTracks.ankle_plane``, and each result's ``refinement["ankle_plane"]``) and what people the camera
+        saw before showed (``seen_before``: the ``SizeEvidence`` and ``SeenTwice`` of earlier lifts'
+        ``LiftedTracks.floor_evidence()``; live and the floor's memory keep them), unless ``floor_z`` gives it. A
+        track that cannot be lifted (say, its root never seen) is left out and named in the result's
+        ``unliftable`` with why; only when no track can be lifted is that an error."""
+        options = LiftOptions(smooth_2d, smooth_3d, flip_test, refine, floor=floor, floor_z=floor_z,
+                              seen_before=seen_before)
+        prepared, spans, failures = self._prepare_tracks(tracks, camera, fps, layout, options.smooth_2d)
+        view = CameraTracks(prepared, camera, progress_labels(prepared, progress), options)
+        (lifted,), (plane,) = lift_views(self, [view], chunk)
+        return gathered(LiftedTracks(view.found, view.ankles), tracks, lifted, spans, failures, plane)
 
     def lift_cameras(self, views: dict, layout: str | dict = "h36m17", fps: float | dict | None = None,
-                     progress: bool = False,
-                     smooth_2d: str | None = None, smooth_3d: str | None = None, flip_test: bool = False,
-                     chunk: int = 8192, refine: bool | RefineConfig = True, floor: Floor = FLAT_FLOOR,
-                     floor_z: float | None = None, one_clock: bool = True) -> dict:
+                     progress: bool = False, smooth_2d: str | None | dict = None, smooth_3d: str | None | dict = None,
+                     flip_test: bool | dict = False, chunk: int = 8192, refine: bool | RefineConfig = True,
+                     floor: Floor | dict = FLAT_FLOOR, floor_z: float | None | dict = None,
+                     one_clock: bool = True, seen_before: tuple | dict = ()) -> dict:
         """Several cameras of one site, in one world frame on one floor: {view: (tracks as ``lift_tracks`` takes
-        them, its Camera)} -> {view: LiftedTracks}. Where people's ankles meet that floor is observed from every
-        camera's people together (each camera's tracks tell it from that camera's height) and, where the views'
-        frame ids are ``one_clock`` and two cameras see a person at once, from their ankles triangulated; a view
-        none of whose tracks could be lifted maps to the InputError saying why. ``layout`` and ``fps`` may be
-        {view: value}."""
+        them, its Camera)} -> {view: LiftedTracks}. Where that floor lies is observed from every camera's people
+        together (each camera's tracks tell it from that camera's height, its keypoints at their detector's
+        height) and, where the views' frame ids are ``one_clock`` and two cameras see a person at once, from their
+        ankles triangulated; a floor given (``floor_z``) is the site's, the same for every view that gives one. A
+        view none of whose tracks could be lifted maps to the InputError saying why. ``layout``, ``fps``,
+        ``smooth_2d``, ``smooth_3d``, ``flip_test``, ``floor``, ``floor_z`` and ``seen_before`` (what each camera's
+        people showed of the floor before, as ``lift_tracks`` takes it) may be {view: value}: each camera is
+        lifted with its own."""
+        def own(value, name):
+            return value[name] if isinstance(value, dict) else value
+
         passes = {}
         for name, (tracks, camera) in views.items():
-            prepared, spans, failures = self._prepare_tracks(
-                tracks, camera, fps[name] if isinstance(fps, dict) else fps,
-                layout[name] if isinstance(layout, dict) else layout, smooth_2d)
-            view = CameraTracks(prepared, camera, progress_labels(prepared, progress))
+            options = LiftOptions(own(smooth_2d, name), own(smooth_3d, name), own(flip_test, name), refine,
+                                  floor=own(floor, name), floor_z=own(floor_z, name),
+                                  seen_before=own(seen_before, name))
+            prepared, spans, failures = self._prepare_tracks(tracks, camera, own(fps, name), own(layout, name),
+                                                             options.smooth_2d)
+            view = CameraTracks(prepared, camera, progress_labels(prepared, progress), options)
             passes[name] = (tracks, spans, failures, view)
-        lifted, plane = self._lift_views([view for *_, view in passes.values()], flip_test, chunk, refine, floor,
-                                         floor_z, smooth_3d,
-                                         spans=[spans for _, spans, _, _ in passes.values()] if one_clock else None)
+        lifted, planes = lift_views(self, [view for *_, view in passes.values()], chunk,
+                                    spans=[spans for _, spans, _, _ in passes.values()] if one_clock else None)
         out = {}
-        for (name, (tracks, spans, failures, view)), outcome in zip(passes.items(), lifted):
+        for (name, (tracks, spans, failures, view)), outcome, plane in zip(passes.items(), lifted, planes):
             try:
-                out[name] = gathered(LiftedTracks(view.found), tracks, outcome, spans, failures, plane)
+                out[name] = gathered(LiftedTracks(view.found, view.ankles), tracks, outcome, spans, failures, plane)
             except InputError as err:
                 out[name] = err
         return out
@@ -314,7 +265,8 @@ class Lifter:
                                       **options.lift_arguments())
         except InputError as err:  # name the file the keypoints came from
             raise InputError(f"{keypoints.path or keypoints.source}: {err.message}", err.arguments) from None
-        return World(tracks, camera, self.name, unliftable=tracks.unliftable).in_frame(options.frame)
+        return World(tracks, camera, self.name, unliftable=tracks.unliftable,
+                     floor_evidence=tracks.floor_evidence()).in_frame(options.frame)
 
     @torch.no_grad()
     def _lift_pixels(self, pixels: np.ndarray, camera: Camera, flip_test: bool, chunk: int,
@@ -326,8 +278,8 @@ class Lifter:
         # Windows are gathered chunk by chunk (never all at once), which keeps memory bounded.
         index = temporal.sequence_window_indices(count, self.model.config.window)
         out = np.empty((count, 17, 3))
-        bar = tqdm(total=count, unit="frame", desc=progress if isinstance(progress, str) else "lifting",
-                   disable=not progress or count <= chunk)
+        bar = progress_bar(total=count, unit="frame", desc=progress if isinstance(progress, str) else "lifting",
+                           shown=bool(progress) and count > chunk)
         for start in range(0, count, chunk):
             part = index[start:start + chunk]
             out[start:start + len(part)] = self.lift_windows(pixels[part], rays[part], camera, flip_test,

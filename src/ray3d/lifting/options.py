@@ -12,6 +12,7 @@ from ray3d.errors import InputError
 from ray3d.geometry.floor import FLAT_FLOOR, Floor, checked_floor_z
 from ray3d.io.world import check_frame
 from ray3d.refine import RefineConfig
+from ray3d.refine.ankle_plane import checked_evidence
 from ray3d.temporal import OUTPUT_SMOOTHING, SMOOTHING_METHODS
 
 def _smoothing(name: str, value: str | None) -> str | None:
@@ -30,8 +31,9 @@ class LiftOptions:
     time ("savgol", "one-euro" or None / "none"), ``flip_test``, ``refine`` (the track-level refinement: True,
     False or a ``RefineConfig``), the ``frame`` the written joints are in ("world" or "camera") and the ``floor``
     the refinement rests the feet on (``ray3d.geometry.floor``: z = 0 unless regions are declared), and
-    ``floor_z``, where the floor lies in the camera's frame (None: observed from the people,
-    ``ray3d.refine.ankle_plane``)."""
+    ``floor_z``, where the floor lies in the camera's frame (None: decided on the people,
+    ``ray3d.refine.ankle_plane``), with what the camera's people showed of it before (``seen_before``: the
+    ``SizeEvidence`` and ``SeenTwice`` of earlier lifts, ``LiftedTracks.evidence`` and ``ankles``)."""
 
     smooth_2d: str | None = None
     smooth_3d: str | None = OUTPUT_SMOOTHING
@@ -40,10 +42,12 @@ class LiftOptions:
     frame: str = "world"
     floor: Floor = FLAT_FLOOR
     floor_z: float | None = None
+    seen_before: tuple = ()
 
     def __post_init__(self) -> None:
         if self.floor_z is not None:
             object.__setattr__(self, "floor_z", checked_floor_z(self.floor_z))
+        object.__setattr__(self, "seen_before", checked_evidence(self.seen_before))
         object.__setattr__(self, "smooth_2d", _smoothing("smooth_2d", self.smooth_2d))
         object.__setattr__(self, "smooth_3d", _smoothing("smooth_3d", self.smooth_3d))
         check_frame(self.frame)
@@ -51,7 +55,7 @@ class LiftOptions:
     def lift_arguments(self) -> dict:
         """The keyword arguments of ``Lifter.lift`` these options set."""
         return {"smooth_2d": self.smooth_2d, "smooth_3d": self.smooth_3d, "flip_test": self.flip_test,
-                "refine": self.refine, "floor": self.floor, "floor_z": self.floor_z}
+                "refine": self.refine, "floor": self.floor, "floor_z": self.floor_z, "seen_before": self.seen_before}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -10,6 +10,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.lifting.options import LiftOptions
 from ray3d.refine import AnklePlane
 from ray3d.refine.ankle_plane import SeenTwice, seen_twice
 
@@ -18,12 +19,19 @@ class LiftedTracks(dict):
     """{track id: LiftResult} of the tracks lifted, ``unliftable``: {track id: why} of those that could not be,
     and ``ankle_plane``: where their ankles meet the floor (``ray3d.refine.AnklePlane``; None unrefined)."""
 
-    def __init__(self, evidence: dict | None = None) -> None:
+    def __init__(self, evidence: dict | None = None, ankles: list | None = None) -> None:
         super().__init__()
         self.unliftable: dict = {}
         self.ankle_plane: AnklePlane | None = None
-        # {track id: its ``SizeEvidence`` of the ankle plane, None where it gave none}
+        # What these people showed of the floor itself (``refine.ankle_plane.floor_evidence``), for later lifts'
+        # ``seen_before``: {track id: its ``SizeEvidence``, None where it gave none}, and the ``SeenTwice`` of
+        # people this camera and another saw at once.
         self.evidence: dict = evidence if evidence is not None else {}
+        self.ankles: list = ankles if ankles is not None else []
+
+    def floor_evidence(self) -> tuple:
+        """Everything these people showed of the floor, as a later lift's ``seen_before`` takes it."""
+        return (*(e for e in self.evidence.values() if e is not None), *self.ankles)
 
 
 def progress_labels(prepared: dict, shown: bool) -> dict:
@@ -53,15 +61,19 @@ def gathered(results: LiftedTracks, tracks: dict, lifted: dict, spans: dict, fai
 
 @dataclasses.dataclass
 class CameraTracks:
-    """One camera's tracks on their way through the network (``Lifter``): ``networks`` {track: (T, 17, 3)
+    """One camera's tracks on their way through the network (``Lifter``), lifted with its own ``options``:
+    ``networks`` {track: (T, 17, 3)
     joints in the frame of the camera with its z = 0 moved to ``depth``, or the InputError that stopped it} and
-    ``found`` {track: its ``SizeEvidence`` of the ankle plane, None where it gave none}."""
+    ``found`` {track: its ``SizeEvidence`` of the ankle plane, None where it gave none}, and ``ankles``, the
+    ``SeenTwice`` of people it and another camera saw at once."""
 
     prepared: dict
     camera: Camera
     progress: dict
+    options: LiftOptions = LiftOptions()
     networks: dict = dataclasses.field(default_factory=dict)
     found: dict = dataclasses.field(default_factory=dict)
+    ankles: list = dataclasses.field(default_factory=list)
     depth: float = 0.0
 
     def lifted(self) -> bool:

@@ -2,11 +2,11 @@
 tracked and lifted frame by frame (``CameraPeople``), and the tracks it lets go lifted again offline on a thread
 of their own (``Finisher``), as ``ray3d video`` lifts them. ``LocalCameras`` runs every camera in this process
 (the frames of all taken in the order they arrived); ``ray3d.live.cluster.RayCameras`` runs each in a Ray actor.
-Both give the run the same thing: ``next()`` -> (view, ``FrameResult``), and ``finish()`` at the end."""
+Both give the run the same thing: ``next()`` -> (view, ``FrameResult``), and ``finish()`` at the end, and
+``floor``, the pool of what their people show of their one floor (``live.floor.FloorPool``)."""
 
 from __future__ import annotations
 
-import collections
 import dataclasses
 import queue
 import threading
@@ -14,24 +14,26 @@ import threading
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.world import World
+from ray3d.lifting.inputs import prepare_track
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions
+from ray3d.lifting.tracks import LiftedTracks
 from ray3d.geometry.uncertainty import PersonNow
+from ray3d.live.floor import CROSSED_JOINTS, FloorPool, TrackFloor
 from ray3d.live.people import LivePeople, below_the_stream
 from ray3d.live.source import LiveFrame, SourceGroup
 from ray3d.video.tracking import Track
-
-EVIDENCE_KEPT = 500  # people whose sizes tell a live camera's ankle plane (the latest; beyond, no gain)
 
 
 @dataclasses.dataclass
 class Finished:
     """A track a camera let go, lifted offline: its ``world`` (one track, world frame), or None and ``why`` it
-    was left out."""
+    was left out, and what it showed of the floor (``floor``; None: nothing)."""
 
     track: str
     world: World | None
     why: str = ""
+    floor: TrackFloor | None = None
 
 
 @dataclasses.dataclass
@@ -52,15 +54,16 @@ class FrameResult:
 
 class Finisher:
     """Lifts the tracks a camera lets go, one by one on a thread of its own (a track shorter than
-    ``min_track_s`` is left out); ``take()`` hands over what is done so far."""
+    ``min_track_s`` is left out); ``take()`` hands over what is done so far. ``floor``: the run's pool of what
+    its cameras' people showed of the floor (``live.floor.FloorPool``; None: this camera's own)."""
 
     def __init__(self, lifter: Lifter, camera: Camera, layout: str, fps: float, lift_options: LiftOptions,
-                 min_track_s: float):
+                 min_track_s: float, floor: FloorPool | None = None):
         self.lifter, self.camera, self.layout, self.fps = lifter, camera, layout, fps
         self.lift_options, self.min_track_s = lift_options, min_track_s
-        # What the people seen so far say of the camera's ankle plane (``ray3d.refine.ankle_plane``), each later
-        # track lifted with it: the estimate refines as people pass.
-        self.evidence: collections.deque = collections.deque(maxlen=EVIDENCE_KEPT)
+        # What the people seen so far, by every camera of the run, say of the floor (``refine.ankle_plane``), each
+        # later track lifted with it: the estimate refines as people pass.
+        self.floor = floor if floor is not None else FloorPool()
         self._done: list[Finished] = []
         self._lock = threading.Lock()
         self._queue: queue.Queue = queue.Queue(maxsize=64)
@@ -92,32 +95,50 @@ class Finisher:
         if (short := track.too_short(self.fps, self.min_track_s)) is not None:
             return Finished(track.id, None, short)
         try:
+            options = dataclasses.replace(self.lift_options,
+                                          seen_before=(*self.lift_options.seen_before, *self.floor.evidence()))
             lifted = self.lifter.lift_tracks({track.id: track.as_detections()}, self.camera, self.layout,
-                                             self.fps, seen_before=tuple(self.evidence),
-                                             **self.lift_options.lift_arguments())
+                                             self.fps, **options.lift_arguments())
+            # The floor is observed from everybody the run's cameras have seen so far (the latest people,
+            # bounded), and from what earlier runs showed (the pool's, and the options').
+            evidence = lifted.floor_evidence()
+            self.floor.add(evidence)
+            floor = self._track_floor(track, lifted, evidence)
         except InputError as err:
             return Finished(track.id, None, err.message)
         except Exception as err:  # one person's failure must not stop the others being written
             return Finished(track.id, None, f"could not be lifted ({type(err).__name__}: {err})")
-        # The camera's ankle plane is observed from everybody it has seen so far (the latest people, bounded).
-        self.evidence.extend(e for e in lifted.evidence.values() if e is not None)
-        return Finished(track.id, World(lifted, self.camera, self.lifter.name).in_frame("world"))
+        return Finished(track.id, World(lifted, self.camera, self.lifter.name).in_frame("world"), floor=floor)
+
+    def _track_floor(self, track: Track, lifted: LiftedTracks, evidence: tuple) -> TrackFloor | None:
+        """What the track showed of the floor, with the rays of its pelvis and ankles, to be crossed with another
+        camera's track where the run's join finds them one person (None: lifted unrefined, no floor to tell)."""
+        if lifted.ankle_plane is None:
+            return None
+        frames, pixels, confidences = track.as_detections().dense(track.id)
+        prepared = prepare_track(pixels, self.camera, confidences, self.fps, self.layout, None,
+                                 self.lifter.input_skeleton)
+        joints = list(CROSSED_JOINTS)
+        return TrackFloor(evidence, self.layout, lifted.ankle_plane.contact_m, self.camera.center, frames,
+                          prepared.rays[:, joints].astype("float32"), ~prepared.missing[:, joints], self.fps)
 
 
 class CameraPeople:
     """One camera: its frames -> its people (``LivePeople``), the tracks it lets go lifted (``Finisher``)."""
 
     def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int | None,
-                 lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = ""):
+                 lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = "",
+                 floor: FloorPool | None = None):
         """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it;
-        ``id_prefix``: written before each of its track ids (a run's number). The lifter's small-batch path is
-        made here, before the first frame is taken (it pauses 0.2 s; the stream may be running)."""
+        ``id_prefix``: written before each of its track ids (a run's number); ``floor``: the run's floor pool
+        (``Finisher``). The lifter's small-batch path is made here, before the first frame is taken (it pauses
+        0.2 s; the stream may be running)."""
         lifter.prepare_small_batches()
         self._following = dict(camera=camera, detector=detector, lifter=lifter, fps=fps, floor=lift_options.floor,
                                max_gap_s=max_gap_s, deadline_frames=keep)
         self.id_prefix, self.gaps = id_prefix, 0
         self.people = LivePeople(**self._following, id_prefix=id_prefix)
-        self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s)
+        self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s, floor)
         self.detector = detector
 
     def postponed(self) -> int:
@@ -165,8 +186,11 @@ class LocalCameras:
         self.sources = [source.name for source in group.sources]
         self.names = [camera.name or source.name for camera, source in zip(cameras, group.sources)]
         options = lift_options if isinstance(lift_options, list) else [lift_options] * len(cameras)
+        # One site, one world frame, one floor: every camera's lifts draw on every camera's people.
+        self.floor = FloorPool()
         self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, max_gap_s, min_track_s,
-                                   id_prefix) for c, d, source, o in zip(cameras, detectors, group.sources, options)]
+                                   id_prefix, self.floor)
+                      for c, d, source, o in zip(cameras, detectors, group.sources, options)]
 
     def next(self) -> tuple[int, FrameResult] | None:
         taken = self.group.next()

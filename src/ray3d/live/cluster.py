@@ -9,7 +9,10 @@ after the last one processed, or, played at its rate, from where the play has go
 it is now); the frames it missed are said once, as a dropped stretch, and the people it was following end there.
 A stream that ends, stalls or breaks off ends its worker. One step of each worker is in flight at a time: a worker
 keeps only its newest frames (those pushed out counted per camera), so nothing queues between the actors and
-this process."""
+this process.
+
+The cameras' lifts pool what their people show of the run's one floor (``live.floor.FloorPool``) through a pool
+in a Ray actor of its own (``RemoteFloorPool``), which the run's loop adds the people two cameras saw at once to."""
 
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from collections.abc import Callable
 
 from ray3d.errors import InputError
 from ray3d.live.cameras import CameraPeople, Finished, FrameResult
+from ray3d.live.floor import FloorPool
 from ray3d.live.source import StreamStalled
 
 STEP_WAIT_S = 0.25  # how often the loop looks up from waiting for the workers (a signal, a closed run)
@@ -32,13 +36,14 @@ class CameraWorker:
     dropped and people postponed so far), or ``(ending, why)`` once its stream has ended, stalled or broken off."""
 
     def __init__(self, opened: Callable, lifter: Callable, lift_options, max_gap_s: float, min_track_s: float,
-                 first_index: int = 0, id_prefix: str = ""):
+                 first_index: int = 0, id_prefix: str = "", floor: RemoteFloorPool | None = None):
         import torch
 
         torch.set_num_threads(1)
         self.source, self.camera, detector = opened(first_index=first_index)
         self.people = CameraPeople(self.camera, detector, lifter(detector.layout), self.source.fps,
-                                   self.source.deadline_frames, lift_options, max_gap_s, min_track_s, id_prefix)
+                                   self.source.deadline_frames, lift_options, max_gap_s, min_track_s, id_prefix,
+                                   floor)
 
     def describe(self) -> tuple:
         return self.camera, self.source.fps, self.source.name
@@ -64,6 +69,33 @@ class CameraWorker:
         """Everybody still in view let go and lifted (``CameraPeople.finish``)."""
         self.source.close()
         return self.people.finish()
+
+
+class RemoteFloorPool:
+    """A run's ``FloorPool`` in a Ray actor, as the camera workers and the run's loop reach it (the same calls).
+    A pool that cannot be reached gives nothing and takes nothing: the cameras lift on what they have."""
+
+    def __init__(self, actor):
+        self.actor = actor
+
+    def remember(self, evidence) -> None:
+        self._call("remember", tuple(evidence))
+
+    def add(self, evidence) -> None:
+        self._call("add", tuple(evidence))
+
+    def evidence(self) -> tuple:
+        import ray
+
+        return self._call("evidence", wait=ray.get) or ()
+
+    def _call(self, name: str, *arguments, wait=lambda ref: None):
+        import ray
+
+        try:
+            return wait(getattr(self.actor, name).remote(*arguments))
+        except ray.exceptions.RayError:  # the pool gone (the run ending): nothing to add to, nothing to give
+            return None
 
 
 @dataclasses.dataclass
@@ -95,6 +127,9 @@ class RayCameras:
         self.ray, self.restarts, self.report = ray, restarts, report
         self.sources = [str(source) for source in sources]
         self._remote = ray.remote(num_cpus=cpus_per_camera, max_restarts=0, max_concurrency=2)(CameraWorker)
+        # One floor for every camera of the run (a worker started again finds it as it was).
+        self.floor = RemoteFloorPool(ray.remote(num_cpus=0)(FloorPool).remote())
+        arguments = [{**a, "floor": self.floor} for a in arguments]
         self.workers = [_Worker(dict(a), self._remote.remote(**a), str(source), on, run_prefix=a.get("id_prefix", ""))
                         for a, source, on in zip(arguments, sources, played)]
         described = [self._described(worker) for worker in self.workers]
@@ -114,6 +149,7 @@ class RayCameras:
         except self.ray.exceptions.RayError as err:
             for other in self.workers:
                 self.ray.kill(other.actor)
+            self.ray.kill(self.floor.actor)
             cause = getattr(err, "cause", None)
             if isinstance(cause, InputError):
                 raise InputError(cause.message, cause.arguments) from None
@@ -208,6 +244,7 @@ class RayCameras:
             in_view += let_go + [(track, worker.last_index) for track in sorted(worker.in_view - followed)]
             results.append((in_view, done + left))
             self.ray.kill(worker.actor)
+        self.ray.kill(self.floor.actor)
         return results
 
     @property

@@ -1,9 +1,13 @@
 """Live events on MQTT, the bus home and building automation listens to (``MqttPublisher``, paho-mqtt): each event
 as JSON on ``<prefix>/event`` (QoS 1, in order), each zone's occupancy and each line's and zone's running counts
-retained on ``<prefix>/zone/<zone>/occupancy`` ... (a subscriber joining later reads the state at once), the
-service's availability on ``<prefix>/status`` (``online``; the broker says ``offline`` for it if the process
-dies), and every zone and line announced to Home Assistant's MQTT discovery (``homeassistant/sensor/...``),
-so that they appear there as sensors without configuration.
+retained on ``<prefix>/zone/<zone>/occupancy`` ... (a subscriber joining later reads the state at once; the counts
+go on from the store's, so a restart does not set them back to 0), the crossings, visits, limits and falls as
+Home Assistant events on ``<prefix>/line/<line>/crossing``, ``<prefix>/zone/<zone>/event`` and ``<prefix>/fall``,
+the service's availability on ``<prefix>/status`` (``online``; the broker says ``offline`` for it if the process
+dies), and every zone and line announced to Home Assistant's MQTT discovery (``homeassistant/sensor/...`` and
+``homeassistant/event/...``), so that they appear there as sensors and as events to automate on, without
+configuration. A zone's or line's name becomes a topic level by ``topic_name`` (``line A (middle)`` ->
+``line_A_middle``).
 
 A broker that is down is retried in the background by the client (1 s doubling to 30 s) and never slows the
 stream: at most ``queue_size`` messages wait (paho's own bounded queue); beyond, they are counted as dropped and
@@ -19,15 +23,32 @@ from collections.abc import Callable
 from urllib.parse import urlsplit
 
 from ray3d.errors import InputError
+from ray3d.site.events import (DWELL_ABOVE_LIMIT, FALL, LINE_CROSSED, OCCUPANCY_ABOVE_LIMIT, ZONE_ENTERED,
+                               ZONE_LEFT)
 from ray3d.site.places import Site
 
 DISCOVERY_PREFIX = "homeassistant"
 DEFAULT_PORT = 1883
 
 
-def _slug(name: str) -> str:
-    """A name as a topic level or a discovery id (letters, digits, _ and -)."""
+def topic_name(name: str) -> str:
+    """A zone's or line's name as a topic level or a discovery id: each run of characters other than ASCII letters,
+    digits, _ and - becomes one _, and _ at either end is dropped (``line A (middle)`` -> ``line_A_middle``;
+    nothing left: ``unnamed``)."""
     return re.sub(r"[^A-Za-z0-9_-]+", "_", str(name)).strip("_") or "unnamed"
+
+
+
+def _one_topic_each(site: Site, prefix: str) -> None:
+    """Refused: two zones (or two lines) whose names become one topic, their counts would be mixed."""
+    for kind, places in (("zone", site.zones), ("line", site.lines)):
+        seen: dict[str, str] = {}
+        for place in places:
+            name = topic_name(place.name)
+            if name in seen:
+                raise InputError(f"mqtt: {kind}s {seen[name]!r} and {place.name!r} would share the topic "
+                                 f"{prefix}/{kind}/{name}; rename one", ("site",))
+            seen[name] = place.name
 
 
 def parse_mqtt_url(url: str) -> tuple[str, int, str]:
@@ -45,32 +66,76 @@ def parse_mqtt_url(url: str) -> tuple[str, int, str]:
     return parts.hostname, port, prefix
 
 
+def _common(prefix: str) -> dict:
+    """What every announced entity shares: the service's availability and its one device."""
+    device = {"identifiers": [f"ray3d_{topic_name(prefix)}"], "name": f"ray3d {prefix}", "manufacturer": "ray3d",
+              "model": "ray3d live"}
+    return {"availability_topic": f"{prefix}/status", "payload_available": "online",
+            "payload_not_available": "offline", "device": device}
+
+
 def sensors(site: Site, prefix: str) -> list[tuple[str, dict]]:
     """The site's zones and lines as Home Assistant MQTT sensors: (discovery topic, config payload) each. A zone
-    gives its occupancy (people now) and its entries; a line its crossings each way."""
-    node = _slug(prefix)
-    device = {"identifiers": [f"ray3d_{node}"], "name": f"ray3d {prefix}", "manufacturer": "ray3d",
-              "model": "ray3d live"}
-    common = {"availability_topic": f"{prefix}/status", "payload_available": "online",
-              "payload_not_available": "offline", "device": device}
+    gives its occupancy (people now), its entries and its exits; a line its crossings each way."""
+    node, common = topic_name(prefix), _common(prefix)
     found = []
     for zone in site.zones:
         for what, unit, state_class, icon in (("occupancy", "people", "measurement", "mdi:account-group"),
-                                              ("entries", "entries", "total_increasing", "mdi:login")):
-            object_id = f"{_slug(zone.name)}_{what}"
+                                              ("entries", "entries", "total_increasing", "mdi:login"),
+                                              ("exits", "exits", "total_increasing", "mdi:logout")):
+            object_id = f"{topic_name(zone.name)}_{what}"
             found.append((f"{DISCOVERY_PREFIX}/sensor/{node}/{object_id}/config",
                           {"name": f"{zone.name} {what}", "unique_id": f"ray3d_{node}_{object_id}",
-                           "state_topic": f"{prefix}/zone/{_slug(zone.name)}/{what}",
+                           "state_topic": f"{prefix}/zone/{topic_name(zone.name)}/{what}",
                            "unit_of_measurement": unit, "state_class": state_class, "icon": icon, **common}))
     for line in site.lines:
         for direction in ("forward", "back"):
-            object_id = f"{_slug(line.name)}_{direction}"
+            object_id = f"{topic_name(line.name)}_{direction}"
             found.append((f"{DISCOVERY_PREFIX}/sensor/{node}/{object_id}/config",
                           {"name": f"{line.name} crossings {direction}", "unique_id": f"ray3d_{node}_{object_id}",
-                           "state_topic": f"{prefix}/line/{_slug(line.name)}/{direction}",
+                           "state_topic": f"{prefix}/line/{topic_name(line.name)}/{direction}",
                            "unit_of_measurement": "crossings", "state_class": "total_increasing",
                            "icon": "mdi:transit-transfer", **common}))
     return found
+
+
+# A zone's events -> their ``event_type`` on the zone's Home Assistant event entity.
+ZONE_EVENT_TYPES = {ZONE_ENTERED.name: "entered", ZONE_LEFT.name: "left",
+                    OCCUPANCY_ABOVE_LIMIT.name: "occupancy_above_limit", DWELL_ABOVE_LIMIT.name: "dwell_above_limit"}
+
+
+def home_assistant_event(event: dict) -> tuple[str, str] | None:
+    """Where ``event`` goes as a Home Assistant event (its topic under the prefix) and its ``event_type``; None for
+    track starts and ends (on ``<prefix>/event`` only)."""
+    kind = event["event"]
+    if kind == LINE_CROSSED.name:
+        return f"line/{topic_name(event['line'])}/crossing", event["direction"]
+    if kind in ZONE_EVENT_TYPES:
+        return f"zone/{topic_name(event['zone'])}/event", ZONE_EVENT_TYPES[kind]
+    return (FALL.name, FALL.name) if kind == FALL.name else None  # the topic PREFIX/fall, its one type
+
+
+def event_entities(site: Site, prefix: str) -> list[tuple[str, dict]]:
+    """The site's happenings as Home Assistant MQTT event entities (what an automation triggers on): (discovery
+    topic, config payload) each. A line's crossings (``forward``, ``back``), a zone's visits and limits
+    (``entered``, ``left``, ``occupancy_above_limit``, ``dwell_above_limit``) and the site's falls (``fall``); each
+    published as the event's JSON with its ``event_type``."""
+    node, common = topic_name(prefix), _common(prefix)
+    places = [(f"{topic_name(line.name)}_crossing", f"{line.name} crossing",
+               f"line/{topic_name(line.name)}/crossing", ["forward", "back"], "mdi:transit-transfer")
+              for line in site.lines]
+    places += [(f"{topic_name(zone.name)}_event", zone.name, f"zone/{topic_name(zone.name)}/event",
+                list(ZONE_EVENT_TYPES.values()), "mdi:map-marker-radius") for zone in site.zones]
+    places.append((FALL.name, FALL.name, FALL.name, [FALL.name], "mdi:human-handsdown"))  # PREFIX/fall
+    return [(f"{DISCOVERY_PREFIX}/event/{node}/{object_id}/config",
+             {"name": name, "unique_id": f"ray3d_{node}_{object_id}", "state_topic": f"{prefix}/{topic}",
+              "event_types": types, "icon": icon, **common})
+            for object_id, name, topic, types, icon in places]
+
+
+def announcements(site: Site, prefix: str) -> list[tuple[str, dict]]:
+    """Everything announced to Home Assistant's MQTT discovery: the sensors and the event entities."""
+    return sensors(site, prefix) + event_entities(site, prefix)
 
 
 class MqttPublisher:
@@ -84,9 +149,11 @@ class MqttPublisher:
         except ImportError:
             raise InputError("mqtt: needs paho-mqtt (pip install 'ray3d[live]')", ("mqtt",)) from None
         self.host, self.port, self.prefix = parse_mqtt_url(url)
+        _one_topic_each(site, self.prefix)
         self.site, self.report = site, report
         self.published = self.dropped = 0
         self._state: dict[str, str] = {}  # retained topic -> the value last published
+        self._before: dict[str, dict[str, int]] = {}  # the counts of the runs before this one (the store's)
         self._reported = False
         self._lock = threading.Lock()
         self._codes = (mqtt.MQTT_ERR_SUCCESS, mqtt.MQTT_ERR_NO_CONN)  # sent, or queued until the broker is back
@@ -104,7 +171,7 @@ class MqttPublisher:
         if getattr(reason, "is_failure", False):
             return
         client.publish(f"{self.prefix}/status", "online", qos=1, retain=True)
-        for topic, payload in sensors(self.site, self.prefix):
+        for topic, payload in announcements(self.site, self.prefix):
             client.publish(topic, json.dumps(payload), qos=1, retain=True)
 
     def _send(self, topic: str, payload: str, retain: bool) -> bool:
@@ -118,24 +185,41 @@ class MqttPublisher:
                         "are dropped (events stay in events.jsonl and the store)")
         return False
 
+    def begin(self, monitor, counted: dict[str, dict[str, int]] | None = None) -> None:
+        """The run's state published at its start, its running counts going on from ``counted`` (the counts of the
+        runs before it, ``store.RunRecorder.counted``: a restart does not set them back to 0)."""
+        with self._lock:
+            self._before = counted or {}
+            self._publish_state(monitor)
+
     def publish(self, events: list[dict], monitor) -> None:
-        """The events just found (each on ``<prefix>/event``), then the state they changed, retained: each zone's
-        occupancy and entries and each line's crossings (``monitor``: the run's ``SiteMonitor``)."""
+        """The events just found (each on ``<prefix>/event``, and those Home Assistant is told of as events on
+        their place's topic, ``home_assistant_event``), then the state they changed, retained: each zone's
+        occupancy, entries and exits and each line's crossings (``monitor``: the run's ``SiteMonitor``)."""
         if not events:
             return
         with self._lock:
             for event in events:
                 self.published += self._send(f"{self.prefix}/event", json.dumps(event), retain=False)
-            state = {**{f"{self.prefix}/zone/{_slug(z)}/occupancy": str(len(people))
-                        for z, people in monitor.occupants.items()},
-                     **{f"{self.prefix}/zone/{_slug(z.name)}/entries": str(monitor.counts[z.name]["entered"])
-                        for z in self.site.zones},
-                     **{f"{self.prefix}/line/{_slug(l.name)}/{d}": str(monitor.counts[l.name][d])
-                        for l in self.site.lines for d in ("forward", "back")}}
-            for topic, value in state.items():
-                if self._state.get(topic) != value:
-                    self._state[topic] = value
-                    self._send(topic, value, retain=True)
+                if (announced := home_assistant_event(event)) is not None:
+                    topic, event_type = announced
+                    self._send(f"{self.prefix}/{topic}", json.dumps({"event_type": event_type, **event}), retain=False)
+            self._publish_state(monitor)
+
+    def _publish_state(self, monitor) -> None:
+        def count(place: str, what: str) -> str:
+            return str(self._before.get(place, {}).get(what, 0) + monitor.counts[place][what])
+
+        state = {**{f"{self.prefix}/zone/{topic_name(z)}/occupancy": str(len(people))
+                    for z, people in monitor.occupants.items()},
+                 **{f"{self.prefix}/zone/{topic_name(z.name)}/{topic}": count(z.name, what)
+                    for z in self.site.zones for topic, what in (("entries", "entered"), ("exits", "left"))},
+                 **{f"{self.prefix}/line/{topic_name(l.name)}/{d}": count(l.name, d)
+                    for l in self.site.lines for d in ("forward", "back")}}
+        for topic, value in state.items():
+            if self._state.get(topic) != value:
+                self._state[topic] = value
+                self._send(topic, value, retain=True)
 
     def close(self, wait_s: float = 3.0) -> None:
         """What waits sent for up to ``wait_s`` seconds, ``offline`` said, the connection closed."""

@@ -81,7 +81,7 @@ class LiveSummary:
 
 
 def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
-              latest: deque, stats: dict, buckets: TimeBuckets | None) -> dict:
+              latest: deque, stats: dict, buckets: TimeBuckets | None, floor: list[dict]) -> dict:
     occupancy = {zone: len(inside) for zone, inside in monitor.occupants.items()}  # as the events count it
     return {"frame": frame_index, "time_s": frame_index / fps,
             "people": [{"track": p.track, "x": round(float(p.joints[0, 0]), 3), "y": round(float(p.joints[0, 1]), 3),
@@ -89,7 +89,8 @@ def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dic
                         "stature_m": p.stature_m} for p in people],
             "trails": {t: [list(xy) for xy in trail] for t, trail in trails.items()},
             "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats,
-            "buckets": buckets.rows(frame_index / fps)[-RECENT_BUCKETS:] if buckets else []}
+            "buckets": buckets.rows(frame_index / fps)[-RECENT_BUCKETS:] if buckets else [],
+            "floor": floor}
 
 
 def _monitored(monitor: SiteMonitor, settled: tuple[int, list[PersonNow]], buckets: TimeBuckets | None) -> list[dict]:
@@ -201,6 +202,15 @@ class _Outputs:
         self.latest.extend(events)
         self.count += len(events)
 
+    def taken_over(self, closed: list[dict]) -> None:
+        """The events that closed what the run before left open (``store.RunRecorder.closed``, in the store
+        already) to the event log, the webhook and MQTT; not to this run's counts."""
+        self.log.write(closed)
+        if self.webhook:
+            self.webhook.post(closed)
+        if self.mqtt is not None:
+            self.mqtt.publish(closed, self.monitor)
+
     def close(self) -> dict:
         """Every output closed (the store is closed by the run, with how it ended); the webhook's counts."""
         self.log.close()
@@ -263,7 +273,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     this process, ``live.cluster.RayCameras`` on Ray): their people joined, the site's events, the event log,
     the webhook, MQTT (``mqtt``: a ``live.mqtt.MqttPublisher``), the page, each camera's world file and the
     site's store (``recorder``: a ``store.RunRecorder``; a run that continues a store's record appends to the
-    event log and the world files its earlier runs wrote)."""
+    event log and the world files its earlier runs wrote, first the events that closed what a killed run left open,
+    and MQTT's running counts go on from the store's)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     events_path = out_dir / "events.jsonl"
@@ -282,6 +293,10 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                                  for l in site.lines]})
     server = LiveServer(board, options.host, options.port, options.token) if options.page else None
     outputs = _Outputs(events_path, options, monitor, recorder, mqtt, buckets, views.label)
+    if mqtt is not None:  # its counts going on from the store's
+        mqtt.begin(monitor, recorder.counted if recorder is not None else None)
+    if recorder is not None:
+        outputs.taken_over(recorder.closed)
     trails: dict[str, deque] = {}
     pace, processed = _Pace(), 0
     ending, why = "stopped", f"{cameras.name}: stopped"
@@ -315,7 +330,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
                 processed += 1
                 board.publish(_snapshot(outputs.last_index, views.fps, persons, trails, monitor, outputs.latest,
-                                        pace.add(result.arrived, cameras), buckets))
+                                        pace.add(result.arrived, cameras), buckets, views.floor_lines()))
     finally:
         if timer is not None:
             timer.cancel()

@@ -1,9 +1,9 @@
 """The live page and its feed, served by Starlette on uvicorn (a thread beside the stream): ``/`` the page (the
 floor plan with each person's dot, id and trail, the site's zones, lines and counts, the latest events, the 3D
-skeletons, the frame rate and latency), ``/state`` the latest snapshot as JSON, ``/stream`` every new snapshot as
-server-sent events. It binds to 127.0.0.1 unless told otherwise; with a token, every request must carry it
-(``?token=`` or ``Authorization: Bearer``). Only the newest snapshot is kept: a slow page skips snapshots,
-it never makes anything queue up."""
+skeletons, the frame rate and latency, each camera's floor as its people show it), ``/state`` the latest
+snapshot as JSON, ``/stream`` every new snapshot as server-sent events. It binds to 127.0.0.1 unless told
+otherwise; with a token, every request must carry it (``?token=`` or ``Authorization: Bearer``). Only the newest
+snapshot is kept: a slow page skips snapshots, it never makes anything queue up."""
 
 from __future__ import annotations
 

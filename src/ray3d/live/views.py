@@ -1,7 +1,10 @@
 """What a live run's cameras give, brought together (``Views``): each camera's finished people appended to its
 world file and the store, and with several cameras their people joined into world people (``LiveFusion``) on the
 first camera's clock, who each of them was appended to ``joined.jsonl`` as they leave (the world file is fused by
-that join: ``read_joined``)."""
+that join: ``read_joined``). What each camera's people showed of the run's one floor is written to the store as
+they are lifted, the ankles of people two cameras saw at once are crossed where the join decides who they were
+(``live.floor.JoinedAnkles``) and added to the run's floor pool, and the pool starts with what earlier runs of
+the store showed of these cameras' floor."""
 
 from __future__ import annotations
 
@@ -14,6 +17,8 @@ from ray3d.errors import InputError
 from ray3d.fusion.live import WAIT_S, LiveFusion
 from ray3d.io.world import append_world_csv
 from ray3d.live.cameras import FrameResult
+from ray3d.live.floor import JoinedAnkles, floor_shown
+from ray3d.refine.ankle_plane import AnklePlane
 from ray3d.geometry.uncertainty import PersonNow
 from ray3d.site.analytics import stature_class
 
@@ -46,6 +51,15 @@ class Views:
         self._hold_frames = int(np.ceil((WAIT_S + 2.0 / min(cameras.fps)) * self.fps))
         self._settled_until = -1  # the last frame settled
         self._newest = -1  # the newest frame any camera has given
+        # The run's one floor: the cameras' pool (``live.floor.FloorPool``) from what earlier runs showed of
+        # these cameras where they stand now, the people two of them saw at once crossed as the join names them,
+        # and each camera's latest decision, for the page.
+        self.floor = getattr(cameras, "floor", None)
+        if self.floor is not None and recorder is not None:
+            self.floor.remember(recorder.remembered_floor(list(zip(cameras.names,
+                                                                   (c.center for c in cameras.cameras)))))
+        self.ankles = JoinedAnkles(self._ticks) if self.several else None
+        self.planes: dict[int, AnklePlane] = {}
 
     def take(self, view: int, result: FrameResult) -> tuple[list[tuple], list[PersonNow], list[str]]:
         """This camera's processed frame -> the frames settled for the site's events (each its number on the first
@@ -112,6 +126,8 @@ class Views:
     def _ended(self, time_s: float, seen: bool = False) -> list:
         """``LiveFusion.ended``, and who each of those people was appended to the join's file."""
         gone = self.fusion.ended(time_s, seen)
+        for _, members in self.fusion.joined:
+            self._seen_twice(self.ankles.joined(members))
         if self.fusion.joined:
             with self.joined_path.open("a") as handle:
                 handle.writelines(json.dumps({"person": person, "tracks": [list(m) for m in members]}) + "\n"
@@ -123,8 +139,37 @@ class Views:
         """A frame of camera ``view`` on the first camera's clock (seconds)."""
         return index / self.cameras.fps[view] - self.offsets_s[view]
 
+    def _ticks(self, view: int, frames: np.ndarray) -> np.ndarray:
+        """Frames of camera ``view`` as the first camera's frames (whole ones): what two cameras saw at once."""
+        return np.round((np.asarray(frames) / self.cameras.fps[view] - self.offsets_s[view]) * self.fps).astype(int)
+
+    def floor_lines(self) -> list[dict]:
+        """Each camera's floor as its latest lift decided it (``live.floor.floor_shown``), for the page."""
+        return [floor_shown(self.cameras.names[view], plane) for view, plane in sorted(self.planes.items())]
+
+    def _seen_twice(self, found: list) -> None:
+        """People two cameras saw at once (``JoinedAnkles``): to the run's floor pool and each camera's record."""
+        for crossing, pair in found:
+            if self.floor is not None:
+                self.floor.add((crossing,))
+            for view in pair if self.recorder is not None else ():
+                self.recorder.floor(self.cameras.names[view], self.cameras.cameras[view].center, (crossing,))
+
+    def _floor_of(self, view: int, finished) -> None:
+        """What a lifted track showed of the floor: to the store, to be crossed with another camera's track of
+        the same person, and its camera's decision to the page."""
+        if self.ankles is not None:
+            self._seen_twice(self.ankles.lifted(view, finished.track, finished.floor))
+        if finished.floor is not None and self.recorder is not None:
+            self.recorder.floor(self.cameras.names[view], finished.floor.centre, finished.floor.evidence,
+                                finished.floor.keypoints)
+        track = next(iter(finished.world.tracks.values())) if finished.world is not None else None
+        if track is not None and (track.refinement or {}).get("ankle_plane"):
+            self.planes[view] = AnklePlane.from_summary(track.refinement["ankle_plane"])
+
     def _write(self, view: int, done: list) -> None:
         for finished in done:
+            self._floor_of(view, finished)
             if finished.world is None:
                 self.left_out[f"{view + 1}:{finished.track}" if self.several else finished.track] = finished.why
                 continue

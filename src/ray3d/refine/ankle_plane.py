@@ -13,9 +13,12 @@ size then stands where ``log(centre_z - plane) = log(prior size) - log(size / dr
 
 Each track gives that equation with the spread of adults' sizes and of one track's measurement of its size
 (``PERSON_SIZE_SD``, both measured on ``level-test``); the people share how far a site's population and a
-detector's joints sit from the prior's mean (``POPULATION_MEAN_SD``), which many people do not average away; and
-the plane has a prior of its own, the expected contact height over z = 0 give or take what users' calibrations are
-off by (``PRIOR_SD_M``). One person for a few seconds barely moves it; ten or more place it to a few centimetres.
+detector's size chain sit from the prior's mean (``body.POPULATION_SIZE_SD``, ``body.KeypointSource``), which many
+people do not average away: from a camera 1 m above the ankles 4 % of size is 4 cm of floor, whatever the crowd.
+
+So the people's floor is evidence, not an answer: it is weighed against the camera file's own (the detector's
+planted ankle over z = 0, known to its ``planted_ankle_sd_m``) as a model comparison, and the file's floor is
+kept unless the people show it is more likely off than not (``decide_ankle_plane``), said either way.
 
 Cameras of one site share one floor, and where two see a person at once their ankle keypoints' rays cross where the
 ankles are: triangulated, a planted ankle's height is the plane itself, to a few centimetres (``seen_twice``),
@@ -31,21 +34,23 @@ from scipy.optimize import minimize_scalar
 
 from ray3d import body
 from ray3d.body import body_sizes, lowest_ankle_height
+from ray3d.errors import InputError
 from ray3d.geometry.floor import LARGEST_FLOOR_Z_M, checked_floor_z
 
-# A camera file's z = 0 lies within about 0.15 m of the floor when nothing else is known (users' calibrations on
-# boards and steps are off by 0.1-0.15 m: issue 59).
+# Before its people are seen: the chance that a camera file's z = 0 is off the floor people stand on (most
+# calibrations are right: issue 66; those on boards and steps are off by 0.1-0.15 m: issue 59), and by how much
+# when it is. The people's evidence is weighed against both: the floor found is applied only where it is more
+# likely off than not (which minimises the expected squared error of the floor used).
+PRIOR_CHANCE_OFF = 0.5
 PRIOR_SD_M = 0.15
+APPLY_CHANCE = 0.5
 # One track's log size against the prior: adults' spread and the network's reading of one person's size chain
 # (level-test: the plane a person implies spreads 0.04 m about the truth given their true size, 0.15-0.17 m given
-# the prior's, from cameras 0.9-1.5 m high, statures 1.45-1.95 m).
+# the prior's, from cameras 0.9-1.5 m high, statures 1.45-1.95 m). What people share, and many do not average
+# away, is the population's mean size and the detector's own size chain (``body.KeypointSource``).
 PERSON_SIZE_SD = 0.10
-# How far the people of one site and one detector's joints stand from the prior's mean size, shared by them all.
-POPULATION_MEAN_SD = 0.03
 MIN_SECONDS = 0.5        # a track with less upright, feet-seen footage gives no evidence
 MIN_DROP_M = 0.05        # the lowest ankle must stand this far below the camera for its ray to meet the floor
-CONFIDENT_SHARE = 0.5    # observed: the people halved the prior's sd
-GIVEN_SD_M = 0.03        # a floor the user gives: the detector's contact height is still a spread of its own
 # Two cameras' rays of one person: the pelvis rays of one person pass within this of each other (a detector's
 # hips, two calibrations); an ankle's two rays within this are taken to cross at it; cameras looking along one
 # line (rays within 10 degrees) do not triangulate; a triangulated height is no better than the calibrations.
@@ -93,12 +98,39 @@ def size_evidence(joints: np.ndarray, centre: np.ndarray, usable: np.ndarray, fp
     return SizeEvidence(float(centre[2]), float(np.median(ratio)), float(frames.sum() / fps))
 
 
+def checked_evidence(evidence) -> tuple:
+    """What people showed of a floor before (``SizeEvidence`` and ``SeenTwice`` in any iterable) as a tuple; an
+    ``InputError`` naming ``seen_before`` for anything else."""
+    try:
+        evidence = tuple(evidence)
+    except TypeError:
+        raise InputError(f"seen_before: SizeEvidence and SeenTwice of earlier lifts; got {type(evidence).__name__}",
+                         ("seen_before",)) from None
+    strangers = {type(e).__name__ for e in evidence if not isinstance(e, (SizeEvidence, SeenTwice))}
+    if strangers:
+        raise InputError("seen_before: SizeEvidence and SeenTwice of earlier lifts; got "
+                         f"{', '.join(sorted(strangers))}", ("seen_before",))
+    return evidence
+
+
+def floor_evidence(evidence: SizeEvidence, contact_m: float, body_size_m: float) -> SizeEvidence:
+    """A track's evidence of its ankle plane, from keypoints whose planted ankles stand ``contact_m`` over the
+    floor and whose size chain is ``body_size_m`` for an adult of the prior's size, as evidence of the floor itself
+    (for keypoints at the floor of the mocap's size chain): how cameras with different detectors pool theirs."""
+    return SizeEvidence(evidence.centre_z - contact_m,
+                        evidence.log_size_over_drop + float(np.log(body.ADULT_BODY_SIZE_M / body_size_m)),
+                        evidence.seconds)
+
+
 @dataclasses.dataclass(frozen=True)
 class AnklePlane:
     """Where a camera's people's ankle keypoints meet the floor: ``height_m`` over the camera file's z = 0, with
-    one sd ``sd_m``; ``contact_m`` is where a floor at z = 0 would put it (the detector's planted ankle);
-    ``source``: "observed" (from ``people`` tracks over ``seconds``, ``seen_twice`` of them by two cameras at
-    once), "prior" (nobody to observe it from) or "given" (the user's floor)."""
+    one sd ``sd_m`` (the expected error of the plane used, the decision's chance of being wrong included);
+    ``contact_m`` is where a floor at z = 0 puts it (the detector's planted ankle). ``source``: "observed" (the
+    people ``observed_m`` +/- ``observed_sd_m``, from ``people`` tracks over ``seconds``, ``seen_twice`` of them
+    by two cameras at once), "prior" (nobody to observe it from) or "given" (the user's floor); ``decision``:
+    "kept" (the camera file's floor) or "applied" (the people's, more likely right than not: ``chance_off``, the
+    chance that the camera file's floor is off)."""
 
     height_m: float
     sd_m: float
@@ -107,50 +139,74 @@ class AnklePlane:
     people: int = 0
     seconds: float = 0.0
     seen_twice: int = 0
+    decision: str = "applied"
+    chance_off: float | None = None
+    observed_m: float | None = None
+    observed_sd_m: float | None = None
 
     @property
     def floor_z_m(self) -> float:
         """Where the floor people stand on lies in the camera file's frame (0: at its z = 0)."""
         return self.height_m - self.contact_m
 
-    @property
-    def confident(self) -> bool:
-        return self.source == "given" or (self.source == "observed" and self.sd_m <= CONFIDENT_SHARE * PRIOR_SD_M)
-
     def message(self, camera: str = "") -> str:
-        """One line for stderr: where the ankles meet the rays, against z = 0, and what was done with it."""
-        which = f"camera {camera}'s" if camera else "this camera's"
-        where = (f"people's ankles meet {which} rays {abs(self.height_m):.2f} +/- {self.sd_m:.2f} m "
-                 f"{'above' if self.height_m >= 0 else 'below'} its z = 0 (the floor {abs(self.floor_z_m):.2f} m "
-                 f"{'above' if self.floor_z_m >= 0 else 'below'} it")
+        """One line for stderr: what the people say of the camera's floor, what was done and what to do."""
+        which = f"camera {camera}" if camera else "the camera"
         if self.source == "given":
-            return f"{where}, as given); applied"
+            return f"{which}: the floor as given, {_offset(self.floor_z_m)} its z = 0; applied"
         if self.source == "prior":
-            return f"{where}: assumed, nobody seen standing long enough to observe it); applied"
-        seen = f"{self.people} {'person' if self.people == 1 else 'people'} over {self.seconds:.0f} s" + (
-            f", {self.seen_twice} seen by two cameras at once" if self.seen_twice else "")
-        if self.confident:
-            return f"{where}, from {seen}); applied"
-        return (f"{where}, from {seen}: too little to tell it well, the prior +/- {PRIOR_SD_M:.2f} m weighed in); "
-                "applied")
+            return (f"{which}: nobody seen standing long enough to check its floor; its z = 0 kept as the floor (a "
+                    f"{self.chance_off:.0%} chance it is off, before any evidence)")
+        seen = f"{self.people} {'person' if self.people == 1 else 'people'} seen standing" + (
+            f" for {self.seconds:.0f} s in all" if self.people else "") + (
+            f", {self.seen_twice} by two cameras at once" if self.seen_twice else "")
+        floor = self.observed_m - self.contact_m  # where the people put the floor against z = 0
+        if self.decision == "kept":
+            return (f"{which}: the people fit its floor (they put it {_offset(floor, self.observed_sd_m)} its "
+                    f"z = 0, within what people's sizes and the detector leave; a {self.chance_off:.0%} chance it is "
+                    f"off; {seen}); kept, nothing to do")
+        return (f"{which}: its z = 0 seems {_offset(-floor, self.observed_sd_m)} the floor ({self.chance_off:.0%} "
+                f"sure; {seen}); applied; to fix it for good, measure the lens's height over the floor and run "
+                "ray3d calibrate --floor-of CAMERA --lens-height M (it writes floor_z_m into the camera file)")
+
+    def standing(self, contact_m: float) -> AnklePlane:
+        """The plane of keypoints whose planted ankles stand ``contact_m`` over the floor this one places (a floor's
+        own plane: contact 0)."""
+        rise = contact_m - self.contact_m
+        return dataclasses.replace(self, height_m=self.height_m + rise, contact_m=contact_m,
+                                   observed_m=None if self.observed_m is None else self.observed_m + rise)
 
     @classmethod
     def from_summary(cls, summary: dict) -> AnklePlane:
         """The plane a world file's ``summary`` records."""
-        return cls(summary["height_m"], summary["sd_m"], summary["contact_m"], summary["source"], summary["people"],
-                   summary["seconds"], summary.get("seen_twice", 0))
+        return cls(summary["height_m"], summary["sd_m"], summary["contact_m"], summary["source"],
+                   summary.get("people", 0), summary.get("seconds", 0.0), summary.get("seen_twice", 0),
+                   summary.get("decision", "applied"), summary.get("chance_off"), summary.get("observed_m"),
+                   summary.get("observed_sd_m"))
 
     def summary(self) -> dict:
         """Its record in world files."""
+        def rounded(value):
+            return None if value is None else round(value, 4)
+
         return {"height_m": round(self.height_m, 4), "sd_m": round(self.sd_m, 4), "floor_z_m": round(self.floor_z_m, 4),
-                "contact_m": round(self.contact_m, 4), "source": self.source, "confident": self.confident,
-                "people": self.people, "seconds": round(self.seconds, 2), "seen_twice": self.seen_twice}
+                "contact_m": round(self.contact_m, 4), "source": self.source, "decision": self.decision,
+                "chance_off": rounded(self.chance_off), "observed_m": rounded(self.observed_m),
+                "observed_sd_m": rounded(self.observed_sd_m), "people": self.people,
+                "seconds": round(self.seconds, 2), "seen_twice": self.seen_twice}
 
 
-def given_ankle_plane(floor_z_m: float, contact_m: float) -> AnklePlane:
-    """The plane of a floor the user states at ``floor_z_m`` in the camera file's frame."""
+def _offset(value: float, sd: float | None = None) -> str:
+    """'0.12 +/- 0.03 m below' for -0.12 (sd 0.03)."""
+    spread = "" if sd is None else f" +/- {sd:.2f}"
+    return f"{abs(value):.2f}{spread} m {'above' if value >= 0 else 'below'}"
+
+
+def given_ankle_plane(floor_z_m: float, contact_m: float, contact_sd_m: float) -> AnklePlane:
+    """The plane of a floor the user states at ``floor_z_m`` in the camera file's frame, the detector's planted
+    ankle ``contact_m`` +/- ``contact_sd_m`` over it."""
     floor_z_m = checked_floor_z(floor_z_m)
-    return AnklePlane(floor_z_m + contact_m, GIVEN_SD_M, contact_m, "given")
+    return AnklePlane(floor_z_m + contact_m, contact_sd_m, contact_m, "given", decision="given")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -208,37 +264,104 @@ def seen_twice(centres: tuple[np.ndarray, np.ndarray], rays: tuple[np.ndarray, n
                      float(np.median(pelvis_gap[both])))
 
 
-def observe_ankle_plane(evidence: list[SizeEvidence | None], contact_m: float,
-                        body_size_m: float = body.ADULT_BODY_SIZE_M, crossings: tuple = ()) -> AnklePlane:
-    """The ankle plane of one floor from every track's ``size_evidence`` (None: a track that gave none), people's
-    size chain being ``body_size_m`` on average, and the ankles two cameras saw at once (``crossings``: each a
-    ``SeenTwice``), against the prior ``contact_m`` +/- ``PRIOR_SD_M``. The people's sizes are weighed robustly (a
-    track more than three of its sds off the rest, a child or a detector's failure, is left out)."""
+@dataclasses.dataclass(frozen=True)
+class PlaneObservation:
+    """What a floor's people say of its ankle plane on their own (no prior): ``height_m`` +/- ``sd_m`` over z = 0,
+    from ``people`` tracks' sizes over ``seconds`` and ``seen_twice`` people's triangulated ankles."""
+
+    height_m: float
+    sd_m: float
+    people: int
+    seconds: float
+    seen_twice: int
+
+
+def observe_plane(evidence: list[SizeEvidence | None], body_size_m: float, size_source_sd: float = 0.0,
+                  crossings: tuple = ()) -> PlaneObservation | None:
+    """The ankle plane every track's ``size_evidence`` (None: a track that gave none) and the ankles two cameras
+    saw at once (``crossings``: each a ``SeenTwice``) place, without a prior: people's size chain being
+    ``body_size_m`` on average, up to the population's mean size (``body.POPULATION_SIZE_SD``) and the detector's
+    own (``size_source_sd``), which every track shares. The sizes are weighed robustly (a track more than three of
+    its sds off the rest, a child or a detector's failure, is left out). None: nothing to observe it from."""
     given = [e for e in evidence if e is not None]
     crossings = [c for c in crossings if c is not None]
-    information = 1 / PRIOR_SD_M ** 2 + sum(1 / c.sd_m ** 2 for c in crossings)
-    weighed = contact_m / PRIOR_SD_M ** 2 + sum(c.height_m / c.sd_m ** 2 for c in crossings)
-    if not given:
-        if not crossings:
-            return AnklePlane(contact_m, PRIOR_SD_M, contact_m, "prior")
-        return AnklePlane(float(weighed / information), float(information ** -0.5), contact_m, "observed",
-                          seconds=float(sum(c.seconds for c in crossings)), seen_twice=len(crossings))
-    centre = np.array([e.centre_z for e in given])
-    target = np.array([e.implied_log_drop(body_size_m) for e in given])
-    sd = np.hypot(PERSON_SIZE_SD, 0.06 / np.sqrt(np.array([e.seconds for e in given])))
-    kept = np.ones(len(given), dtype=bool)
-    for _ in range(2):
+    information = sum(1 / c.sd_m ** 2 for c in crossings)
+    weighed = sum(c.height_m / c.sd_m ** 2 for c in crossings)
+    seconds, people = float(sum(c.seconds for c in crossings)), 0
+    if given:
+        centre = np.array([e.centre_z for e in given])
+        target = np.array([e.implied_log_drop(body_size_m) for e in given])
+        sd = np.hypot(PERSON_SIZE_SD, 0.06 / np.sqrt(np.array([e.seconds for e in given])))
+        kept = np.ones(len(given), dtype=bool)
+        for _ in range(2):
+            plane = _fit(centre[kept], target[kept], sd[kept])
+            kept = np.abs(np.log(np.maximum(centre - plane, 1e-6)) - target) <= 3 * sd
+            if not kept.any():
+                kept[:] = True
         plane = _fit(centre[kept], target[kept], sd[kept])
-        kept = np.abs(np.log(np.maximum(centre - plane, 1e-6)) - target) <= 3 * sd
-        if not kept.any():
-            kept[:] = True
-    plane = _fit(centre[kept], target[kept], sd[kept])
-    slope = 1 / (centre[kept] - plane)           # d log(centre_z - plane) / d plane, in magnitude
-    weight = 1 / sd[kept] ** 2
-    variance = 1 / np.sum(weight * slope ** 2) + (POPULATION_MEAN_SD / np.average(slope, weights=weight)) ** 2
-    information, weighed = information + 1 / variance, weighed + plane / variance
-    return AnklePlane(float(weighed / information), float(information ** -0.5), contact_m, "observed",
-                      int(kept.sum()), float(sum(e.seconds for e, k in zip(given, kept) if k)), len(crossings))
+        slope = 1 / (centre[kept] - plane)           # d log(centre_z - plane) / d plane, in magnitude
+        weight = 1 / sd[kept] ** 2
+        shared = np.hypot(body.POPULATION_SIZE_SD, size_source_sd)
+        variance = 1 / np.sum(weight * slope ** 2) + (shared / np.average(slope, weights=weight)) ** 2
+        information, weighed = information + 1 / variance, weighed + plane / variance
+        people = int(kept.sum())
+        seconds += float(sum(e.seconds for e, k in zip(given, kept) if k))
+    if not information:
+        return None
+    return PlaneObservation(float(weighed / information), float(information ** -0.5), people, seconds,
+                            len(crossings))
+
+
+def decide_ankle_plane(observed: PlaneObservation | None, contact_m: float, contact_sd_m: float,
+                       prior_chance_off: float = PRIOR_CHANCE_OFF) -> AnklePlane:
+    """The camera file's floor (the plane at ``contact_m`` +/- ``contact_sd_m``, the detector's) against a floor
+    anywhere near it (+/- ``PRIOR_SD_M``), weighed on what the people ``observed``: the Bayes factor of the two,
+    from the chance ``prior_chance_off`` that a camera file's floor is off, gives the chance that it is; the
+    people's floor (the observation under the second, with its prior) is applied where that chance reaches
+    ``APPLY_CHANCE`` and they tell the floor to ``PRIOR_SD_M`` or better, else the file's is kept. The plane's sd:
+    kept, the detector's own spread and, weighed by the chance that the file's floor is off, the step the people
+    would take it by (a right calibration's people, who show little, leave it near the detector's: it covers 55-85 %
+    within 1 sd on ``level-test`` and the emulated street split); applied, the expected error of the people's
+    estimate, the chance that the file's was right in it; nobody seen, the prior's mixture."""
+    kept_variance = contact_sd_m ** 2
+    if observed is None:
+        sd = np.sqrt((1 - prior_chance_off) * kept_variance + prior_chance_off * PRIOR_SD_M ** 2)
+        return AnklePlane(contact_m, float(sd), contact_m, "prior", decision="kept", chance_off=prior_chance_off)
+    free_variance = PRIOR_SD_M ** 2 + kept_variance
+    seen_variance = observed.sd_m ** 2
+    residual = observed.height_m - contact_m
+    log_factor = _log_normal(residual, seen_variance + free_variance) - _log_normal(residual,
+                                                                                    seen_variance + kept_variance)
+    odds = prior_chance_off / (1 - prior_chance_off) * np.exp(np.clip(log_factor, -50, 50))
+    chance = float(odds / (1 + odds))
+    # The plane if off: the observation with the free floor's prior.
+    off_variance = 1 / (1 / free_variance + 1 / seen_variance)
+    off_height = contact_m + off_variance * residual / seen_variance
+    shift = (off_height - contact_m) ** 2
+    # People who tell the floor no better than calibrations are off by cannot show one off: the chance then stays
+    # near even whatever they show (a street camera's crowd, 0.2-0.4 m), and the file's floor is kept.
+    applied = chance >= APPLY_CHANCE and observed.sd_m <= PRIOR_SD_M
+    if applied:
+        height, variance = off_height, chance * off_variance + (1 - chance) * (kept_variance + shift)
+    else:
+        height, variance = contact_m, kept_variance + chance * shift
+    return AnklePlane(float(height), float(np.sqrt(variance)), contact_m, "observed", observed.people,
+                      observed.seconds, observed.seen_twice, "applied" if applied else "kept", chance,
+                      observed.height_m, observed.sd_m)
+
+
+def _log_normal(residual: float, variance: float) -> float:
+    return float(-0.5 * (np.log(2 * np.pi * variance) + residual ** 2 / variance))
+
+
+def observe_ankle_plane(evidence: list[SizeEvidence | None], contact_m: float, contact_sd_m: float,
+                        body_size_m: float = body.ADULT_BODY_SIZE_M, size_source_sd: float = 0.0,
+                        crossings: tuple = ()) -> AnklePlane:
+    """The ankle plane of one floor: what every track's ``size_evidence`` and the ``crossings`` of people two
+    cameras saw at once say of it (``observe_plane``), decided against the camera file's floor
+    (``decide_ankle_plane``)."""
+    return decide_ankle_plane(observe_plane(evidence, body_size_m, size_source_sd, crossings), contact_m,
+                              contact_sd_m)
 
 
 def _fit(centre: np.ndarray, target: np.ndarray, sd: np.ndarray) -> float:

@@ -34,6 +34,15 @@ class RefineConfig:
     """
 
     contact_ankle_height_m: float = body.PLANTED_ANKLE_HEIGHT_M
+    # The keypoints' source (``body.KeypointSource``): where its ankle keypoints' rays meet a planted foot over the
+    # floor and how well that is known (m; what the floor's evidence and a triangulated ankle are read against,
+    # not where the refined pose's lowest ankle rests: that is ``contact_ankle_height_m``), the size chain the
+    # network's pose on its rays reads for an adult of the prior's size, and how well (relative), each shared by
+    # everybody it sees.
+    keypoint_ankle_height_m: float = body.KEYPOINT_SOURCES["h36m17"].planted_ankle_m
+    keypoint_ankle_sd_m: float = body.KEYPOINT_SOURCES["h36m17"].planted_ankle_sd_m
+    read_size_m: float = body.KEYPOINT_SOURCES["h36m17"].read_size_m
+    read_size_sd: float = body.KEYPOINT_SOURCES["h36m17"].read_size_sd
     ankle_height_sd_m: float = 0.05          # contact-height spread plus the network's ankle error, per frame
     # An upright head's height over the floor against the track's size: the head's bob and lean and the network's
     # head error, per frame; and one person's head-to-size ratio against the prior's, per track (3 % of 1.6 m).
@@ -76,17 +85,23 @@ class RefineConfig:
     root_definition_sd_m: float = 0.0
 
     @classmethod
-    def for_model(cls, document: dict, layout: str | Skeleton = H36M17, **changes) -> RefineConfig:
+    def for_model(cls, document: dict, layout: str | Skeleton = H36M17, source: body.KeypointSource | None = None,
+                  **changes) -> RefineConfig:
         """The defaults (measured on the shipped ``ray3d``) with what a checkpoint document's ``uncertainty``
         says of its own model (its distance errors by distance, what the cues leave of them), for keypoints of
-        ``layout`` (a detector's ankle keypoint stands higher than the mocap's ankle joint:
-        ``body.DETECTOR_PLANTED_ANKLE_HEIGHT_M``; its hips too, so its size chain is shorter:
-        ``body.DETECTOR_BODY_SIZE_M``; its mid-hips are not a skeleton's pelvis), and ``changes``."""
+        ``layout`` (a detector's ankle keypoint stands higher than the mocap's ankle joint, by its own amount, and
+        the refined pose's lowest ankle, drawn part of the way to its ray, ``KeypointSource.pose_ankle_m`` over the
+        floor; its hips stand higher too, so its size chain is shorter: ``body.keypoint_source``; its
+        mid-hips are not a skeleton's pelvis; ``source`` says whose keypoints they are where the layout does not),
+        and ``changes``."""
         measured = model_uncertainty(document)
-        if layout_skeleton(layout).name in DETECTOR_LAYOUTS:
-            measured["contact_ankle_height_m"] = body.DETECTOR_PLANTED_ANKLE_HEIGHT_M
+        name = layout_skeleton(layout).name
+        source = source or body.keypoint_source(name)
+        measured.update(contact_ankle_height_m=source.pose_ankle_m, keypoint_ankle_height_m=source.planted_ankle_m,
+                        keypoint_ankle_sd_m=source.planted_ankle_sd_m, body_size_m=source.body_size_m,
+                        read_size_m=source.read_size_m, read_size_sd=source.read_size_sd)
+        if name in DETECTOR_LAYOUTS:
             measured["root_definition_sd_m"] = body.DETECTOR_ROOT_DEFINITION_SD_M
-            measured["body_size_m"] = body.DETECTOR_BODY_SIZE_M
         return cls(**{**measured, **changes})
 
     def network_bias_sd(self, distance: np.ndarray) -> np.ndarray:

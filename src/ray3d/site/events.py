@@ -34,29 +34,32 @@ class EventKind:
     name: str
     colour: str
     fields: tuple[str, ...]
+    optional: tuple[str, ...] = ()  # fields it may carry too
 
 
 LINE_CROSSED = EventKind("line crossed", "#d62f2f", ("line", "direction", "place_m", "sides_m", "frames"))
 ZONE_ENTERED = EventKind("zone entered", "#1f77b4", ("zone", "place_m", "frames"))
-ZONE_LEFT = EventKind("zone left", "#7fb2e5", ("zone", "place_m", "dwell_s", "frames"))
+# A run cut off (killed outright) leaves its visits and tracks open; the next run on its store ends them with a
+# ``reason`` (``store.restart``).
+ZONE_LEFT = EventKind("zone left", "#7fb2e5", ("zone", "place_m", "dwell_s", "frames"), ("reason",))
 OCCUPANCY_ABOVE_LIMIT = EventKind("occupancy above limit", "#ff7f0e", ("zone", "occupancy", "limit", "people"))
 DWELL_ABOVE_LIMIT = EventKind("dwell above limit", "#9467bd", ("zone", "dwell_s", "limit_s"))
 FALL = EventKind("fall", "#000000", ("place_m", "head_drop_m", "drop_s", "lying_from_s", "still_m"))
 TRACK_STARTED = EventKind("track started", "#2ca02c", ("place_m", "frames"))
-TRACK_ENDED = EventKind("track ended", "#98df8a", ("place_m", "frames"))
+TRACK_ENDED = EventKind("track ended", "#98df8a", ("place_m", "frames"), ("reason",))
 EVENT_KINDS = {kind.name: kind for kind in (LINE_CROSSED, ZONE_ENTERED, ZONE_LEFT, FALL, OCCUPANCY_ABOVE_LIMIT,
                                              DWELL_ABOVE_LIMIT, TRACK_STARTED, TRACK_ENDED)}
 
 
 class Event(dict):
     """One event: ``{"event": kind name, "track", "time_s", **the kind's fields}``; refused (``ValueError``) when
-    the fields are not its kind's."""
+    the fields are not its kind's (its optional ones may be there too)."""
 
     def __init__(self, kind: EventKind, track: str, time_s: float, **fields):
-        if set(fields) != set(kind.fields):
+        if not set(kind.fields) <= set(fields) <= {*kind.fields, *kind.optional}:
             raise ValueError(f"a {kind.name!r} event carries {', '.join(kind.fields)}; got {', '.join(fields)}")
         super().__init__(event=kind.name, track=str(track), time_s=float(time_s),
-                         **{name: fields[name] for name in kind.fields})
+                         **{name: fields[name] for name in (*kind.fields, *kind.optional) if name in fields})
 
     def __reduce__(self):  # sent between processes (a webhook thread, Ray) as what it is
         return _event_from_dict, (dict(self),)

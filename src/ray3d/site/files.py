@@ -16,6 +16,7 @@ from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import checked_polygon
 from ray3d.io.atomic import atomic_path
 from ray3d.io.text_files import read_json
+from ray3d.site.checks import crossing_sides
 from ray3d.site.places import CountingLine, FloorPlan, Site, Zone
 
 SITE_TABLES = ("events.jsonl", "events.csv", "tracks.csv", "places.csv", "frames.csv", "occupancy.csv")
@@ -81,7 +82,8 @@ def read_site(path: str | Path) -> Site:
     """A site file (JSON, or YAML as .yaml / .yml, the same fields; ``assets/site.schema.json``):
     ``{"zones": [{"name", "polygon": [[x, y], ...][, "max_occupancy", "max_dwell_s"]}], "lines": [{"name", "start":
     [x, y], "end": [x, y]}][, "floor_plan": {"image", "metres_per_pixel", "origin": [x, y]}]}`` in world metres;
-    names must be unique within zones and within lines."""
+    names must be unique within zones and within lines, and a zone's sides may not cross (its corners listed in
+    order around it). Whether its places lie where the cameras and people are: ``site.checks.site_doubts``."""
     path = Path(path)
     document = _document(path)
     if not isinstance(document, dict) or not (set(document) & {"zones", "lines"}):
@@ -105,7 +107,15 @@ def read_site(path: str | Path) -> Site:
             if any(item.name == name for item in out):
                 raise InputError(f"{where}.name: {name!r} is used twice")
             if key == "zones":
-                polygon = checked_polygon(numeric_array(entry["polygon"], f"{where}.polygon"), f"{where}.polygon")
+                polygon = numeric_array(entry["polygon"], f"{where}.polygon")
+                crossing = (crossing_sides(polygon) if polygon.ndim == 2 and polygon.shape[1:] == (2,)
+                            and np.isfinite(polygon).all() else None)  # before its area: a bow tie's is 0
+                if crossing is not None:  # its corners out of order: what is inside it is not what was meant
+                    first, second, point = crossing
+                    raise InputError(f"{where}: zone {name!r} crosses itself: its sides from polygon[{first}] and "
+                                     f"from polygon[{second}] meet at ({point[0]:.2f}, {point[1]:.2f}); list its "
+                                     "corners in order around its edge")
+                polygon = checked_polygon(polygon, f"{where}.polygon")
                 out.append(Zone(name, polygon, _limit(entry, "max_occupancy", int, f"{where}.max_occupancy"),
                                 _limit(entry, "max_dwell_s", float, f"{where}.max_dwell_s")))
             else:

@@ -1,5 +1,6 @@
 """A site store read back over a period (``read_record``): its runs, events, positions, people and gaps, what
-``ray3d site --store`` reports on."""
+``ray3d site --store`` reports on; and what each camera's people showed of the floor run after run
+(``remembered_floor``: a live run starts on it; ``floor_decisions``: each camera's floor as all of it decides)."""
 
 from __future__ import annotations
 
@@ -9,8 +10,15 @@ import math
 
 import numpy as np
 
+from ray3d import body
 from ray3d.errors import InputError
+from ray3d.io.floor_memory import SAME_CAMERA_M
+from ray3d.refine.ankle_plane import AnklePlane, SeenTwice, SizeEvidence, observe_ankle_plane
 from ray3d.store.database import connect, is_postgresql, shown
+
+# The latest people (and people seen twice) per camera a run starts on: the shared part of the evidence (a
+# site's population, the detector) does not shrink with more, and a live run keeps as many of its own.
+REMEMBERED_PER_CAMERA = 500
 
 
 @dataclasses.dataclass
@@ -46,9 +54,9 @@ def read_record(location, from_at: float | None = None, to_at: float | None = No
                 for row in database.rows("SELECT run, started_at, command, sources, site, ended_at, ending, first_at, "
                                          "last_at FROM runs ORDER BY run")]
         events = []
-        for run, at, body in database.rows("SELECT run, at, body FROM events WHERE at >= ? AND at < ? "
+        for run, at, text in database.rows("SELECT run, at, body FROM events WHERE at >= ? AND at < ? "
                                            "ORDER BY at, run, seq", bounds):
-            events.append({**json.loads(body), "at": float(at), "run": int(run)})
+            events.append({**json.loads(text), "at": float(at), "run": int(run)})
         rows = database.rows("SELECT at, x, y, sd_along, sd_across, person, camera FROM positions "
                              "WHERE at >= ? AND at < ? ORDER BY at", bounds)
         numbers = np.array([r[:5] for r in rows], dtype=float).reshape(-1, 5)
@@ -71,6 +79,65 @@ def read_record(location, from_at: float | None = None, to_at: float | None = No
     return StoredRecord(shown(location), float(first), float(last), runs, events, positions, people, gaps)
 
 
+def _camera_floor(database, camera: str, centre, kept: int) -> tuple[list, list]:
+    """One camera's latest ``kept`` rows of each kind seen from ``centre`` (within ``SAME_CAMERA_M``): its people's
+    ``SizeEvidence`` and its ``SeenTwice``, each with its row's run."""
+    found = {}
+    for kind in ("people", "ankles"):
+        box = [v for c in centre for v in (float(c) - SAME_CAMERA_M, float(c) + SAME_CAMERA_M)]
+        rows = database.rows("SELECT run, at, camera_x, camera_y, camera_z, centre_z, log_size_over_drop, height_m, "
+                             "sd_m, seconds FROM floor_evidence WHERE camera = ? AND kind = ? AND camera_x BETWEEN ? "
+                             "AND ? AND camera_y BETWEEN ? AND ? AND camera_z BETWEEN ? AND ? ORDER BY at DESC LIMIT ?",
+                             (camera, kind, *box, kept))
+        here = [r for r in rows if np.linalg.norm(np.subtract(r[2:5], centre)) <= SAME_CAMERA_M]
+        found[kind] = [(r[0], SizeEvidence(r[5], r[6], r[9]) if kind == "people"
+                        else SeenTwice(r[7], r[8], r[9])) for r in here]
+    return found["people"], found["ankles"]
+
+
+def remembered_floor(location, cameras: list[tuple[str, object]], kept: int = REMEMBERED_PER_CAMERA) -> tuple:
+    """What earlier runs' people showed of the floor of ``cameras`` (each its name and (3,) centre, as it stands
+    now: a camera moved by more than ``SAME_CAMERA_M`` starts afresh), as ``LiftOptions.seen_before`` takes it:
+    each camera's latest ``kept`` people and people seen twice (one seen by two of them counted once)."""
+    database = connect(location)
+    try:
+        people, ankles = [], {}
+        for camera, centre in cameras:
+            found, twice = _camera_floor(database, camera, centre, kept)
+            people += [e for _, e in found]
+            ankles.update({(run, e): e for run, e in twice})  # both cameras' row of one crossing: once
+    finally:
+        database.close()
+    return (*people, *ankles.values())
+
+
+def floor_decisions(location, kept: int = REMEMBERED_PER_CAMERA) -> dict[str, AnklePlane]:
+    """Each camera of the store at ``location``: its floor as its people in every run decided it, seen from where
+    the camera stood last (``observe_ankle_plane`` on its latest ``kept`` people and people seen twice): for its
+    detector's keypoints where the store knows them (``AnklePlane.message`` says it), else the floor's own plane
+    (contact 0)."""
+    from pathlib import Path
+
+    if not is_postgresql(location) and not Path(location).is_file():
+        raise InputError(f"store: {location}: no such store", ("store",))
+    database = connect(location)
+    try:
+        decided = {}
+        for (camera,) in database.rows("SELECT DISTINCT camera FROM floor_evidence ORDER BY camera"):
+            centre = database.rows("SELECT camera_x, camera_y, camera_z FROM floor_evidence WHERE camera = ? "
+                                   "ORDER BY at DESC LIMIT 1", (camera,))[0]
+            known = database.rows("SELECT keypoints FROM floor_evidence WHERE camera = ? AND keypoints IS NOT NULL "
+                                  "ORDER BY at DESC LIMIT 1", (camera,))
+            source = body.keypoint_source(known[0][0] if known else "")
+            people, ankles = _camera_floor(database, camera, centre, kept)
+            floor = observe_ankle_plane([e for _, e in people], 0.0, source.planted_ankle_sd_m,
+                                        body.ADULT_BODY_SIZE_M, source.read_size_sd, tuple(e for _, e in ankles))
+            decided[camera] = floor.standing(source.planted_ankle_m) if known else floor
+    finally:
+        database.close()
+    return decided
+
+
 COPIED_TABLES = {"runs": ("run", "started_at", "command", "sources", "site", "ended_at", "ending", "first_at",
                           "last_at"),
                  "events": ("run", "seq", "at", "time_s", "kind", "person", "body"),
@@ -78,7 +145,9 @@ COPIED_TABLES = {"runs": ("run", "started_at", "command", "sources", "site", "en
                  "people": ("person", "run", "first_at", "last_at", "stature_m", "stature_class", "rejoins",
                             "camera"),
                  "gaps": ("run", "camera", "from_at", "to_at", "why"),
-                 "progress": ("source", "run", "frame", "at", "origin")}
+                 "progress": ("source", "run", "frame", "at", "origin"),
+                 "floor_evidence": ("run", "camera", "at", "kind", "camera_x", "camera_y", "camera_z", "keypoints",
+                                    "centre_z", "log_size_over_drop", "height_m", "sd_m", "seconds")}
 
 
 def copy_record(source, target) -> dict[str, int]:

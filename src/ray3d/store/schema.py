@@ -2,20 +2,38 @@
 version to the next (``MIGRATIONS``). Times are Unix seconds (``at``); a run's stream clock (``time_s``) is kept
 beside them as the events carry it.
 
+- ``store_meta``: the schema's version, and the process writing the store now or last (``writer``: its pid, host
+  and start, JSON), named when a second one is refused (``lock``).
 - ``runs``: one row per ``ray3d live`` process on the store: when it started, what it followed, how it ended
-  (NULL while it runs, or when it was killed) and the span of stream time it recorded (``first_at`` to
-  ``last_at``, the newest moment committed).
-- ``events``: every site event as it happened (its JSON as written to events.jsonl), numbered within its run.
+  (NULL while it runs; "cut off" once the next run found it killed and closed what it left open) and the span of
+  stream time it recorded (``first_at`` to ``last_at``, the newest moment committed).
+- ``events``: every site event as it happened (its JSON as written to events.jsonl), numbered within its run; the
+  tracks and visits a run cut off left open end in events of that run with ``reason`` "the service stopped"
+  (``restart``).
 - ``positions``: each person's floor point once per second of stream time, with its standard deviation along and
   across the camera's ray and the camera(s) that saw it.
 - ``people``: one row per person (ids unique across runs): first and last seen, stature, class, re-joins.
 - ``gaps``: where the record has none: a camera's stream down, or the service down between two runs.
 - ``progress``: per input, the last frame recorded, and the wall-clock time of its frame 0: a file followed again
-  is taken up where it was left, on the same clock."""
+  is taken up where it was left, on the same clock.
+- ``floor_evidence`` (version 2): what each camera's people showed of the floor itself (issue 66), one row per
+  person lifted (``kind`` "people": ``refine.ankle_plane.SizeEvidence``'s ``centre_z``, ``log_size_over_drop``,
+  ``seconds``) and per person two cameras saw at once, under each of the two (``kind`` "ankles": ``SeenTwice``'s
+  ``height_m``, ``sd_m``, ``seconds``), with the camera's centre it was seen from (``camera_x/y/z``: a camera
+  moved or recalibrated starts afresh) and the ``keypoints`` layout of its detector (its planted ankle's height)."""
 
 from __future__ import annotations
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+
+FLOOR_EVIDENCE = (
+    "CREATE TABLE IF NOT EXISTS floor_evidence (run INTEGER NOT NULL, camera TEXT NOT NULL, "
+    "at DOUBLE PRECISION NOT NULL, kind TEXT NOT NULL, camera_x DOUBLE PRECISION NOT NULL, "
+    "camera_y DOUBLE PRECISION NOT NULL, camera_z DOUBLE PRECISION NOT NULL, keypoints TEXT, "
+    "centre_z DOUBLE PRECISION, log_size_over_drop DOUBLE PRECISION, height_m DOUBLE PRECISION, "
+    "sd_m DOUBLE PRECISION, seconds DOUBLE PRECISION NOT NULL)",
+    "CREATE INDEX IF NOT EXISTS floor_evidence_camera ON floor_evidence (camera)",
+)
 
 # ``{id}``: the dialect's auto-numbered primary key (SQLite's rowid alias; PostgreSQL's identity column).
 TABLES = (
@@ -38,7 +56,8 @@ TABLES = (
     "from_at DOUBLE PRECISION NOT NULL, to_at DOUBLE PRECISION NOT NULL, why TEXT NOT NULL)",
     "CREATE TABLE IF NOT EXISTS progress (source TEXT PRIMARY KEY, run INTEGER NOT NULL, frame INTEGER NOT NULL, "
     "at DOUBLE PRECISION NOT NULL, origin DOUBLE PRECISION NOT NULL)",
+    *FLOOR_EVIDENCE,
 )
 
 # version -> the statements that take a store of that version to the next. Version 1 is the first.
-MIGRATIONS: dict[int, tuple[str, ...]] = {}
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE}

@@ -3,9 +3,12 @@ committed by a thread of its own every ``commit_every_s`` (half a second), so a 
 most the last one, and a slow or unreachable database never holds up the stream (at most ``max_waiting`` rows
 wait; beyond, new rows are counted as lost and said once).
 
-Beginning, it numbers the run, notes where each input was last recorded (closed as a gap, "the service was down",
-at the input's first frame of this run) and says where each file input is to be taken up again (``Resume``): the
-frame after the last one recorded, on the clock of the run that began it."""
+Beginning, it takes the store's writer lock (``lock.WriterLock``: one live run writes a store at a time), closes
+what runs cut off left open (``restart.close_cut_off_runs``: ``closed``), reads the counts so far (``counted``),
+numbers the run, notes where each input was last recorded (closed as a gap, "the service was down", at the input's
+first frame of this run) and says where each file input is to be taken up again (``Resume``): the frame after the
+last one recorded, on the clock of the run that began it. What each camera's people show of the
+floor is written the same way (``floor``), and read back for the next run (``remembered_floor``)."""
 
 from __future__ import annotations
 
@@ -16,7 +19,11 @@ import threading
 import time
 from collections.abc import Callable
 
+from ray3d.refine.ankle_plane import SeenTwice
 from ray3d.store.database import Database, connect, shown, without_passwords
+from ray3d.store.lock import WriterLock, lock_path
+from ray3d.store.reader import remembered_floor
+from ray3d.store.restart import close_cut_off_runs, counts_so_far
 
 DOWN_BETWEEN_RUNS = "the service was down"
 
@@ -31,7 +38,10 @@ class Resume:
 
 
 class RunRecorder:
-    """One run's writer on the store at ``location``. ``run``: its number (person ids of this run carry it)."""
+    """One run's writer on the store at ``location``, refused (``InputError`` naming it) while another process
+    writes it. ``run``: its number (person ids of this run carry it); ``closed``: the events that closed what runs
+    cut off left open (already in the store); ``counted``: each zone's entries and exits and each line's crossings
+    before this run, in the form of ``SiteMonitor.counts``."""
 
     def __init__(self, location, command: str, sources: list[str], files: list[bool], site: dict | None = None,
                  origin: float | None = None, commit_every_s: float = 0.5, max_waiting: int = 200_000,
@@ -40,12 +50,20 @@ class RunRecorder:
         self.location, self.sources, self.report = location, [without_passwords(s) for s in sources], report
         self.shown = shown(location)  # as said in messages (a PostgreSQL URL without its password)
         self.commit_every_s, self.max_waiting = commit_every_s, max_waiting
-        self._database: Database | None = connect(location)
-        self.run, self.resumes, self._down_since = self._begin(command, files, site, origin)
+        self._writer = WriterLock(location)
+        self._writer.take()
+        try:
+            self._database: Database | None = connect(location)
+            self.run, self.resumes, self._down_since = self._begin(command, files, site, origin)
+        except BaseException:
+            if getattr(self, "_database", None) is not None:
+                self._database.close()
+            self._writer.release()
+            raise
         # Whether the store already held a record of these inputs (this run appends to what they wrote).
         self.continues = bool(self._down_since)
         self.origin = self.resumes[0].origin  # every input's frame 0, one clock
-        self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0}
+        self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0, "floor": 0}
         self.lost = 0
         self._seq = 0
         self._last_at: float | None = None
@@ -53,7 +71,7 @@ class RunRecorder:
         # person -> the last whole second of stream time a position was kept (of those seen in the last seconds)
         self._second: dict[str, int] = {}
         self._pruned_at: int | None = None
-        self._waiting: dict[str, list] = {"events": [], "positions": [], "people": [], "gaps": []}
+        self._waiting: dict[str, list] = {"events": [], "positions": [], "people": [], "gaps": [], "floor": []}
         self._progress: dict[str, tuple[int, float]] = {}
         self._failed = False
         self._lock = threading.Lock()
@@ -65,6 +83,9 @@ class RunRecorder:
         """The run's number, where each input is taken up (a file: after its last recorded frame, on the clock
         it was begun on) and the gaps since the last run, each closed at this run's first frame of its input."""
         database, now = self._database, time.time()
+        self._writer.note_holder(database)
+        self.closed = close_cut_off_runs(database)
+        self.counted = counts_so_far(database)
         previous = {source: (frame, at, first) for source, frame, at, first in database.rows(
             "SELECT source, frame, at, origin FROM progress")}
         taken_up = [previous[s] for s, is_file in zip(self.sources, files) if is_file and s in previous]
@@ -115,6 +136,25 @@ class RunRecorder:
 
     def gap(self, camera: str, from_at: float, to_at: float, why: str) -> None:
         self._add("gaps", [(self.run, without_passwords(camera), float(from_at), float(to_at), why)])
+
+    def floor(self, camera: str, centre, evidence, keypoints: str | None = None) -> None:
+        """What a camera's people showed of the floor itself (``SizeEvidence`` and ``SeenTwice``), seen from its
+        (3,) ``centre`` by a detector of ``keypoints`` (a layout)."""
+        at, camera, centre = time.time(), without_passwords(camera), [float(v) for v in centre]
+        rows = [(self.run, camera, at, "ankles" if isinstance(e, SeenTwice) else "people", *centre, keypoints,
+                 *((None, None, e.height_m, e.sd_m) if isinstance(e, SeenTwice)
+                   else (e.centre_z, e.log_size_over_drop, None, None)), e.seconds) for e in evidence]
+        self._add("floor", rows)
+
+    def remembered_floor(self, cameras: list[tuple[str, object]]) -> tuple:
+        """What earlier runs' people showed of these cameras' floor, each camera (its name, its (3,) centre)
+        where it stands now (``reader.remembered_floor``); nothing where the store cannot be read."""
+        try:
+            return remembered_floor(self.location, [(without_passwords(name), centre) for name, centre in cameras])
+        except Exception as err:  # the store unreachable now: the run starts on its own people
+            self.report(f"store {self.shown}: what earlier runs showed of the floor could not be read "
+                        f"({type(err).__name__})")
+            return ()
 
     def progress(self, source: str, frame: int, time_s: float) -> None:
         """Input ``source`` recorded up to its ``frame``, at ``time_s`` of stream time. Its first frame of the run
@@ -187,6 +227,9 @@ class RunRecorder:
                       "stature_m = excluded.stature_m, stature_class = excluded.stature_class, "
                       "rejoins = excluded.rejoins", waiting["people"])
         database.many("INSERT INTO gaps (run, camera, from_at, to_at, why) VALUES (?, ?, ?, ?, ?)", waiting["gaps"])
+        database.many("INSERT INTO floor_evidence (run, camera, at, kind, camera_x, camera_y, camera_z, keypoints, "
+                      "centre_z, log_size_over_drop, height_m, sd_m, seconds) "
+                      "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", waiting["floor"])
         database.many("INSERT INTO progress (source, run, frame, at, origin) VALUES (?, ?, ?, ?, ?) "
                       "ON CONFLICT (source) DO UPDATE SET run = excluded.run, frame = excluded.frame, "
                       "at = excluded.at, origin = excluded.origin",
@@ -210,9 +253,11 @@ class RunRecorder:
         database.commit()
         database.close()
         self._database = None
+        self._writer.release()
         if not others and not database.postgresql:
-            for suffix in ("", "-wal", "-shm"):
-                Path(f"{self.location}{suffix}").unlink(missing_ok=True)
+            for path in (*(Path(f"{self.location}{suffix}") for suffix in ("", "-wal", "-shm")),
+                         lock_path(self.location)):
+                path.unlink(missing_ok=True)
 
     def close(self, ending: str) -> None:
         """Every row waiting written (tried for a few seconds where the database is down), the run's end noted.
@@ -242,3 +287,4 @@ class RunRecorder:
             if self._database is not None:
                 self._database.close()
                 self._database = None
+            self._writer.release()  # the next run may begin

@@ -15,6 +15,7 @@ the people in it, each a ``Detection``. Both detectors run offline from registry
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import time
@@ -23,6 +24,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
@@ -251,6 +253,7 @@ class MediaPipeDetector:
         self._pose = pose.Pose(static_image_mode=False, model_complexity=1, smooth_landmarks=True,
                                min_detection_confidence=min_detection_confidence,
                                min_tracking_confidence=min_tracking_confidence)
+        self._started = False  # its graph's interpreters start, and print their INFO lines, on the first frame
 
     def prepare(self, frames: list[np.ndarray]) -> None:
         """Nothing to learn from the scene."""
@@ -258,7 +261,9 @@ class MediaPipeDetector:
     def __call__(self, frame: np.ndarray, time_left_s: float | None = None) -> list[Detection]:
         """One person: the time allowed does not change what is done."""
         height, width = frame.shape[:2]
-        result = self._pose.process(np.ascontiguousarray(frame))
+        with native_chatter_dropped() if not self._started else contextlib.nullcontext():
+            result = self._pose.process(np.ascontiguousarray(frame))
+        self._started = True
         if result.pose_landmarks is None:
             return []
         landmarks = result.pose_landmarks.landmark

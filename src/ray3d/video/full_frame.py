@@ -14,6 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
 from ray3d.video.boxes import box_overlap
 from ray3d.video.landmarks import ROI_SCALE, mediapipe_model, upright_rotation
@@ -94,9 +95,10 @@ class FullFramePeople:
             from ai_edge_litert.interpreter import Interpreter
         except ImportError:
             raise InputError("the video detectors need the video extra: pip install 'ray3d[video]'") from None
-        self._runner = Interpreter(model_path=str(mediapipe_model("pose_detection/pose_detection.tflite",
-                                                                  "person detector")), num_threads=threads)
-        self._runner.allocate_tensors()
+        with native_chatter_dropped():  # LiteRT's "INFO: Created TensorFlow Lite XNNPACK delegate"
+            self._runner = Interpreter(model_path=str(mediapipe_model("pose_detection/pose_detection.tflite",
+                                                                      "person detector")), num_threads=threads)
+            self._runner.allocate_tensors()
         self._input = self._runner.get_input_details()[0]["index"]
         outputs = sorted(self._runner.get_output_details(), key=lambda d: d["shape"][-1])
         self._scores, self._boxes = (d["index"] for d in outputs)  # (1, A, 1) logits, (1, A, 12) regressions

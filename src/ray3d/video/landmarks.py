@@ -12,6 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
 from ray3d.skeleton import BLAZEPOSE33
 
@@ -105,9 +106,10 @@ class BlazePoseLandmarks:
     def _runner(self, batch: int):
         """One interpreter per batch size: LiteRT re-plans its memory (slowly) whenever the input shape changes."""
         if batch not in self._by_batch:
-            runner = self._interpreter(model_path=self._model, num_threads=self._threads)
-            runner.resize_tensor_input(runner.get_input_details()[0]["index"], [batch, INPUT_SIZE, INPUT_SIZE, 3])
-            runner.allocate_tensors()
+            with native_chatter_dropped():  # LiteRT's "INFO: Created TensorFlow Lite XNNPACK delegate"
+                runner = self._interpreter(model_path=self._model, num_threads=self._threads)
+                runner.resize_tensor_input(runner.get_input_details()[0]["index"], [batch, INPUT_SIZE, INPUT_SIZE, 3])
+                runner.allocate_tensors()
             outputs = {d["name"]: d["index"] for d in runner.get_output_details()}
             self._by_batch[batch] = (runner, outputs["Identity"], outputs["Identity_1"], outputs["Identity_3"])
         return self._by_batch[batch]

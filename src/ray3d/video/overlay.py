@@ -8,8 +8,8 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from tqdm import tqdm
 
+from ray3d.console import progress_bar
 from ray3d.errors import InputError
 from ray3d.io.atomic import atomic_path
 from ray3d.io.keypoints import Keypoints
@@ -35,8 +35,8 @@ def write_overlay(video: VideoInfo, target: Path, keypoints: Keypoints, world: W
         if not writer.isOpened():
             raise InputError(f"{target}: OpenCV cannot write MP4 video here")
         try:
-            for index, frame in tqdm(read_frames(video.path, start, frames), total=frames, desc="overlay", unit="frame",
-                                     disable=not progress):
+            for index, frame in progress_bar(read_frames(video.path, start, frames), shown=progress, total=frames,
+                                             desc="overlay", unit="frame"):
                 canvas = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
                 for name, (spanned, pixels, filled, own, detected) in projected.items():
                     row = index - int(spanned[0])

@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
+from ray3d.console import progress_bar
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.io.detections import TrackDetections
@@ -113,8 +113,8 @@ def track_video(video: str | Path | VideoInfo, camera: Camera, detector: PoseDet
     detector.prepare(spread_frames(info, options.start, count) if count else [])
     tracker = FloorTracker(camera, fps, detector.layout, options.max_gap_s, CONFIRM_FRAMES)
     read = 0
-    for index, frame in tqdm(read_frames(info.path, options.start, count or None), total=count or None,
-                             desc="people", unit="frame", disable=not progress):
+    for index, frame in progress_bar(read_frames(info.path, options.start, count or None), shown=progress,
+                                     total=count or None, desc="people", unit="frame"):
         tracker.update(index, detector(frame), frame)
         read += 1
     if read == 0:
@@ -202,21 +202,25 @@ def lift_video(video: str | Path | VideoInfo, camera: Camera, out_dir: str | Pat
                        overwrite, progress)[0]
 
 
-def lift_videos(inputs: list[tuple], lifter: Lifter, options: LiftOptions = LiftOptions(),
+def lift_videos(inputs: list[tuple], lifter: Lifter, options: LiftOptions | list[LiftOptions] = LiftOptions(),
                 video_options: VideoOptions = VideoOptions(), world_format: str = ".json", overlay: bool = True,
                 overwrite: bool = False, progress: bool = True, one_clock: bool = True) -> list[VideoResult]:
     """Several videos of one site, each (video, camera, out_dir, detector) as ``lift_video`` takes them: everybody
     in each followed, then everybody lifted together on the site's one floor (``Lifter.lift_cameras``: where
     people's ankles meet it observed from every camera's people, and triangulated where two cameras see a person
-    at once if the videos' frames are ``one_clock``), then each video's outputs written. The seconds of the
-    lifting are those of all the videos together."""
+    at once if the videos' frames are ``one_clock``), then each video's outputs written; ``options``: one for
+    every video, or each video's own. The seconds of the lifting are those of all the videos together."""
+    each = list(options) if isinstance(options, (list, tuple)) else [options] * len(inputs)
+    if len(each) != len(inputs):
+        raise InputError(f"options: one LiftOptions, or one per video ({len(inputs)}); got {len(each)}",
+                         ("options",))
     started = []
     for video, camera, out_dir, detector in inputs:
         info = video_info(video)
         started.append((info, camera_for_video(camera, info), Path(out_dir), detector))
     targets = [_targets(out_dir, world_format, overlay, overwrite) for _, _, out_dir, _ in started]
-    for target in targets:
-        check_world_output(target["world"], options.frame)
+    for target, own in zip(targets, each):
+        check_world_output(target["world"], own.frame)
     followed, took = [], []
     for info, camera, _, detector in started:
         clock = time.perf_counter()
@@ -227,14 +231,16 @@ def lift_videos(inputs: list[tuple], lifter: Lifter, options: LiftOptions = Lift
                                   in enumerate(zip(followed, started))},
                                  {k: people.layout for k, people in enumerate(followed)},
                                  {k: people.fps for k, people in enumerate(followed)}, one_clock=one_clock,
-                                 **options.lift_arguments())
+                                 **{name: {k: own.lift_arguments()[name] for k, own in enumerate(each)}
+                                    for name in each[0].lift_arguments() if name != "refine"},
+                                 refine=each[0].refine)
     lifting = time.perf_counter() - clock
     results = []
     for k, ((info, camera, out_dir, _), people, target) in enumerate(zip(started, followed, targets)):
         if isinstance(lifted[k], InputError):
             raise InputError(f"{info.path}: {lifted[k].message}") from None
         clock = time.perf_counter()
-        result = _write_video(info, camera, out_dir, target, people, lifted[k], lifter.name, options, video_options,
+        result = _write_video(info, camera, out_dir, target, people, lifted[k], lifter.name, each[k], video_options,
                               overwrite, progress)
         results.append(dataclasses.replace(result, seconds={"people": took[k], "lifting": lifting,
                                                             "writing": time.perf_counter() - clock}))
@@ -247,7 +253,7 @@ def _write_video(info: VideoInfo, camera: Camera, out_dir: Path, targets: dict, 
     """One video's people, lifted, written: world, detections, viewer and overlay."""
     dropped = {**people.dropped, **lifted.unliftable}
     world = World(lifted, camera, model, unliftable=lifted.unliftable, rejoined=people.rejoined(),
-                  in_part=people.in_part(camera.image_size))
+                  in_part=people.in_part(camera.image_size), floor_evidence=lifted.floor_evidence())
     keypoints = people.keypoints()
     out_dir.mkdir(parents=True, exist_ok=True)
     write_world(targets["world"], world.in_frame(options.frame), overwrite=overwrite)
