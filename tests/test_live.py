@@ -765,3 +765,32 @@ def test_two_cameras_tracks_joined_as_one_person_are_crossed_once_both_are_lifte
     assert joins.lifted(0, "e", first) == [] and joins.joined([(0, "e")]) == []  # one camera's alone: nothing
     assert joins.lifted(1, "f", None) == [] and joins.joined([(0, "g"), (1, "f")]) == []
     assert joins.lifted(0, "g", first) == []  # its other camera's track gave no rays (too short, say)
+
+
+def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_dropped_said_as_it_begins_and_ends():
+    from ray3d.live.health import Keeping
+
+    said, recorded = [], []
+    keeping = Keeping(["door"], [10.0], window_s=10.0, share=0.02, report=said.append, recorded=recorded.append)
+    read = dropped = 0
+    for frame in range(600):  # a minute at 10 frames/s; from 20 s to 30 s one frame in four is dropped
+        read += 1
+        if 200 <= frame < 300 and frame % 4 == 0:
+            dropped += 1
+            continue
+        keeping.observe(0, frame / 10, read, dropped)
+    keeping.finish()
+    assert said[0] == ("camera door: falling behind: 3 % of frames dropped over the last 10 s; counts from now on "
+                       "are uncertain")
+    assert said[1].startswith("camera door: keeping up again after ") and len(said) == 2
+    assert len(recorded) == 1 and keeping.stretches == recorded
+    stretch = recorded[0]
+    assert stretch.from_s == pytest.approx(19.9) and stretch.to_s == pytest.approx(29.7)  # its first to last drop
+    assert 0.2 < stretch.share < 0.3 + 1e-9
+    state = keeping.state()
+    assert not state["falling_behind"] and state["stretches"][0]["dropped_percent"] == round(100 * stretch.share, 1)
+    quiet = Keeping(["door"], [10.0], report=said.append)
+    for frame in range(600):  # one frame dropped at the start, one later: under 2 % of any 10 s
+        quiet.observe(0, frame / 10, frame + 1, int(frame >= 1) + int(frame >= 300))
+    quiet.finish()
+    assert quiet.stretches == [] and len(said) == 2

@@ -256,7 +256,7 @@ def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_ho
         announced = {topic: json.loads(payload) for topic, payload in retained.items()
                      if topic.startswith("homeassistant/")}
         # room: occupancy, entries, exits and its events; door: each way and its crossings; the site's falls
-        assert announced == dict(announcements(site, "site")) and len(announced) == 8
+        assert announced == dict(announcements(site, "site")) and len(announced) == 10  # and the two health sensors
         for topic, payload in announced.items():
             component = re.fullmatch(r"homeassistant/(sensor|event)/[A-Za-z0-9_-]+/[A-Za-z0-9_-]+/config", topic)[1]
             jsonschema.validate(payload, json.loads((FIXTURES / f"ha_mqtt_{component}.schema.json").read_text()))
@@ -584,3 +584,127 @@ def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts
         assert received[f"site/zone/{zone}/entries"] == str(counted.get(("zone entered", zone), 0))
         assert received[f"site/zone/{zone}/exits"] == str(counted.get(("zone left", zone), 0))
     assert received["site/zone/middle/exits"] != str(second.get(("zone left", "middle"), 0))
+
+
+class _SlowFor:
+    """A detector slower than the stream (``slow_s`` a frame) over frames ``first`` to ``last`` (excluded)."""
+
+    def __init__(self, detector: _ScriptedDetector, first: int, last: int, slow_s: float):
+        self.detector, self.first, self.last, self.slow_s = detector, first, last, slow_s
+        self.layout, self.name = detector.layout, "slow"
+
+    def prepare(self, frames) -> None:
+        pass
+
+    def __call__(self, frame, time_left_s=None):
+        index = int(frame[0, 0, 0]) + 256 * int(frame[0, 0, 1])
+        if self.first <= index < self.last:
+            time.sleep(self.slow_s)
+        return self.detector(frame, time_left_s)
+
+
+def _paced_live(out: Path, people: np.ndarray, detector, site: Site, mqtt=None, started=lambda url: None,
+                **options):
+    """A live job over the scene played at its rate (frames dropped when ``detector`` cannot keep up), recorded to
+    OUT/site.db."""
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import local_inputs, run_live_job, start_record
+    from ray3d.live.runner import LiveOptions
+
+    job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
+    job.lifter("h36m17").prepare_small_batches()  # before the stream starts: frames meanwhile would be dropped
+    recorder = start_record(job, out / "site.db", "test", site)
+    source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=True)
+    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector], recorder.id_prefix)
+    return run_live_job(job, inputs, out, site, LiveOptions(**{"page": False, **options}), started=started,
+                        recorder=recorder, mqtt=mqtt)
+
+
+def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_store_and_its_report(tmp_path,
+                                                                                                     capsys):
+    """Issue 68, item 1: a detector three times slower than the stream over frames 15-35 drops most of them; the
+    stretch is said on stderr as it begins and ends, shown in /state, published on MQTT (announced to Home
+    Assistant) and recorded in the store, whose report marks it uncertain. The tracker and the site's rules are
+    given each processed frame's own number (the real interval between them)."""
+    import contextlib
+    import csv
+    import urllib.request
+
+    import jsonschema
+    import paho.mqtt.client as mqtt
+
+    from ray3d.live.mqtt import MqttPublisher
+    from ray3d.site.record import analyse_record
+
+    people, site = _scene(70), Site((ROOM,), (DOOR,))
+    detector = _ScriptedDetector(people)
+    states: list[dict] = []
+    done = threading.Event()
+
+    def started(url: str) -> None:
+        def poll() -> None:
+            while not done.is_set():
+                with contextlib.suppress(OSError, ValueError):  # the page not up yet, or going
+                    states.append(json.loads(urllib.request.urlopen(f"{url}state", timeout=2).read()))
+                time.sleep(0.1)
+
+        threading.Thread(target=poll, daemon=True).start()
+
+    with mosquitto_broker() as port:
+        received: list[tuple[str, str]] = []
+        listening = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        listening.on_message = lambda c, u, message: received.append((message.topic, message.payload.decode()))
+        listening.connect("127.0.0.1", port)
+        listening.subscribe([("site/health/#", 1), ("homeassistant/sensor/site/health/config", 1)])
+        listening.loop_start()
+        time.sleep(0.5)
+        summary = _paced_live(tmp_path / "live", people, _SlowFor(detector, 15, 35, 0.3), site,
+                              mqtt=MqttPublisher(f"mqtt://127.0.0.1:{port}/site", site), started=started,
+                              page=True, port=0, behind_window_s=1.0)
+        done.set()
+        time.sleep(1.0)
+        listening.loop_stop()
+        listening.disconnect()
+    err = capsys.readouterr().err
+    assert summary.dropped >= 10
+    # The tracker and the rules were given the frames' own numbers: gaps where frames were dropped.
+    seen = sorted(set(detector.calls))
+    assert any(b - a > 1 for a, b in zip(seen, seen[1:])) and seen[-1] == len(people) - 1
+    # stderr: its start and its end
+    assert re.search(r"camera h36m:S9:54138969: falling behind: \d+ % of frames dropped over the last 1 s; "
+                     r"counts from now on are uncertain", err)
+    assert re.search(r"keeping up again after \d+ s falling behind \(\d+ % of its frames dropped from [\d.]+ s to "
+                     r"[\d.]+ s of the stream\); counts in that time are uncertain", err)
+    assert len(summary.behind) == 1
+    stretch = summary.behind[0]
+    assert 1.0 < stretch.from_s < 2.5 and 3.0 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
+    # the page's state: a warning while it lasted, the stretch kept after
+    states = [s for s in states if "health" in s]  # those before the first frame have none
+    assert any(s["health"]["falling_behind"] for s in states)
+    assert not states[-1]["health"]["falling_behind"] and len(states[-1]["health"]["stretches"]) == 1
+    # MQTT: the health sensor announced, falling behind then keeping up, retained
+    config = json.loads(next(p for t, p in received if t == "homeassistant/sensor/site/health/config"))
+    jsonschema.validate(config, json.loads((FIXTURES / "ha_mqtt_sensor.schema.json").read_text()))
+    assert config["state_topic"] == "site/health/state"
+    said = [p for t, p in received if t == "site/health/state"]
+    assert "falling behind" in said and said[-1] == "keeping up"
+    assert max(int(p) for t, p in received if t == "site/health/dropped_percent") > 30
+    # the store: one row, read back; the report marks the stretch uncertain
+    record = read_record(tmp_path / "live" / "site.db")
+    assert len(record.behind) == 1
+    row = record.behind[0]
+    assert row["to_at"] - row["from_at"] == pytest.approx(stretch.to_s - stretch.from_s, abs=0.01)
+    assert row["dropped_share"] == pytest.approx(stretch.share)
+    analyse_record(record, site, tmp_path / "report", every_s=1.0)
+    buckets = (tmp_path / "report" / "by-time.csv").read_text()
+    assert "uncertain %" in buckets.splitlines()[0]
+    uncertain = [int(r["uncertain %"]) for r in csv.DictReader(buckets.splitlines())]
+    assert any(u > 0 for u in uncertain) and uncertain[-1] == 0  # after it: certain again
+    assert "Counts uncertain from" in (tmp_path / "report" / "report.html").read_text()
+
+
+def test_a_run_that_keeps_up_says_nothing_of_falling_behind(tmp_path, capsys):
+    people, site = _scene(50), Site((ROOM,), (DOOR,))
+    summary = _paced_live(tmp_path / "live", people, _ScriptedDetector(people), site)
+    assert summary.behind == [] and "falling behind" not in capsys.readouterr().err
+    assert read_record(tmp_path / "live" / "site.db").behind == []

@@ -55,7 +55,7 @@ def test_a_run_is_read_back_as_written(tmp_path):
     recorder = _one_run(store)
     record = read_record(store)
     assert recorder.run == 1 and recorder.written == {"events": 2, "positions": 3, "people": 1, "gaps": 1,
-                                                      "floor": 0}
+                                                      "floor": 0, "behind": 0}
     assert [e["event"] for e in record.events] == ["track started", "track ended"]
     assert record.events[1]["at"] == pytest.approx(1_000_000.0 + 2.9) and record.events[0]["track"] == "1-0"
     # one position per whole second of stream time: frames 0, 10 and 20
@@ -443,3 +443,22 @@ def test_a_run_killed_outright_has_what_it_left_open_closed_by_the_next_at_its_l
     third = RunRecorder(store, "writer", ["cam"], [False])  # nothing left open: nothing more closed
     assert third.closed == []
     third.close("ended")
+
+
+def test_a_version_2_store_gains_the_falling_behind_table_and_a_run_records_its_stretches(tmp_path):
+    """Schema 2 -> 3 (issue 68, item 1): a store written before the ``behind`` table gains it when opened, its
+    record kept; a run's stretches of falling behind are read back on the store's clock."""
+    store = tmp_path / "site.db"
+    _one_run(store)
+    with sqlite3.connect(store) as connection:
+        connection.execute("DROP TABLE behind")
+        connection.execute("UPDATE store_meta SET value = '2' WHERE name = 'schema_version'")
+    record = read_record(store)
+    assert len(record.events) == 2 and record.behind == []
+    with sqlite3.connect(store) as connection:
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("3",)
+    recorder = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False], origin=2_000_000.0)
+    recorder.behind("cam", 12.5, 20.0, 0.23)
+    recorder.close("ended")
+    assert read_record(store).behind == [{"camera": "cam", "from_at": 2_000_012.5, "to_at": 2_000_020.0,
+                                          "dropped_share": 0.23, "run": recorder.run}]

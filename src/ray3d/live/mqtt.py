@@ -6,7 +6,8 @@ Home Assistant events on ``<prefix>/line/<line>/crossing``, ``<prefix>/zone/<zon
 the service's availability on ``<prefix>/status`` (``online``; the broker says ``offline`` for it if the process
 dies), and every zone and line announced to Home Assistant's MQTT discovery (``homeassistant/sensor/...`` and
 ``homeassistant/event/...``), so that they appear there as sensors and as events to automate on, without
-configuration. A zone's or line's name becomes a topic level by ``topic_name`` (``line A (middle)`` ->
+configuration; and whether the run keeps up with its streams (``<prefix>/health/state``, ``.../dropped_percent``,
+``<prefix>/health``: ``health_sensors``). A zone's or line's name becomes a topic level by ``topic_name`` (``line A (middle)`` ->
 ``line_A_middle``).
 
 A broker that is down is retried in the background by the client (1 s doubling to 30 s) and never slows the
@@ -133,9 +134,31 @@ def event_entities(site: Site, prefix: str) -> list[tuple[str, dict]]:
             for object_id, name, topic, types, icon in places]
 
 
+KEEPING_UP, FALLING_BEHIND = "keeping up", "falling behind"
+
+
+def health_sensors(prefix: str) -> list[tuple[str, dict]]:
+    """The service's health as Home Assistant MQTT sensors: whether it keeps up with its streams
+    (``<prefix>/health/state``: ``keeping up`` or ``falling behind``, its details as attributes from
+    ``<prefix>/health``) and the share of frames dropped over the last 10 s, of the camera dropping most
+    (``<prefix>/health/dropped_percent``). While it falls behind, counts are uncertain."""
+    node, common = topic_name(prefix), _common(prefix)
+    return [(f"{DISCOVERY_PREFIX}/sensor/{node}/health/config",
+             {"name": "keeping up with the cameras", "unique_id": f"ray3d_{node}_health",
+              "state_topic": f"{prefix}/health/state", "device_class": "enum", "options": [KEEPING_UP, FALLING_BEHIND],
+              "json_attributes_topic": f"{prefix}/health", "entity_category": "diagnostic",
+              "icon": "mdi:speedometer", **common}),
+            (f"{DISCOVERY_PREFIX}/sensor/{node}/dropped_percent/config",
+             {"name": "frames dropped", "unique_id": f"ray3d_{node}_dropped_percent",
+              "state_topic": f"{prefix}/health/dropped_percent", "unit_of_measurement": "%",
+              "state_class": "measurement", "entity_category": "diagnostic", "icon": "mdi:speedometer-slow",
+              **common})]
+
+
 def announcements(site: Site, prefix: str) -> list[tuple[str, dict]]:
-    """Everything announced to Home Assistant's MQTT discovery: the sensors and the event entities."""
-    return sensors(site, prefix) + event_entities(site, prefix)
+    """Everything announced to Home Assistant's MQTT discovery: the sensors, the event entities and the
+    service's health."""
+    return sensors(site, prefix) + event_entities(site, prefix) + health_sensors(prefix)
 
 
 class MqttPublisher:
@@ -205,6 +228,22 @@ class MqttPublisher:
                     topic, event_type = announced
                     self._send(f"{self.prefix}/{topic}", json.dumps({"event_type": event_type, **event}), retain=False)
             self._publish_state(monitor)
+
+    def health(self, state: dict) -> None:
+        """Whether the run keeps up (``live.health.Keeping.state``), retained, published where it changed: the
+        state, the worst camera's share of frames dropped (whole percent) and the details (the latest 10
+        stretches)."""
+        worst = max(state["dropped_percent"].values(), default=0.0)
+        details = json.dumps({**state, "dropped_percent": {k: round(v) for k, v in state["dropped_percent"].items()},
+                              "stretches": state["stretches"][-10:]})
+        with self._lock:
+            for topic, value in ((f"{self.prefix}/health", details),
+                                 (f"{self.prefix}/health/state", FALLING_BEHIND if state["falling_behind"]
+                                  else KEEPING_UP),
+                                 (f"{self.prefix}/health/dropped_percent", f"{worst:.0f}")):
+                if self._state.get(topic) != value:
+                    self._state[topic] = value
+                    self._send(topic, value, retain=True)
 
     def _publish_state(self, monitor) -> None:
         def count(place: str, what: str) -> str:

@@ -26,6 +26,7 @@ from ray3d.lifting.lifter import Lifter
 from ray3d.site.files import EventLines
 from ray3d.live.outputs import Webhook
 from ray3d.live.cameras import LocalCameras
+from ray3d.live.health import BEHIND_SHARE, WINDOW_S, Keeping
 from ray3d.geometry.uncertainty import PersonNow
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
@@ -57,6 +58,8 @@ class LiveOptions:
     every_s: float | None = None  # the counts per time bucket of this length, on the page and in the report
     start_time: datetime.datetime | None = None  # the stream's first frame, for wall-clock buckets
     until_s: float | None = None  # end the run on purpose after this many seconds ("until")
+    behind_window_s: float = WINDOW_S  # falling behind: more than behind_share of this window's frames dropped
+    behind_share: float = BEHIND_SHARE
 
 
 @dataclasses.dataclass
@@ -78,10 +81,12 @@ class LiveSummary:
     left_out: dict
     webhook: dict
     files: dict
+    behind: list = dataclasses.field(default_factory=list)  # the stretches it fell behind in (``health.Stretch``)
 
 
 def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
-              latest: deque, stats: dict, buckets: TimeBuckets | None, floor: list[dict]) -> dict:
+              latest: deque, stats: dict, buckets: TimeBuckets | None, floor: list[dict],
+              health: dict | None = None) -> dict:
     occupancy = {zone: len(inside) for zone, inside in monitor.occupants.items()}  # as the events count it
     return {"frame": frame_index, "time_s": frame_index / fps,
             "people": [{"track": p.track, "x": round(float(p.joints[0, 0]), 3), "y": round(float(p.joints[0, 1]), 3),
@@ -90,7 +95,7 @@ def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dic
             "trails": {t: [list(xy) for xy in trail] for t, trail in trails.items()},
             "counts": monitor.counts, "occupancy": occupancy, "events": list(latest), "stats": stats,
             "buckets": buckets.rows(frame_index / fps)[-RECENT_BUCKETS:] if buckets else [],
-            "floor": floor}
+            "floor": floor, "health": health or {"falling_behind": False, "stretches": []}}
 
 
 def _monitored(monitor: SiteMonitor, settled: tuple[int, list[PersonNow]], buckets: TimeBuckets | None) -> list[dict]:
@@ -260,6 +265,27 @@ def _ended_on_purpose(until_s: float | None, stop: threading.Event, cameras) -> 
     return timer, reached
 
 
+def _keeping(cameras, options: LiveOptions, recorder) -> Keeping:
+    """Whether the run keeps up with each camera's stream; each stretch it falls behind in recorded in the store."""
+    def recorded(stretch) -> None:
+        if recorder is not None:
+            recorder.behind(stretch.camera, stretch.from_s, stretch.to_s, stretch.share)
+
+    return Keeping([str(name) for name in cameras.names], list(cameras.fps), options.behind_window_s,
+                   options.behind_share, recorded=recorded)
+
+
+def _read_and_dropped(cameras, view: int, result) -> tuple[int, int]:
+    """A camera's frames read and dropped so far: from its actor (Ray), or from its source in this process."""
+    if hasattr(cameras, "workers"):  # RayCameras: over every incarnation of the camera's actor
+        worker = cameras.workers[view]
+        return worker.before[0] + worker.counts[0], worker.before[1] + worker.counts[1]
+    if hasattr(cameras, "group"):
+        source = cameras.group.sources[view]
+        return source.read, source.dropped
+    return cameras.read, cameras.dropped
+
+
 def _refused(cameras, error: InputError):
     cameras.close()
     cameras.finish()
@@ -299,6 +325,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         outputs.taken_over(recorder.closed)
     trails: dict[str, deque] = {}
     pace, processed = _Pace(), 0
+    keeping = _keeping(cameras, options, recorder)
     ending, why = "stopped", f"{cameras.name}: stopped"
     timer, reached = _ended_on_purpose(options.until_s, stop, cameras)
     try:
@@ -319,6 +346,10 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                         ending, why = "ended", f"{cameras.name}: the stream ended"
                     break
                 view, result = taken
+                keeping.observe(view, result.index / cameras.fps[view] - views.offsets_s[view],
+                                *_read_and_dropped(cameras, view, result))
+                if mqtt is not None:
+                    mqtt.health(keeping.state())
                 settled, persons, leaving = views.take(view, result)
                 events = [event for frame in settled for event in outputs.settle(frame)]
                 for person in leaving:
@@ -330,7 +361,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
                 processed += 1
                 board.publish(_snapshot(outputs.last_index, views.fps, persons, trails, monitor, outputs.latest,
-                                        pace.add(result.arrived, cameras), buckets, views.floor_lines()))
+                                        pace.add(result.arrived, cameras), buckets, views.floor_lines(),
+                                        keeping.state()))
     finally:
         if timer is not None:
             timer.cancel()
@@ -342,6 +374,9 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
             outputs.emit(outputs.settle(frame))
         for person, _ in leaving:
             outputs.emit(monitor.ended(person))
+        keeping.finish()
+        if mqtt is not None:
+            mqtt.health(keeping.state())
         webhook = outputs.close()
         if recorder is not None:
             recorder.close(ending)
@@ -349,4 +384,5 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
             server.stop()
     files = {"events": events_path, "world": views.world_paths[0], "worlds": views.world_paths}
     return LiveSummary(ending, why, cameras.read, processed, cameras.dropped, cameras.postponed,
-                       np.array(pace.latencies), outputs.count, views.written, views.left_out, webhook, files)
+                       np.array(pace.latencies), outputs.count, views.written, views.left_out, webhook, files,
+                       keeping.stretches)

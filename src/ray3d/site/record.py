@@ -58,15 +58,27 @@ def covered_seconds(record, seconds: np.ndarray) -> np.ndarray:
     return covered
 
 
+def uncertain_seconds(record, seconds: np.ndarray) -> np.ndarray:
+    """Which of ``seconds`` (Unix times) fall in a stretch where a run could not keep up with a camera (frames
+    dropped: its counts uncertain). (N,) bool."""
+    seconds = np.asarray(seconds, dtype=float)
+    uncertain = np.zeros(len(seconds), dtype=bool)
+    for stretch in getattr(record, "behind", ()):
+        uncertain |= (seconds >= stretch["from_at"]) & (seconds <= stretch["to_at"])
+    return uncertain
+
+
 def record_buckets(record, site: Site, every_s: float) -> list[dict]:
     """The counts per ``every_s`` bucket from the record's start (wall clock): each zone's entries, exits, mean
-    dwell, mean and peak occupancy (over the seconds recorded), each line's crossings, and the share of the
-    bucket the record covers. Buckets begin at multiples of ``every_s`` since 1970 (UTC): an hour's at the hour."""
+    dwell, mean and peak occupancy (over the seconds recorded), each line's crossings, the share of the
+    bucket the record covers and the share of it whose counts are uncertain (a run falling behind). Buckets begin at
+    multiples of ``every_s`` since 1970 (UTC): an hour's at the hour."""
     start = float(np.floor(record.from_at / every_s) * every_s)  # buckets on the clock's hours, days, ...
     buckets = TimeBuckets(site, every_s, datetime.datetime.fromtimestamp(start).astimezone())
     buckets.add([{**event, "time_s": event["at"] - start} for event in record.events])
     seconds = np.arange(np.floor(start), np.ceil(record.to_at))
     covered = covered_seconds(record, seconds + 0.5)
+    uncertain = uncertain_seconds(record, seconds + 0.5) & covered
     positions = record.positions
     second_of = np.floor(positions["at"]).astype(np.int64)
     inside = {zone.name: zone.contains(np.stack([positions["x"], positions["y"]], axis=-1).reshape(-1, 2))
@@ -79,6 +91,7 @@ def record_buckets(record, site: Site, every_s: float) -> list[dict]:
     for row in rows:
         span = (seconds >= start + row["start_s"]) & (seconds < start + row["end_s"])
         row["recorded %"] = int(round(100 * covered[span].mean())) if span.any() else 0
+        row["uncertain %"] = int(round(100 * uncertain[span].mean())) if span.any() else 0
     return [rounded(row) for row in rows]
 
 
@@ -133,7 +146,8 @@ def analyse_record(record, site: Site, out_dir: str | Path, every_s: float | Non
         buckets = record_buckets(record, site, every_s)
         tables.append(write_csv(out_dir / BY_TIME_FILES[0], buckets, overwrite))
         chart = plot_by_time(buckets, site, [(g["from_at"], g["to_at"]) for g in record.gaps],
-                             out_dir / BY_TIME_FILES[1], overwrite)
+                             out_dir / BY_TIME_FILES[1], overwrite,
+                             uncertain=[(b["from_at"], b["to_at"]) for b in getattr(record, "behind", ())])
     kinds: dict[str, int] = {}
     for event in record.events:
         kinds[event["event"]] = kinds.get(event["event"], 0) + 1
@@ -149,7 +163,11 @@ def _clock(at: float) -> str:
 def _summary(record) -> str:
     runs = {e["run"] for e in record.events} | {p["run"] for p in record.people}
     down = sum(g["to_at"] - g["from_at"] for g in record.gaps)
+    behind = getattr(record, "behind", [])
+    uncertain = "".join(
+        f" Counts uncertain from {_clock(b['from_at'])} to {_clock(b['to_at'])}: the run could not keep up with "
+        f"camera {b['camera']} ({100 * b['dropped_share']:.0f} % of its frames dropped)." for b in behind)
     return (f"From {_clock(record.from_at)} to {_clock(record.to_at)}: {len(record.events)} events of "
             f"{len(record.people)} people over {len(runs)} run(s); {len(record.gaps)} gap(s) in the record, "
             f"{down:.1f} s in all. Written from the store's events and positions only: no image, crop or overlay "
-            "of any video is in this report.")
+            "of any video is in this report." + uncertain)

@@ -25,7 +25,9 @@ REMEMBERED_PER_CAMERA = 500
 class StoredRecord:
     """What a store holds from ``from_at`` to ``to_at`` (Unix seconds): ``events`` (each as written, with its
     ``at`` and ``run``), ``positions`` (N,) structured: at, x, y, sd_along, sd_across, person, camera; ``people``
-    rows; ``gaps`` (camera, from_at, to_at, why, run) overlapping the period; ``runs``."""
+    rows; ``gaps`` (camera, from_at, to_at, why, run) overlapping the period; ``runs``; ``behind`` (camera,
+    from_at, to_at, dropped_share, run): the stretches overlapping it in which a run could not keep up (their counts
+    uncertain)."""
 
     location: str
     from_at: float
@@ -35,6 +37,7 @@ class StoredRecord:
     positions: dict[str, np.ndarray]
     people: list[dict]
     gaps: list[dict]
+    behind: list[dict] = dataclasses.field(default_factory=list)
 
 
 def read_record(location, from_at: float | None = None, to_at: float | None = None) -> StoredRecord:
@@ -71,12 +74,15 @@ def read_record(location, from_at: float | None = None, to_at: float | None = No
         gaps = [dict(zip(("camera", "from_at", "to_at", "why", "run"), row))
                 for row in database.rows("SELECT camera, from_at, to_at, why, run FROM gaps "
                                          "WHERE to_at >= ? AND from_at < ? ORDER BY from_at", bounds)]
+        behind = [dict(zip(("camera", "from_at", "to_at", "dropped_share", "run"), row))
+                  for row in database.rows("SELECT camera, from_at, to_at, dropped_share, run FROM behind "
+                                           "WHERE to_at >= ? AND from_at < ? ORDER BY from_at", bounds)]
     finally:
         database.close()
     recorded = [*positions["at"], *(e["at"] for e in events)]
     first = low if math.isfinite(low) else min(recorded, default=0.0)
     last = high if math.isfinite(high) else max(recorded, default=first)
-    return StoredRecord(shown(location), float(first), float(last), runs, events, positions, people, gaps)
+    return StoredRecord(shown(location), float(first), float(last), runs, events, positions, people, gaps, behind)
 
 
 def _camera_floor(database, camera: str, centre, kept: int) -> tuple[list, list]:
@@ -146,6 +152,7 @@ COPIED_TABLES = {"runs": ("run", "started_at", "command", "sources", "site", "en
                             "camera"),
                  "gaps": ("run", "camera", "from_at", "to_at", "why"),
                  "progress": ("source", "run", "frame", "at", "origin"),
+                 "behind": ("run", "camera", "from_at", "to_at", "dropped_share"),
                  "floor_evidence": ("run", "camera", "at", "kind", "camera_x", "camera_y", "camera_z", "keypoints",
                                     "centre_z", "log_size_over_drop", "height_m", "sd_m", "seconds")}
 

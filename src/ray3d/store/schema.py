@@ -20,11 +20,14 @@ beside them as the events carry it.
   person lifted (``kind`` "people": ``refine.ankle_plane.SizeEvidence``'s ``centre_z``, ``log_size_over_drop``,
   ``seconds``) and per person two cameras saw at once, under each of the two (``kind`` "ankles": ``SeenTwice``'s
   ``height_m``, ``sd_m``, ``seconds``), with the camera's centre it was seen from (``camera_x/y/z``: a camera
-  moved or recalibrated starts afresh) and the ``keypoints`` layout of its detector (its planted ankle's height)."""
+  moved or recalibrated starts afresh) and the ``keypoints`` layout of its detector (its planted ankle's height).
+- ``behind`` (version 3): each stretch in which a run could not keep up with a camera's stream (more than 2 % of
+  its frames dropped over 10 s, ``live.health``): its camera, start and end (``from_at``, ``to_at``) and the share
+  of its frames dropped over it; the counts of that time are uncertain (the store's report shades it)."""
 
 from __future__ import annotations
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 FLOOR_EVIDENCE = (
     "CREATE TABLE IF NOT EXISTS floor_evidence (run INTEGER NOT NULL, camera TEXT NOT NULL, "
@@ -33,6 +36,11 @@ FLOOR_EVIDENCE = (
     "centre_z DOUBLE PRECISION, log_size_over_drop DOUBLE PRECISION, height_m DOUBLE PRECISION, "
     "sd_m DOUBLE PRECISION, seconds DOUBLE PRECISION NOT NULL)",
     "CREATE INDEX IF NOT EXISTS floor_evidence_camera ON floor_evidence (camera)",
+)
+
+BEHIND = (
+    "CREATE TABLE IF NOT EXISTS behind (run INTEGER NOT NULL, camera TEXT NOT NULL, "
+    "from_at DOUBLE PRECISION NOT NULL, to_at DOUBLE PRECISION NOT NULL, dropped_share DOUBLE PRECISION NOT NULL)",
 )
 
 # ``{id}``: the dialect's auto-numbered primary key (SQLite's rowid alias; PostgreSQL's identity column).
@@ -57,7 +65,8 @@ TABLES = (
     "CREATE TABLE IF NOT EXISTS progress (source TEXT PRIMARY KEY, run INTEGER NOT NULL, frame INTEGER NOT NULL, "
     "at DOUBLE PRECISION NOT NULL, origin DOUBLE PRECISION NOT NULL)",
     *FLOOR_EVIDENCE,
+    *BEHIND,
 )
 
 # version -> the statements that take a store of that version to the next. Version 1 is the first.
-MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE}
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND}

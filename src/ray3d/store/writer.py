@@ -63,7 +63,7 @@ class RunRecorder:
         # Whether the store already held a record of these inputs (this run appends to what they wrote).
         self.continues = bool(self._down_since)
         self.origin = self.resumes[0].origin  # every input's frame 0, one clock
-        self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0, "floor": 0}
+        self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0, "floor": 0, "behind": 0}
         self.lost = 0
         self._seq = 0
         self._last_at: float | None = None
@@ -71,7 +71,8 @@ class RunRecorder:
         # person -> the last whole second of stream time a position was kept (of those seen in the last seconds)
         self._second: dict[str, int] = {}
         self._pruned_at: int | None = None
-        self._waiting: dict[str, list] = {"events": [], "positions": [], "people": [], "gaps": [], "floor": []}
+        self._waiting: dict[str, list] = {"events": [], "positions": [], "people": [], "gaps": [], "floor": [],
+                                          "behind": []}
         self._progress: dict[str, tuple[int, float]] = {}
         self._failed = False
         self._lock = threading.Lock()
@@ -136,6 +137,12 @@ class RunRecorder:
 
     def gap(self, camera: str, from_at: float, to_at: float, why: str) -> None:
         self._add("gaps", [(self.run, without_passwords(camera), float(from_at), float(to_at), why)])
+
+    def behind(self, camera: str, from_s: float, to_s: float, share: float) -> None:
+        """A stretch of stream time in which the run could not keep up with ``camera`` (``share`` of its frames
+        dropped): its counts are uncertain."""
+        self._add("behind", [(self.run, without_passwords(camera), self.origin + float(from_s),
+                              self.origin + float(to_s), float(share))])
 
     def floor(self, camera: str, centre, evidence, keypoints: str | None = None) -> None:
         """What a camera's people showed of the floor itself (``SizeEvidence`` and ``SeenTwice``), seen from its
@@ -227,6 +234,8 @@ class RunRecorder:
                       "stature_m = excluded.stature_m, stature_class = excluded.stature_class, "
                       "rejoins = excluded.rejoins", waiting["people"])
         database.many("INSERT INTO gaps (run, camera, from_at, to_at, why) VALUES (?, ?, ?, ?, ?)", waiting["gaps"])
+        database.many("INSERT INTO behind (run, camera, from_at, to_at, dropped_share) VALUES (?, ?, ?, ?, ?)",
+                      waiting["behind"])
         database.many("INSERT INTO floor_evidence (run, camera, at, kind, camera_x, camera_y, camera_z, keypoints, "
                       "centre_z, log_size_over_drop, height_m, sd_m, seconds) "
                       "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", waiting["floor"])

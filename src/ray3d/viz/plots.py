@@ -92,10 +92,11 @@ def plot_occupancy(times, counts: dict, path: str | Path, overwrite: bool = Fals
 
 
 def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: str | Path,
-                 overwrite: bool = False) -> Path:
+                 overwrite: bool = False, uncertain: list[tuple[float, float]] = ()) -> Path:
     """The counts per time bucket (``site.record.record_buckets`` rows) read at a glance: entries, exits and
     crossings per bucket (bars), each zone's mean and peak occupancy (lines), the record's gaps (Unix times)
-    shaded on both."""
+    shaded on both, and the stretches whose counts are ``uncertain`` (a run falling behind) hatched in their own
+    colour."""
     import datetime
 
     import matplotlib.dates as dates
@@ -127,10 +128,16 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
         for axis in (counts, people):
             axis.axvspan(datetime.datetime.fromtimestamp(low, zone_of), datetime.datetime.fromtimestamp(high, zone_of),
                          color="0.6", alpha=0.35, lw=0, label="no record" if k == 0 and axis is counts else None)
+    for k, (low, high) in enumerate(uncertain):
+        for axis in (counts, people):
+            axis.axvspan(datetime.datetime.fromtimestamp(low, zone_of), datetime.datetime.fromtimestamp(high, zone_of),
+                         color="tab:orange", alpha=0.25, lw=0, hatch="//",
+                         label="uncertain: frames dropped" if k == 0 and axis is counts else None)
     counts.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     people.xaxis.set_major_formatter(dates.ConciseDateFormatter(people.xaxis.get_major_locator(), tz=zone_of))
     for axis in (counts, people):
         axis.grid(alpha=0.3)
-    counts.set_title("by time: counts per bucket, occupancy, gaps shaded")
+    counts.set_title("by time: counts per bucket, occupancy, gaps shaded" +
+                     (", uncertain counts hatched" if len(uncertain) else ""))
     fig.tight_layout()
     return _save(fig, path, overwrite)
