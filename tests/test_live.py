@@ -780,8 +780,8 @@ def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_droppe
             continue
         keeping.observe(0, frame / 10, read, dropped)
     keeping.finish()
-    assert said[0] == ("camera door: falling behind: 3 % of frames dropped over the last 10 s; counts from now on "
-                       "are uncertain")
+    assert said[0] == ("camera door: falling behind: 3 % of frames dropped and 0.00 people a frame left for the next "
+                       "over the last 10 s; counts from now on are uncertain")
     assert said[1].startswith("camera door: keeping up again after ") and len(said) == 2
     assert len(recorded) == 1 and keeping.stretches == recorded
     stretch = recorded[0]
@@ -794,3 +794,12 @@ def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_droppe
         quiet.observe(0, frame / 10, frame + 1, int(frame >= 1) + int(frame >= 300))
     quiet.finish()
     assert quiet.stretches == [] and len(said) == 2
+    # No frame dropped, but the detector leaving people for the next frame (to keep its deadline) from 20 s on: a
+    # stretch too, its people counted.
+    postponing = Keeping(["door"], [10.0], report=said.append)
+    for frame in range(600):
+        postponing.observe(0, frame / 10, frame + 1, 0, max(0, frame - 200))
+    postponing.finish()
+    assert len(postponing.stretches) == 1 and postponing.stretches[0].from_s == pytest.approx(20.0)
+    assert postponing.stretches[0].dropped == 0 and postponing.stretches[0].postponed > 300
+    assert "people a frame left for the next" in said[2] and "people left for the next frame" in said[3]

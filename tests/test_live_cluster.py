@@ -119,7 +119,10 @@ def test_the_camera_actors_of_a_ray_run_share_one_floor_pool_through_an_actor_of
         assert ray.get(camera_lifts.remote(pool, (first,))) == (earlier,)
         assert ray.get(camera_lifts.remote(pool, (second,))) == (earlier, first)
         assert pool.evidence() == (earlier, first, second)
-        ray.kill(pool.actor)
+        ray.kill(pool.actor)  # it dies a moment later: until then it may still answer
+        deadline = time.monotonic() + 30
+        while pool.evidence() != () and time.monotonic() < deadline:
+            time.sleep(0.1)
         pool.add((first,))
         assert pool.evidence() == ()
     finally:

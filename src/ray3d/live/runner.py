@@ -275,15 +275,16 @@ def _keeping(cameras, options: LiveOptions, recorder) -> Keeping:
                    options.behind_share, recorded=recorded)
 
 
-def _read_and_dropped(cameras, view: int, result) -> tuple[int, int]:
-    """A camera's frames read and dropped so far: from its actor (Ray), or from its source in this process."""
+def _read_and_dropped(cameras, view: int, result) -> tuple[int, int, int]:
+    """A camera's frames read and dropped and people left for the next frame so far: from its actor (Ray), or from
+    its source and detector in this process."""
     if hasattr(cameras, "workers"):  # RayCameras: over every incarnation of the camera's actor
         worker = cameras.workers[view]
-        return worker.before[0] + worker.counts[0], worker.before[1] + worker.counts[1]
+        return tuple(before + now for before, now in zip(worker.before, worker.counts))
     if hasattr(cameras, "group"):
         source = cameras.group.sources[view]
-        return source.read, source.dropped
-    return cameras.read, cameras.dropped
+        return source.read, source.dropped, cameras.views[view].postponed()
+    return cameras.read, cameras.dropped, cameras.postponed
 
 
 def _refused(cameras, error: InputError):
