@@ -31,6 +31,7 @@ import dataclasses
 
 import numpy as np
 from scipy.optimize import minimize_scalar
+from scipy.stats import norm
 
 from ray3d import body
 from ray3d.body import body_sizes, lowest_ankle_height
@@ -330,8 +331,8 @@ def decide_ankle_plane(observed: PlaneObservation | None, contact_m: float, cont
     free_variance = PRIOR_SD_M ** 2 + kept_variance
     seen_variance = observed.sd_m ** 2
     residual = observed.height_m - contact_m
-    log_factor = _log_normal(residual, seen_variance + free_variance) - _log_normal(residual,
-                                                                                    seen_variance + kept_variance)
+    log_factor = (norm.logpdf(residual, scale=np.sqrt(seen_variance + free_variance))
+                  - norm.logpdf(residual, scale=np.sqrt(seen_variance + kept_variance)))
     odds = prior_chance_off / (1 - prior_chance_off) * np.exp(np.clip(log_factor, -50, 50))
     chance = float(odds / (1 + odds))
     # The plane if off: the observation with the free floor's prior.
@@ -348,10 +349,6 @@ def decide_ankle_plane(observed: PlaneObservation | None, contact_m: float, cont
     return AnklePlane(float(height), float(np.sqrt(variance)), contact_m, "observed", observed.people,
                       observed.seconds, observed.seen_twice, "applied" if applied else "kept", chance,
                       observed.height_m, observed.sd_m)
-
-
-def _log_normal(residual: float, variance: float) -> float:
-    return float(-0.5 * (np.log(2 * np.pi * variance) + residual ** 2 / variance))
 
 
 def observe_ankle_plane(evidence: list[SizeEvidence | None], contact_m: float, contact_sd_m: float,

@@ -166,7 +166,8 @@ def _summary(record) -> str:
     behind = getattr(record, "behind", [])
     uncertain = "".join(
         f" Counts uncertain from {_clock(b['from_at'])} to {_clock(b['to_at'])}: the run could not keep up with "
-        f"camera {b['camera']} ({100 * b['dropped_share']:.0f} % of its frames dropped)." for b in behind)
+        f"camera {b['camera']} (frames dropped or people left for the next frame; {100 * b['dropped_share']:.0f} % "
+        "of its frames dropped)." for b in behind)
     return (f"From {_clock(record.from_at)} to {_clock(record.to_at)}: {len(record.events)} events of "
             f"{len(record.people)} people over {len(runs)} run(s); {len(record.gaps)} gap(s) in the record, "
             f"{down:.1f} s in all. Written from the store's events and positions only: no image, crop or overlay "

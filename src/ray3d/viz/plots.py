@@ -132,7 +132,7 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
         for axis in (counts, people):
             axis.axvspan(datetime.datetime.fromtimestamp(low, zone_of), datetime.datetime.fromtimestamp(high, zone_of),
                          color="tab:orange", alpha=0.25, lw=0, hatch="//",
-                         label="uncertain: frames dropped" if k == 0 and axis is counts else None)
+                         label="uncertain: could not keep up" if k == 0 and axis is counts else None)
     counts.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     people.xaxis.set_major_formatter(dates.ConciseDateFormatter(people.xaxis.get_major_locator(), tz=zone_of))
     for axis in (counts, people):
