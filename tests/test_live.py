@@ -794,6 +794,12 @@ def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_droppe
         quiet.observe(0, frame / 10, frame + 1, int(frame >= 1) + int(frame >= 300))
     quiet.finish()
     assert quiet.stretches == [] and len(said) == 2
+    # Over a one-second window one frame dropped is 10 %, but a single frame is a hiccup; two in a second are not.
+    hiccup = Keeping(["door"], [10.0], window_s=1.0, report=lambda line: None)
+    for frame in range(100):
+        hiccup.observe(0, frame / 10, frame + 1, int(frame >= 30) + int(frame >= 60) + int(frame >= 61))
+    hiccup.finish()
+    assert len(hiccup.stretches) == 1 and hiccup.stretches[0].from_s == pytest.approx(5.9)
     # No frame dropped, but the detector leaving people for the next frame (to keep its deadline) from 20 s on: a
     # stretch too, its people counted.
     postponing = Keeping(["door"], [10.0], report=said.append)

@@ -676,13 +676,15 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
     assert re.search(r"keeping up again after \d+ s falling behind \(\d+ % of its frames dropped, \d+ people left for "
                      r"the next frame, from [\d.]+ s to [\d.]+ s of the stream\); counts in that time are uncertain",
                      err)
-    assert len(summary.behind) == 1
-    stretch = summary.behind[0]
-    assert 1.0 < stretch.from_s < 2.5 and 3.0 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
+    # The slow stretch; a busy machine may add a short hiccup of its own (two or three frames), said the same way.
+    stretch = next(s for s in summary.behind if 1.0 < s.from_s < 2.5)
+    assert 3.0 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
+    assert all(s.dropped <= 3 for s in summary.behind if s is not stretch)
     # the page's state: a warning while it lasted, the stretch kept after
     states = [s for s in states if "health" in s]  # those before the first frame have none
     assert any(s["health"]["falling_behind"] for s in states)
-    assert not states[-1]["health"]["falling_behind"] and len(states[-1]["health"]["stretches"]) == 1
+    assert not states[-1]["health"]["falling_behind"]
+    assert len(states[-1]["health"]["stretches"]) == len(summary.behind)
     # MQTT: the health sensor announced, falling behind then keeping up, retained
     config = json.loads(next(p for t, p in received if t == "homeassistant/sensor/site/health/config"))
     jsonschema.validate(config, json.loads((FIXTURES / "ha_mqtt_sensor.schema.json").read_text()))
@@ -692,15 +694,16 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
     assert max(int(p) for t, p in received if t == "site/health/dropped_percent") > 30
     # the store: one row, read back; the report marks the stretch uncertain
     record = read_record(tmp_path / "live" / "site.db")
-    assert len(record.behind) == 1
-    row = record.behind[0]
+    assert len(record.behind) == len(summary.behind)
+    row = record.behind[summary.behind.index(stretch)]
     assert row["to_at"] - row["from_at"] == pytest.approx(stretch.to_s - stretch.from_s, abs=0.01)
     assert row["dropped_share"] == pytest.approx(stretch.share)
     analyse_record(record, site, tmp_path / "report", every_s=1.0)
     buckets = (tmp_path / "report" / "by-time.csv").read_text()
     assert "uncertain %" in buckets.splitlines()[0]
     uncertain = [int(r["uncertain %"]) for r in csv.DictReader(buckets.splitlines())]
-    assert any(u > 0 for u in uncertain) and uncertain[-1] == 0  # after it: certain again
+    first = next(i for i, u in enumerate(uncertain) if u > 0)
+    assert 0 in uncertain[first:]  # after it: certain again
     assert "Counts uncertain from" in (tmp_path / "report" / "report.html").read_text()
 
 

@@ -1,7 +1,7 @@
 """Whether a live run keeps up with its streams (``Keeping``): per camera, the share of its frames dropped over the
 last ``window_s`` seconds of stream time, and the people its detector left for the next frame to keep its deadline;
 a stretch in which the share is above ``BEHIND_SHARE``, or more than ``POSTPONED_PER_FRAME`` people a frame were
-left, is one whose counts are uncertain (people crossing a line or entering a zone between two processed frames, or
+left (in either case more than one frame or person: a single one is a hiccup), is one whose counts are uncertain (people crossing a line or entering a zone between two processed frames, or
 not looked at in them, may be missed). Each stretch is
 said on stderr as it begins and as it ends, shown on the page (``state()``), published on MQTT and recorded in the
 store (``RunRecorder.behind``: its start, end and share dropped), whose report shades it.
@@ -77,9 +77,11 @@ class Keeping:
         first = samples[0]
         # Over a whole window's frames at least: one frame dropped at the start is not 50 % of two.
         frames = max(read - first[1], self.window_s * self.fps[view], 1.0)
-        share = self._now[view] = (dropped - first[2]) / frames
-        left = (postponed - first[3]) / frames
-        behind = share > self.limit or left > POSTPONED_PER_FRAME
+        lost, waiting = dropped - first[2], postponed - first[3]
+        share = self._now[view] = lost / frames
+        left = waiting / frames
+        # One frame dropped or one person left once is a hiccup (a busy moment), not falling behind.
+        behind = (share > self.limit and lost > 1) or (left > POSTPONED_PER_FRAME and waiting > 1)
         opened = self._open[view]
         if opened is None and behind:
             # It began at the frame processed before the window's first loss.
