@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ray3d import body
 from ray3d.body import body_sizes, lowest_ankles
 from ray3d.geometry import Camera
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
@@ -37,12 +38,18 @@ def floor_agreement(joints: np.ndarray, camera: Camera, fps: float, candidates: 
     above = centre[2] - ankle[:, 2]
     wanted = centre[2] - under - config.contact_ankle_height_m
     valid = candidates & (above > 0.05) & (wanted > 0.05)
+    half = max(1, int(round(config.agreement_window_s * fps / 2)))
+    distance = np.linalg.norm(joints[:, 0] - centre, axis=-1)
+    # A jump (or a foot on a step): the lowest ankle well over where the stretch's feet rest, by more than the
+    # network's frame-to-frame depth noise can lift it, is not on the floor; pulled down to it, the person would be
+    # pushed along the ray (CMU 02_04's jump: 0.3-0.4 m too far).
+    rise = ankle[:, 2] - config.contact_ankle_height_m - _running_nanmedian(
+        np.where(valid, ankle[:, 2] - config.contact_ankle_height_m, np.nan), half)
+    valid &= ~(rise > np.maximum(body.AIRBORNE_ANKLE_M, 3 * config.network_frame_sd(distance) * above))
     factor, resting = np.full(len(joints), np.nan), np.full(len(joints), np.nan)
     factor[valid] = np.log(wanted[valid] / above[valid])
     resting[valid] = ankle[valid, 2] - config.contact_ankle_height_m
-    half = max(1, int(round(config.agreement_window_s * fps / 2)))
     stretch = _running_nanmedian(factor, half)
-    distance = np.linalg.norm(joints[:, 0] - centre, axis=-1)
     spread = np.hypot(config.network_bias_sd(distance),
                       config.contact_height_sd_m / np.maximum(wanted, 0.05))
     resting = _running_nanmedian(resting, half)
