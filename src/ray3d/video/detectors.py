@@ -2,11 +2,11 @@
 the people in it, each a ``Detection``. Both detectors run offline from registry packages
 (``pip install 'ray3d[video]'``): their weights ship inside the mediapipe wheel.
 
-- ``combined`` (default): every person in view of a fixed camera, moving or still, near or far. The regions
-  of the people found in the previous frame, the people MediaPipe's full-frame detector finds (``full_frame``:
-  people who stand still, people who fill the frame), and moving foreground cut into person-sized regions
-  (``proposals``: small, far people the full-frame detector misses); BlazePose's landmark network on an
-  upscaled crop of each (``landmarks``), duplicates removed.
+- ``combined`` (default): every person in view of a fixed camera, moving or still, near or far, from any side.
+  The regions of the people found in the previous frame, the people a full-frame person finder finds (``finder``:
+  MoveNet MultiPose, which needs no face, ``movenet``: people who stand still, walk away, fill the frame), and
+  moving foreground cut into person-sized regions (``proposals``: small, far people the finder misses);
+  BlazePose's landmark network on an upscaled crop of each (``landmarks``), duplicates removed.
 - ``people``: the same without the full-frame detector (motion and the previous frame only): the finder of
   earlier versions, a little faster where every person is small and walks.
 - ``mediapipe``: MediaPipe Pose's own graph, one person per frame, for a close-up of one person (it jumps
@@ -20,6 +20,7 @@ import dataclasses
 import functools
 import time
 from collections import deque
+from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -30,6 +31,7 @@ from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
 from ray3d.video.boxes import box_overlap
 from ray3d.video.full_frame import FullFramePeople
+from ray3d.video.movenet import MoveNetPeople
 from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
 
@@ -77,10 +79,11 @@ class PeopleDetector:
         camera: the video's camera; its geometry says how tall a person looks at each floor pixel.
         min_score: the landmark network's person score below which a crop holds nobody.
         threads: CPU threads for the networks.
-        full_frame: also look where the full-frame person detector finds somebody (``combined``).
-        full_frame_every: run the full-frame detector on every n-th frame only (live use: the people it found
-            are followed from frame to frame anyway; somebody new who stands still is found up to n - 1 frames
-            later).
+        finder: a full-frame person finder (``finder(frame)`` -> (N, 4) landmark regions and (N,) scores:
+            ``MoveNetPeople``, ``FullFramePeople``), also looked in where it finds somebody (``combined``); None:
+            motion and the previous frame only (``people``).
+        full_frame_every: run the finder on every n-th frame only (the people it found are followed from frame
+            to frame anyway; somebody new who stands still is found up to n - 1 frames later).
 
     Called with ``time_left_s`` (live use), the crops that would not fit in that time are left out: first
     motion's proposals where crops lately found nobody, then people followed from the last frame, who are
@@ -90,13 +93,14 @@ class PeopleDetector:
 
     layout = BLAZEPOSE33.name
 
-    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2, full_frame: bool = False,
+    def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2,
+                 finder: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
                  full_frame_every: int = 1):
         self.camera, self.min_score, self.full_frame_every = camera, min_score, max(1, int(full_frame_every))
         self._frames_seen = 0
-        self.name = "combined" if full_frame else "people"
+        self.name = "combined" if finder is not None else "people"
         self._landmarks = BlazePoseLandmarks(threads)
-        self._full_frame = FullFramePeople(threads) if full_frame else None
+        self._full_frame = finder
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
         self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
@@ -274,8 +278,12 @@ class MediaPipeDetector:
         self._pose.close()
 
 
-DETECTORS = {"combined": functools.partial(PeopleDetector, full_frame=True), "people": PeopleDetector,
-             "mediapipe": MediaPipeDetector}
+def combined_detector(camera: Camera, threads: int = 2, **options) -> PeopleDetector:
+    """``PeopleDetector`` with MoveNet as its full-frame finder."""
+    return PeopleDetector(camera, threads=threads, finder=MoveNetPeople(threads), **options)
+
+
+DETECTORS = {"combined": combined_detector, "people": PeopleDetector, "mediapipe": MediaPipeDetector}
 DEFAULT_DETECTOR = "combined"
 LIVE_FULL_FRAME_EVERY = 3  # live: the full-frame detector every third frame (0.3 s at 10 frames/s)
 DETECTOR_HELP = ("combined (default): everybody in view of a fixed camera, moving or still, near or far; people: "

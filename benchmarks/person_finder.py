@@ -1,0 +1,125 @@
+"""How many of the people in view ray3d's video detector finds, by the way they face, how crowded, partly hidden
+and how tall, against a hand-made annotation (``benchmarks/annotations/vtest_people.json``: 60 people in 10 frames
+of ``vtest.avi``), for each full-frame finder, with the time per frame.
+
+    python benchmarks/person_finder.py --video ../shared/data/real-video/vtest.avi \
+        --camera ../shared/data/real-video/vtest_camera.json [--finders none blazepose movenet-384 ...]
+
+A person is found where a detection's box (its confident keypoints, grown to the head's top and the soles: the
+keypoints stop at the eyes and ankles) overlaps theirs by 0.5 or more (intersection over union), each detection
+matched to one person at most. Every frame of the video is run (the detector follows people from frame to frame);
+the annotated ones are scored. Needs the video extra.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ray3d.io.camera_files import read_camera
+from ray3d.video.boxes import box_inside, box_overlap
+from ray3d.video.detectors import PeopleDetector
+from ray3d.video.full_frame import FullFramePeople
+from ray3d.video.movenet import MoveNetPeople
+from ray3d.video.proposals import median_background
+
+ANNOTATION = Path(__file__).parent / "annotations" / "vtest_people.json"
+FINDERS = {"none": lambda: None, "blazepose": lambda: FullFramePeople(2),
+           "movenet-256": lambda: MoveNetPeople(2, 256), "movenet-384": lambda: MoveNetPeople(2, 384),
+           "movenet-512": lambda: MoveNetPeople(2, 512), "movenet-768": lambda: MoveNetPeople(2, 768),
+           "movenet-384-2x1": lambda: MoveNetPeople(2, 384, (2, 1)),
+           "movenet-384-2x2": lambda: MoveNetPeople(2, 384, (2, 2))}
+MATCH = 0.5
+HEIGHTS = ((0, 80), (80, 120), (120, 10_000))  # pixels
+
+
+def grown(box: np.ndarray) -> np.ndarray:
+    """A box of keypoints (eyes to ankles) grown to the whole person: a tenth of its height over the eyes, a
+    twentieth under the ankles, a tenth of its width either side."""
+    x0, y0, x1, y1 = box
+    tall, wide = y1 - y0, x1 - x0
+    return np.array([x0 - 0.1 * wide, y0 - 0.1 * tall, x1 + 0.1 * wide, y1 + 0.05 * tall])
+
+
+def splits(people: list[dict]) -> list[list[str]]:
+    """Each annotated person's splits: facing, crowded (their box overlapping another person's), partly hidden,
+    height band."""
+    boxes = np.array([p["box"] for p in people], dtype=float)
+    out = []
+    for i, person in enumerate(people):
+        crowded = any(box_inside(boxes[i], boxes[j]) > 0.1 for j in range(len(people)) if j != i)
+        tall = boxes[i, 3] - boxes[i, 1]
+        band = next(f"{low}-{high} px" if high < 10_000 else f"{low}+ px" for low, high in HEIGHTS
+                    if low <= tall < high)
+        out.append(["all", f"facing {person['facing']}", "crowded" if crowded else "apart",
+                    *(["partly hidden"] if person["partly_hidden"] else []), band])
+    return out
+
+
+def found(people: list[dict], detections: list) -> np.ndarray:
+    """(N,) whether each annotated person was found (one detection each at most)."""
+    truth = np.array([p["box"] for p in people], dtype=float)
+    if not detections:
+        return np.zeros(len(people), bool)
+    boxes = np.array([grown(d.box) for d in detections])
+    overlap = box_overlap(truth, boxes)
+    rows, columns = linear_sum_assignment(-overlap)
+    hit = np.zeros(len(people), bool)
+    hit[rows[overlap[rows, columns] >= MATCH]] = True
+    return hit
+
+
+def run(video: str, camera_path: str, finder: str, annotation: dict) -> dict:
+    camera = read_camera(camera_path)
+    capture, frames = cv2.VideoCapture(video), []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        frames.append(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
+    detector = PeopleDetector(camera, finder=FINDERS[finder]())
+    detector.prepare([frames[i] for i in np.linspace(0, len(frames) - 1, 25).astype(int)])
+    wanted = {f["frame"]: f["people"] for f in annotation["frames"]}
+    tally: dict[str, list[int]] = {}
+    started = time.perf_counter()
+    for index, frame in enumerate(frames):
+        detections = detector(frame)
+        if index in wanted:
+            for split_names, hit in zip(splits(wanted[index]), found(wanted[index], detections)):
+                for name in split_names:
+                    tally.setdefault(name, [0, 0])
+                    tally[name][0] += int(hit)
+                    tally[name][1] += 1
+    seconds = time.perf_counter() - started
+    return {"finder": finder, "frames_per_s": len(frames) / seconds,
+            "recall": {name: (hits, total) for name, (hits, total) in sorted(tally.items())}}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--video", required=True)
+    parser.add_argument("--camera", required=True)
+    parser.add_argument("--annotation", default=str(ANNOTATION))
+    parser.add_argument("--finders", nargs="+", default=["none", "blazepose", "movenet-384", "movenet-384-2x1",
+                                                         "movenet-768"], choices=list(FINDERS))
+    parser.add_argument("--out", help="write the rows as JSON here")
+    args = parser.parse_args()
+    annotation = json.loads(Path(args.annotation).read_text())
+    rows = []
+    for finder in args.finders:
+        row = run(args.video, args.camera, finder, annotation)
+        rows.append(row)
+        cells = "  ".join(f"{name} {hits}/{total}" for name, (hits, total) in row["recall"].items())
+        print(f"{finder:16s} {row['frames_per_s']:5.1f} frames/s  {cells}", flush=True)
+    if args.out:
+        Path(args.out).write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
