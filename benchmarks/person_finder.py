@@ -27,7 +27,6 @@ from ray3d.video.boxes import box_inside, box_overlap
 from ray3d.video.detectors import PeopleDetector
 from ray3d.video.full_frame import FullFramePeople
 from ray3d.video.movenet import MoveNetPeople
-from ray3d.video.proposals import median_background
 
 ANNOTATION = Path(__file__).parent / "annotations" / "vtest_people.json"
 FINDERS = {"none": lambda: None, "blazepose": lambda: FullFramePeople(2),

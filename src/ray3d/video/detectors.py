@@ -30,7 +30,6 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
 from ray3d.video.boxes import box_overlap
-from ray3d.video.full_frame import FullFramePeople
 from ray3d.video.movenet import MoveNetPeople
 from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
