@@ -141,12 +141,19 @@ def analyse(whole: Path, killed: Path) -> None:
                      (t not in ended and not t.startswith(f"{record.runs[-1]['run']}-")) or
                      any(g["to_at"] - 0.5 <= started.get(t, -1e18) <= g["to_at"] + AFTER_RESTART_S for g in down)}
     hidden = {"uninterrupted": hidden_reference, "killed and restarted": hidden_killed}
+    runs_of: dict[str, set] = {}  # each track's runs: those in view at a restart go on in the next
+    for event in record.events:
+        runs_of.setdefault(event["track"], set()).add(event["run"])
     seen = {"uninterrupted": reference.events, "uninterrupted again": again.events,
             "killed and restarted": record.events}
     result = {"runs": len(record.runs), **json.loads((killed.parent / "kills.json").read_text()),
               "gaps": [[round(g["from_at"] - record.runs[0]["first_at"], 1), round(g["to_at"] - g["from_at"], 2)]
                        for g in down],
               "events": {"uninterrupted": len(reference.events), "killed and restarted": len(record.events)},
+              "tracks": {name: len({e["track"] for e in events if e["event"] == "track started"})
+                         for name, events in (("uninterrupted", reference.events),
+                                              ("killed and restarted", record.events))},
+              "taken up at a restart": sum(len(runs) > 1 for runs in runs_of.values()),
               "duplicated": duplicated, "lost at each kill": lost_per_kill, "lost before the first kill's last second": len(lost_before_first),
               "counts": {"uninterrupted": _counts(reference.events), "uninterrupted again": _counts(again.events),
                          "killed and restarted": _counts(record.events)},

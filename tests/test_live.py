@@ -400,6 +400,34 @@ def test_several_cameras_settle_each_frame_once_in_order_whichever_camera_comes_
     assert len(crossings) == 1
 
 
+def test_a_carried_person_goes_on_where_the_cut_off_run_left_them_and_one_not_seen_again_is_ended():
+    """Issue 67, item 3: the people a run cut off left in view, taken up by the next run's monitor: no track started
+    again, a visit under way goes on (its exit counted, its dwell from its entry), a crossing counted before the
+    cut is not counted again on the step from their last known place; one never seen again is ended where the run
+    left them (its visit's exit and its track's end, "the service stopped")."""
+    from ray3d.site import SiteMonitor
+    from ray3d.site.events import CarriedPerson
+
+    def at(point) -> np.ndarray:
+        return np.zeros((17, 3)) + [*point, 0.0]
+
+    crossed = CarriedPerson("1-0", tuple(SPOT + 0.2 * ACROSS), 1.0, 2.0, crossed={"door": 1.5})
+    visiting = CarriedPerson("1-1", tuple(SPOT + 2.0 * ACROSS), 1.0, 2.0, visits={"room": 0.5})
+    gone = CarriedPerson("1-2", tuple(SPOT + 3.0 * ACROSS), 1.8, 2.0, visits={"room": 0.2})
+    monitor = SiteMonitor(Site((ROOM,), (DOOR,)), FPS, carried=[crossed, visiting, gone])
+    assert monitor.carrying == {"1-0", "1-1", "1-2"} and monitor.occupants["room"] == set()
+    events = monitor.update(21, {"1-0": at(SPOT + 0.8 * ACROSS), "1-1": at(SPOT + 2.2 * ACROSS)})
+    assert events == [] and monitor.occupants["room"] == {"1-1"} and monitor.carrying == {"1-2"}
+    events = monitor.update(22, {"1-0": at(SPOT + 0.2 * ACROSS), "1-1": at(SPOT + 6.0 * ACROSS)})
+    assert [(e["event"], e["track"]) for e in events] == [("line crossed", "1-0"), ("zone left", "1-1")]
+    assert events[1]["dwell_s"] == pytest.approx(2.2 - 0.5)  # from the visit's entry in the run cut off
+    closing = monitor.give_up()
+    assert [(e["event"], e["track"], e["time_s"], e["reason"]) for e in closing] == [
+        ("zone left", "1-2", 2.0, "the service stopped"), ("track ended", "1-2", 2.0, "the service stopped")]
+    assert closing[0]["dwell_s"] == pytest.approx(1.8) and monitor.carrying == set()
+    assert monitor.counts["room"] == {"entered": 0, "left": 2} and monitor.counts["door"]["back"] == 1
+
+
 def test_live_events_follow_the_same_rules_as_the_report_on_the_same_positions():
     from ray3d.site import SiteMonitor
 

@@ -30,21 +30,26 @@ FIXTURES = Path(__file__).parent / "fixtures"
 
 
 def _live(out: Path, people: np.ndarray, views=(CAMERA,), site: Site = Site((ROOM,), (DOOR,)), store=None,
-          mqtt=None, start=None, frame_sleep_s: float = 0.0, **options):
+          mqtt=None, start=None, frame_sleep_s: float = 0.0, file: Path | None = None, **options):
     """A live job over the scene as each camera of ``views`` sees it (every frame processed, faster than the
     clock unless each frame comes ``frame_sleep_s`` after the last: ``start``, a datetime, places its frame 0),
-    recorded to ``store`` (default OUT/site.db): its summary and its recorder."""
+    recorded to ``store`` (default OUT/site.db): its summary and its recorder. ``file``: the one camera's input is
+    this file (a run on a store that recorded it before takes it up where it was left)."""
+    import itertools
+
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job, start_record
     from ray3d.live.runner import LiveOptions
 
-    names = tuple(f"scene from {c.name} ({k + 1})" for k, c in enumerate(views))
+    names = (str(file),) if file else tuple(f"scene from {c.name} ({k + 1})" for k, c in enumerate(views))
     job = Job(names, tuple(CameraChoice(made=c) for c in views), video=VideoOptions(min_track_s=0.5))
     recorder = start_record(job, store or out / "site.db", "test", site, start)
-    sources = [FrameSource(_frames(len(people), frame_sleep_s, people=people, camera=c), FPS, name, waits=True)
-               for c, name in zip(views, names)]
+    firsts = [resume.first_index for resume in recorder.resumes]
+    sources = [FrameSource(itertools.islice(_frames(len(people), frame_sleep_s, people=people, camera=c), first, None),
+                           FPS, name, waits=True, first_index=first)
+               for c, name, first in zip(views, names, firsts)]
     inputs = local_inputs(job, SourceGroup(sources), list(views), [_ScriptedDetector(people, c) for c in views],
-                          recorder.id_prefix)
+                          recorder.id_prefix, recorder.carried)
     summary = run_live_job(job, inputs, out, site, LiveOptions(page=False, **options), recorder=recorder,
                            mqtt=mqtt)
     return summary, recorder
@@ -504,6 +509,37 @@ _live(Path(sys.argv[2]), _scene(), site=site, mqtt=MqttPublisher(sys.argv[3], si
 """
 
 
+KILLED_ON_A_FILE = KILLED_LIVE.replace("frame_sleep_s=0.2)", "frame_sleep_s=0.2, file=Path(sys.argv[4]))")
+
+
+def _kill_when_in_the_middle(out: Path, url: str, tmp_path: Path, *arguments: str) -> None:
+    """``KILLED_LIVE`` (or a variant taking ``arguments``) killed outright once a crossing is counted and somebody
+    is in the middle zone, the store's commit of it made."""
+    import signal
+    import subprocess
+    import sys
+
+    script = KILLED_ON_A_FILE if arguments else KILLED_LIVE
+    with (tmp_path / "stderr").open("w") as stderr:
+        first = subprocess.Popen([sys.executable, "-c", script, str(Path(__file__).parent), str(out), url, *arguments],
+                                 stdout=subprocess.DEVNULL, stderr=stderr)
+    try:
+        deadline = time.monotonic() + 300
+        while True:  # until a crossing is counted and somebody is in the middle zone
+            assert first.poll() is None and time.monotonic() < deadline, (tmp_path / "stderr").read_text()
+            events = _whole_lines(out / "events.jsonl")
+            inside = _counts([e for e in events if e.get("zone") == "middle"])
+            if any(e["event"] == "line crossed" for e in events) and \
+                    inside.get(("zone entered", "middle"), 0) > inside.get(("zone left", "middle"), 0):
+                break
+            time.sleep(0.05)
+        time.sleep(0.6)  # the store's commit of it
+        first.send_signal(signal.SIGKILL)
+    finally:
+        first.kill()
+        first.wait()
+
+
 def _whole_lines(path: Path) -> list[dict]:
     """The events of a log being written: its whole lines."""
     text = path.read_text() if path.exists() else ""
@@ -514,10 +550,6 @@ def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts
     """SIGKILL while two people are in view, one in a zone, after a crossing; the same run again: every "track
     started" in the store has its "track ended" (the killed run's people ended at its last commit, "the service
     stopped", their visits left), in the store and events.jsonl; the counts on MQTT go on from the store's."""
-    import signal
-    import subprocess
-    import sys
-
     import paho.mqtt.client as mqtt
 
     from ray3d.live.mqtt import MqttPublisher
@@ -525,24 +557,7 @@ def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts
     out, site = tmp_path / "live", Site((ROOM, MIDDLE), (DOOR,))
     with mosquitto_broker() as port:
         url = f"mqtt://127.0.0.1:{port}/site"
-        with (tmp_path / "stderr").open("w") as stderr:
-            first = subprocess.Popen([sys.executable, "-c", KILLED_LIVE, str(Path(__file__).parent), str(out), url],
-                                     stdout=subprocess.DEVNULL, stderr=stderr)
-        try:
-            deadline = time.monotonic() + 300
-            while True:  # until a crossing is counted and somebody is in the middle zone
-                assert first.poll() is None and time.monotonic() < deadline, (tmp_path / "stderr").read_text()
-                events = _whole_lines(out / "events.jsonl")
-                inside = _counts([e for e in events if e.get("zone") == "middle"])
-                if any(e["event"] == "line crossed" for e in events) and \
-                        inside.get(("zone entered", "middle"), 0) > inside.get(("zone left", "middle"), 0):
-                    break
-                time.sleep(0.05)
-            time.sleep(0.6)  # the store's commit of it
-            first.send_signal(signal.SIGKILL)
-        finally:
-            first.kill()
-            first.wait()
+        _kill_when_in_the_middle(out, url, tmp_path)
         logged = _whole_lines(out / "events.jsonl")
         before = read_record(out / "site.db")
         started = {e["track"] for e in before.events if e["event"] == "track started"}
@@ -584,6 +599,45 @@ def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts
         assert received[f"site/zone/{zone}/entries"] == str(counted.get(("zone entered", zone), 0))
         assert received[f"site/zone/{zone}/exits"] == str(counted.get(("zone left", zone), 0))
     assert received["site/zone/middle/exits"] != str(second.get(("zone left", "middle"), 0))
+
+
+def test_the_people_in_view_when_a_run_on_a_file_is_killed_keep_their_ids_and_are_not_counted_again(tmp_path):
+    """Issue 67, item 3: SIGKILL while two people are in view of a file being followed, one in a zone, after a
+    crossing; the same run again takes the file up where the store left it and its tracker gives the two the ids
+    they had: no track started again, their visits go on (no second entry; their exits counted once), and the
+    store holds what an uninterrupted run holds (the same counts, tracks and people), no event twice."""
+    import sqlite3
+
+    from ray3d.live.mqtt import MqttPublisher
+
+    site, clip = Site((ROOM, MIDDLE), (DOOR,)), tmp_path / "clip.avi"
+    clip.write_bytes(b"")  # a file input: taken up where it was left
+    _live(tmp_path / "whole", _scene(), site=site, file=clip)
+    whole = read_record(tmp_path / "whole" / "site.db")
+    out = tmp_path / "live"
+    with mosquitto_broker() as port:
+        url = f"mqtt://127.0.0.1:{port}/site"
+        _kill_when_in_the_middle(out, url, tmp_path, str(clip))
+        before = read_record(out / "site.db")
+        open_tracks = {e["track"] for e in before.events if e["event"] == "track started"} - \
+            {e["track"] for e in before.events if e["event"] == "track ended"}
+        assert open_tracks == {"1-0", "1-1"}
+        _, recorder = _live(out, _scene(), site=site, mqtt=MqttPublisher(url, site), file=clip)
+    assert recorder.closed == [] and {p.person for p in recorder.carried} == open_tracks
+    assert recorder.resumes[0].first_index > 0  # taken up, not begun again
+    record = read_record(out / "site.db")
+    second = [e for e in record.events if e["run"] == 2]
+    assert not [e for e in second if e["event"] == "track started"]  # the two go on, nobody new
+    assert {e["track"] for e in second} == open_tracks and not [e for e in record.events if "reason" in e]
+    started = [e["track"] for e in record.events if e["event"] == "track started"]
+    assert sorted(started) == sorted(e["track"] for e in record.events if e["event"] == "track ended")
+    assert _counts(record.events) == _counts(whole.events)
+    assert len(started) == len([e for e in whole.events if e["event"] == "track started"])
+    assert {p["person"] for p in record.people} == open_tracks
+    keys = [(e["event"], e["track"], e["time_s"], e.get("zone"), e.get("line")) for e in record.events]
+    assert len(keys) == len(set(keys))  # no event twice
+    with sqlite3.connect(out / "site.db") as connection:
+        assert connection.execute("SELECT COUNT(*) FROM carried").fetchone() == (0,)  # every carried track ended
 
 
 class _SlowFor:

@@ -55,7 +55,7 @@ def test_a_run_is_read_back_as_written(tmp_path):
     recorder = _one_run(store)
     record = read_record(store)
     assert recorder.run == 1 and recorder.written == {"events": 2, "positions": 3, "people": 1, "gaps": 1,
-                                                      "floor": 0, "behind": 0}
+                                                      "floor": 0, "behind": 0, "carried": 0}
     assert [e["event"] for e in record.events] == ["track started", "track ended"]
     assert record.events[1]["at"] == pytest.approx(1_000_000.0 + 2.9) and record.events[0]["track"] == "1-0"
     # one position per whole second of stream time: frames 0, 10 and 20
@@ -452,11 +452,13 @@ def test_a_version_2_store_gains_the_falling_behind_table_and_a_run_records_its_
     _one_run(store)
     with sqlite3.connect(store) as connection:
         connection.execute("DROP TABLE behind")
+        connection.execute("DROP TABLE carried")
         connection.execute("UPDATE store_meta SET value = '2' WHERE name = 'schema_version'")
     record = read_record(store)
     assert len(record.events) == 2 and record.behind == []
     with sqlite3.connect(store) as connection:
-        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("3",)
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("4",)
+        assert connection.execute("SELECT COUNT(*) FROM carried").fetchone() == (0,)  # and, in 4, the carried
     recorder = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False], origin=2_000_000.0)
     recorder.behind("cam", 12.5, 20.0, 0.23)
     recorder.close("ended")

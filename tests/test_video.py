@@ -273,6 +273,26 @@ def test_tracker_needs_several_hits_before_a_track_exists():
     assert [t.frames for t in tracker.tracks()] == [[2, 3, 4]]
 
 
+def test_tracker_gives_a_person_where_a_cut_off_run_left_somebody_their_id_in_its_first_seconds_only():
+    """Issue 67, item 3: of the people a run cut off left in view, one found again where they could have walked to
+    takes up their id; a stranger elsewhere gets a new one, and so does somebody found where a carried person
+    was once ``CLAIM_S`` has passed."""
+    from ray3d.site.events import CarriedPerson
+    from ray3d.video.tracking import CLAIM_S
+
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    back = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]     # 0.3 m from where 1-4 was left
+    stranger = CAMERA.project(_walker((9.0, 2.5), (0.0, 0.0), 1))[0]  # 3.5 m from 1-4, 3.7 m from 1-7
+    late = CAMERA.project(_walker((8.0, -2.0), (0.0, 0.0), 1))[0]     # where 1-7 was left, too late
+    carried = [CarriedPerson("1-4", (6.3, 0.0), 0.0, 0.0), CarriedPerson("1-7", (8.0, -2.0), 0.0, 0.0)]
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+    late_from = int(CLAIM_S * FPS) + 2
+    for t in range(late_from + 4):
+        people = [back, stranger] + ([late] if t >= late_from else [])
+        tracker.update(t, [Detection(p, np.ones(17), 0.9) for p in people], frame)
+    assert sorted(t.id for t in tracker.tracks()) == ["1-4", "2-0", "2-1"]
+
+
 def test_tracker_counts_dropped_frames_as_time_passing():
     """Live use drops frames: the filter moves people on for every frame since the last update, and a person
     unseen for longer than the gap in time (not in updates) has left."""

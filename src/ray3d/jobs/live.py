@@ -30,14 +30,15 @@ class LiveInputs:
         return isinstance(self.followed, RayCameras)
 
 
-def local_inputs(job: Job, group, cameras: list, detectors: list, id_prefix: str = "") -> LiveInputs:
+def local_inputs(job: Job, group, cameras: list, detectors: list, id_prefix: str = "", carried=()) -> LiveInputs:
     """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process by the
-    job's lifter (``id_prefix`` before every track id: a store's run number)."""
+    job's lifter (``id_prefix`` before every track id: a store's run number; ``carried``: the people in view when
+    the store's run before was cut off, ``RunRecorder.carried``)."""
     from ray3d.live.cameras import LocalCameras
 
     options = [job.lift_options(k) for k in range(len(cameras))]  # each camera on its own floor, as on Ray
     return LiveInputs(LocalCameras(group, cameras, detectors, job.lifter(detectors[0].layout), options,
-                                   job.video.max_gap_s, job.video.min_track_s, id_prefix))
+                                   job.video.max_gap_s, job.video.min_track_s, id_prefix, carried))
 
 
 def start_record(job: Job, store, command: str, site=None, start_time=None):
@@ -91,6 +92,7 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
     file is taken up where the store's record of it ends, and track ids carry the run's number."""
     firsts = [r.first_index for r in recorder.resumes] if recorder else [0] * len(job.inputs)
     prefix = recorder.id_prefix if recorder else ""
+    carried = recorder.carried if recorder else ()
     if address:
         from ray3d.jobs.cluster import start_ray
         from ray3d.live.cluster import RayCameras
@@ -99,7 +101,8 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
         arguments = [dict(opened=functools.partial(open_stream, job, k, paced, stall_timeout_s,
                                                    reconnect_max_s=reconnect_max_s),
                           lifter=job.lifter, lift_options=job.lift_options(k), first_index=firsts[k],
-                          id_prefix=prefix, max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s)
+                          id_prefix=prefix, max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s,
+                          carried=carried)
                      for k in range(len(job.inputs))]
         played = [paced is not False] * len(job.inputs)  # an unpaced file waits for its reader; the rest play on
         try:
@@ -114,7 +117,7 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
     opened = [open_stream(job, k, paced, stall_timeout_s, firsts[k], reconnect_max_s) for k in range(len(job.inputs))]
     detectors = [detector for _, _, detector in opened]
     return local_inputs(job, SourceGroup([source for source, _, _ in opened]), [camera for _, camera, _ in opened],
-                        detectors, prefix)
+                        detectors, prefix, carried)
 
 
 def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, options=None,
@@ -167,7 +170,7 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
         if recorder is None:
             summary.files["site"] = site_report(world, site, ends_in / "site", f"ray3d live: {inputs.followed.name}",
                                                 every_s=options.every_s, start_time=options.start_time).folder
-        elif (world := this_run(world, recorder.id_prefix)) is not None:
+        elif (world := this_run(world, recorder)) is not None:
             folder = site_report(world, site, ends_in / "site", f"ray3d live: {inputs.followed.name}, run "
                                  f"{recorder.run} only", every_s=options.every_s,
                                  start_time=options.start_time).folder
@@ -179,10 +182,13 @@ def run_live_job(job: Job, inputs: LiveInputs, out_dir: str | Path, site=None, o
 COVERS = "README.txt"  # in a run's site report: what it covers, and where the report over every run is
 
 
-def this_run(world, id_prefix: str):
-    """The people of one run of a world file every run of a store appends to (their ids begin with the run's
-    ``id_prefix``); None where it has none."""
-    mine = {track: result for track, result in world.tracks.items() if track.startswith(id_prefix)}
+def this_run(world, recorder):
+    """The people of one run (``recorder``, a ``store.RunRecorder``) of a world file every run of a store appends to:
+    their ids begin with the run's ``id_prefix``, or they were in view when the run before was cut off and this one
+    took them up (``carried``); None where it has none."""
+    carried = {person.person for person in recorder.carried}
+    mine = {track: result for track, result in world.tracks.items()
+            if track.startswith(recorder.id_prefix) or track in carried}
     return dataclasses.replace(world, tracks=mine) if mine else None
 
 

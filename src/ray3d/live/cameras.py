@@ -128,16 +128,17 @@ class CameraPeople:
 
     def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int | None,
                  lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = "",
-                 floor: FloorPool | None = None):
+                 floor: FloorPool | None = None, carried=()):
         """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it;
         ``id_prefix``: written before each of its track ids (a run's number); ``floor``: the run's floor pool
-        (``Finisher``). The lifter's small-batch path is made here, before the first frame is taken (it pauses
+        (``Finisher``); ``carried``: the people in view when the run before was cut off, whose ids its first
+        tracks may take up (``FloorTracker``). The lifter's small-batch path is made here, before the first frame is taken (it pauses
         0.2 s; the stream may be running)."""
         lifter.prepare_small_batches()
         self._following = dict(camera=camera, detector=detector, lifter=lifter, fps=fps, floor=lift_options.floor,
                                max_gap_s=max_gap_s, deadline_frames=keep)
         self.id_prefix, self.gaps = id_prefix, 0
-        self.people = LivePeople(**self._following, id_prefix=id_prefix)
+        self.people = LivePeople(**self._following, id_prefix=id_prefix, carried=carried)
         self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s, floor)
         self.detector = detector
 
@@ -178,9 +179,10 @@ class LocalCameras:
 
     def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter,
                  lift_options: LiftOptions | list[LiftOptions], max_gap_s: float, min_track_s: float,
-                 id_prefix: str = ""):
+                 id_prefix: str = "", carried=()):
         """``lift_options``: one for every camera, or each camera's own (its floor), as on Ray; ``id_prefix``:
-        before every track id (a run's number: ids unique across the runs of a store)."""
+        before every track id (a run's number: ids unique across the runs of a store); ``carried``: the people in
+        view of the one camera when the run before was cut off (``CameraPeople``)."""
         self.group, self.cameras, self.name = group, cameras, group.name
         self.fps = [source.fps for source in group.sources]
         self.sources = [source.name for source in group.sources]
@@ -189,7 +191,7 @@ class LocalCameras:
         # One site, one world frame, one floor: every camera's lifts draw on every camera's people.
         self.floor = FloorPool()
         self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, max_gap_s, min_track_s,
-                                   id_prefix, self.floor)
+                                   id_prefix, self.floor, carried if len(cameras) == 1 else ())
                       for c, d, source, o in zip(cameras, detectors, group.sources, options)]
 
     def next(self) -> tuple[int, FrameResult] | None:

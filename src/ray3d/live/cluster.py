@@ -36,14 +36,14 @@ class CameraWorker:
     dropped and people postponed so far), or ``(ending, why)`` once its stream has ended, stalled or broken off."""
 
     def __init__(self, opened: Callable, lifter: Callable, lift_options, max_gap_s: float, min_track_s: float,
-                 first_index: int = 0, id_prefix: str = "", floor: RemoteFloorPool | None = None):
+                 first_index: int = 0, id_prefix: str = "", floor: RemoteFloorPool | None = None, carried=()):
         import torch
 
         torch.set_num_threads(1)
         self.source, self.camera, detector = opened(first_index=first_index)
         self.people = CameraPeople(self.camera, detector, lifter(detector.layout), self.source.fps,
                                    self.source.deadline_frames, lift_options, max_gap_s, min_track_s, id_prefix,
-                                   floor)
+                                   floor, carried)
 
     def describe(self) -> tuple:
         return self.camera, self.source.fps, self.source.name
@@ -208,7 +208,7 @@ class RayCameras:
             # A stream, or a file played at its rate, went on meanwhile; a file read as fast as it decodes waited.
             missed = int(round((time.monotonic() - worker.last_seen) * self.fps[view])) if worker.played else 0
             first = max(arguments.get("first_index", 0), worker.last_index + 1 + missed)
-            arguments.update(first_index=first, id_prefix=f"{worker.run_prefix}r{worker.restarts}-")
+            arguments.update(first_index=first, id_prefix=f"{worker.run_prefix}r{worker.restarts}-", carried=())
             worker.actor = self._remote.remote(**arguments)
             self._in_flight[worker.actor.step.remote()] = view
             line = (f"{worker.name}: its camera worker stopped after frame {worker.last_index} and was started "

@@ -66,10 +66,12 @@ class LivePeople:
 
     def __init__(self, camera: Camera, detector: PoseDetector, lifter: Lifter, fps: float,
                  floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 3.0,
-                 refine_window_s: float = 20.0, deadline_frames: float | None = 2.0, id_prefix: str = ""):
+                 refine_window_s: float = 20.0, deadline_frames: float | None = 2.0, id_prefix: str = "",
+                 carried=()):
         self.deadline_s = None if deadline_frames is None else deadline_frames / fps
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
-        self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES, id_prefix=id_prefix)
+        self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES, id_prefix=id_prefix,
+                                    carried=carried)
         self.config = RefineConfig.for_model(lifter.document, detector.layout)
         self.refine_every = max(1, int(round(refine_every_s * fps)))
         self.window = max(2, int(round(refine_window_s * fps)))

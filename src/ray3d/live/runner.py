@@ -35,6 +35,7 @@ from ray3d.site.analytics import TimeBuckets
 from ray3d.live.views import Views
 from ray3d.site.events import SiteMonitor
 from ray3d.site.places import Site
+from ray3d.video.tracking import CLAIM_S
 
 ENDINGS = ("ended", "stalled", "broke off", "stopped", "until")
 LATEST_EVENTS = 20  # events the page shows
@@ -313,7 +314,10 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         views = Views(cameras, out_dir, offsets_s, recorder)
     except InputError as err:
         _refused(cameras, err)
-    monitor = SiteMonitor(site, views.fps)
+    # The people a run cut off left in view go on where its tracker takes them up; those it has not after its
+    # first seconds (and a margin for the frames held before they settle) are ended where they were left.
+    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else ())
+    giving_up_frames, first_settled = int(round((CLAIM_S + 2.0) * views.fps)), None
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
@@ -353,10 +357,15 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     mqtt.health(keeping.state())
                 settled, persons, leaving = views.take(view, result)
                 events = [event for frame in settled for event in outputs.settle(frame)]
+                if settled and monitor.carrying:
+                    first_settled = settled[0][0] if first_settled is None else first_settled
+                    if settled[-1][0] > first_settled + giving_up_frames:
+                        events += monitor.give_up()
                 for person in leaving:
                     events += monitor.ended(person)
                     trails.pop(person, None)
                 outputs.emit(events)
+                views.recorded(view, result)
                 for person in persons:
                     trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * views.fps))))
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
@@ -373,6 +382,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         settled, leaving = views.finish()
         for frame in settled:
             outputs.emit(outputs.settle(frame))
+        outputs.emit(monitor.give_up())
         for person, _ in leaving:
             outputs.emit(monitor.ended(person))
         keeping.finish()

@@ -68,7 +68,6 @@ class Views:
         two frames later): a person's first moments are counted as one camera counts them."""
         self._write(view, result.done)
         if self.recorder is not None:
-            self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
             if result.gap is not None:  # on the stream's clock, as the events are
                 before, after = (self.recorder.origin + self.time_s(view, index) for index in result.gap)
                 self.recorder.gap(self.cameras.names[view], before, after, "the stream was down")
@@ -84,6 +83,12 @@ class Views:
         self._hold(index, persons)
         self._hold_decided()
         return self._settle(index - self._hold_frames), persons, self._ended(time_s)
+
+    def recorded(self, view: int, result: FrameResult) -> None:
+        """This camera's processed frame recorded, once its events are handed to the store: a run cut off after
+        the store's commit is taken up at the next frame, with every event of this one."""
+        if self.recorder is not None:
+            self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
 
     def _hold(self, index: int, persons: list[PersonNow], replace: bool = True) -> None:
         """``persons`` in frame ``index`` until it is settled (too late for a frame settled already); without

@@ -65,6 +65,35 @@ class Event(dict):
         return _event_from_dict, (dict(self),)
 
 
+SERVICE_STOPPED = "the service stopped"  # the reason of the events that close what a run cut off left open
+
+
+@dataclasses.dataclass(frozen=True)
+class CarriedPerson:
+    """A person in view when a run was cut off (killed outright), whose track the next run on the store may take
+    up (``store.restart``): their id ``person``, their last ``place`` (x, y) on the floor, or None, at ``place_s``,
+    and the run's last moment ``last_s`` (both on the stream clock, which a file taken up keeps), the zones they
+    were in, each with the stream time its visit began (``visits``), and the stream time they last crossed each
+    line (``crossed``)."""
+
+    person: str
+    place: tuple[float, float] | None
+    place_s: float
+    last_s: float
+    visits: dict = dataclasses.field(default_factory=dict)
+    crossed: dict = dataclasses.field(default_factory=dict)
+
+    def closing(self) -> list[Event]:
+        """What ends them when no run takes them up: each visit's "zone left", then "track ended", at ``last_s``
+        with ``reason`` "the service stopped" (no frame saw these ends: ``frames`` is empty)."""
+        place = None if self.place is None else [round(float(v), 3) for v in self.place]
+        return [*(Event(ZONE_LEFT, self.person, round(self.last_s, 3), zone=zone, place_m=place,
+                        dwell_s=round(self.last_s - entered, 3), frames=[], reason=SERVICE_STOPPED)
+                  for zone, entered in self.visits.items()),
+                Event(TRACK_ENDED, self.person, round(self.last_s, 3), place_m=place, frames=[],
+                      reason=SERVICE_STOPPED)]
+
+
 def _event_from_dict(document: dict) -> Event:
     fields = {k: v for k, v in document.items() if k not in ("event", "track", "time_s")}
     return Event(EVENT_KINDS[document["event"]], document["track"], document["time_s"], **fields)
@@ -86,16 +115,22 @@ class _Person:
         self.falls_reported_until = -np.inf
         self.dwell_reported: set[str] = set()
         self.next_fall_check = 0.0
+        self.counted_lines: set[str] = set()  # taken up: lines crossed since their last place, counted already
 
 
 class SiteMonitor:
     """``update(frame index, {track: world joints (17, 3)})`` -> the events of that frame; ``ended(track)`` -> a
     track's last events; ``counts`` holds the entries / exits per zone and the crossings per line and direction so
-    far, ``occupants`` who is in each zone now. Track ids are strings."""
+    far, ``occupants`` who is in each zone now. Track ids are strings.
 
-    def __init__(self, site: Site, fps: float):
+    ``carried``: the people a run cut off left in view (``CarriedPerson``), whose tracks this one may take up: one
+    seen again goes on from where they were (no "track started"; their visits under way, no entry; a line crossed
+    since, counted); ``give_up()`` ends those not seen again."""
+
+    def __init__(self, site: Site, fps: float, carried=()):
         self.site, self.fps = site, fps
         self._people: dict[str, _Person] = {}
+        self._carried: dict[str, CarriedPerson] = {person.person: person for person in carried}
         self.occupants: dict[str, set[str]] = {zone.name: set() for zone in site.zones}
         self.counts = {**{zone.name: {"entered": 0, "left": 0} for zone in site.zones},
                        **{line.name: {"forward": 0, "back": 0} for line in site.lines}}
@@ -105,6 +140,8 @@ class SiteMonitor:
         for track, joints in people.items():
             place = joints[0, :2]
             state = self._people.get(track)
+            if state is None and track in self._carried:
+                state = self._people[track] = self._taken_up(self._carried.pop(track), place)
             if state is None:
                 state = self._people[track] = _Person(int(round(FALL_WINDOW_S * self.fps)))
                 events.append(Event(TRACK_STARTED, track, now, place_m=_place(place), frames=[frame_index]))
@@ -122,6 +159,32 @@ class SiteMonitor:
                 state.next_fall_check = now + FALL_CHECK_S
         return sorted(events, key=lambda e: (e["time_s"], e["track"]))
 
+    def _taken_up(self, carried: CarriedPerson, place: np.ndarray) -> _Person:
+        """A carried person's state where the run cut off left it (their last place; here, if it is unknown)."""
+        state = _Person(int(round(FALL_WINDOW_S * self.fps)))
+        state.frame = int(round(carried.place_s * self.fps))
+        state.place = place if carried.place is None else np.asarray(carried.place, dtype=float)
+        state.inside = dict(carried.visits)
+        state.counted_lines = {line for line, at in carried.crossed.items() if at >= carried.place_s}
+        for zone in state.inside:
+            self.occupants.setdefault(zone, set()).add(carried.person)
+        return state
+
+    def give_up(self) -> list[Event]:
+        """The carried people not seen again, ended where the run cut off left them (``CarriedPerson.closing``);
+        their visits' exits counted."""
+        events = [event for person in self._carried.values() for event in person.closing()]
+        for event in events:
+            if event["event"] == ZONE_LEFT.name and event["zone"] in self.counts:
+                self.counts[event["zone"]]["left"] += 1
+        self._carried.clear()
+        return events
+
+    @property
+    def carrying(self) -> set[str]:
+        """The carried people not seen again yet."""
+        return set(self._carried)
+
     def ended(self, track: str) -> list[Event]:
         """The track's end (its last frame): a fall still to be found in its last seconds, then "track ended"; a
         visit under way ends with it, unreported."""
@@ -136,7 +199,10 @@ class SiteMonitor:
     def _lines(self, track: str, state: _Person, frame_index: int, place: np.ndarray) -> list[Event]:
         events = []
         times, points = np.array([state.frame, frame_index]) / self.fps, np.stack([state.place, place])
+        counted, state.counted_lines = state.counted_lines, set()
         for line in self.site.lines:
+            if line.name in counted:  # the step from a carried person's last place crosses it again
+                continue
             for crossing in line_crossings(times, points, line):
                 self.counts[line.name][crossing["direction"]] += 1
                 events.append(Event(LINE_CROSSED, track, crossing["time_s"], line=line.name,

@@ -23,11 +23,13 @@ beside them as the events carry it.
   moved or recalibrated starts afresh) and the ``keypoints`` layout of its detector (its planted ankle's height).
 - ``behind`` (version 3): each stretch in which a run could not keep up with a camera's stream (more than 2 % of
   its frames dropped over 10 s, ``live.health``): its camera, start and end (``from_at``, ``to_at``) and the share
-  of its frames dropped over it; the counts of that time are uncertain (the store's report shades it)."""
+  of its frames dropped over it; the counts of that time are uncertain (the store's report shades it).
+- ``carried`` (version 4): the people a run cut off left in view that a later run took up with their ids (``restart``),
+  each with the run their track began in, until their track ends."""
 
 from __future__ import annotations
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 FLOOR_EVIDENCE = (
     "CREATE TABLE IF NOT EXISTS floor_evidence (run INTEGER NOT NULL, camera TEXT NOT NULL, "
@@ -42,6 +44,8 @@ BEHIND = (
     "CREATE TABLE IF NOT EXISTS behind (run INTEGER NOT NULL, camera TEXT NOT NULL, "
     "from_at DOUBLE PRECISION NOT NULL, to_at DOUBLE PRECISION NOT NULL, dropped_share DOUBLE PRECISION NOT NULL)",
 )
+
+CARRIED = ("CREATE TABLE IF NOT EXISTS carried (person TEXT PRIMARY KEY, run INTEGER NOT NULL)",)
 
 # ``{id}``: the dialect's auto-numbered primary key (SQLite's rowid alias; PostgreSQL's identity column).
 TABLES = (
@@ -66,7 +70,8 @@ TABLES = (
     "at DOUBLE PRECISION NOT NULL, origin DOUBLE PRECISION NOT NULL)",
     *FLOOR_EVIDENCE,
     *BEHIND,
+    *CARRIED,
 )
 
 # version -> the statements that take a store of that version to the next. Version 1 is the first.
-MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND}
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND, 3: CARRIED}

@@ -4,8 +4,9 @@ most the last one, and a slow or unreachable database never holds up the stream 
 wait; beyond, new rows are counted as lost and said once).
 
 Beginning, it takes the store's writer lock (``lock.WriterLock``: one live run writes a store at a time), closes
-what runs cut off left open (``restart.close_cut_off_runs``: ``closed``), reads the counts so far (``counted``),
-numbers the run, notes where each input was last recorded (closed as a gap, "the service was down", at the input's
+what runs cut off left open (``restart.take_over_cut_off_runs``: ``closed``, or ``carried``: the people in view
+then, whom this run may take up with their ids, kept in the store until their tracks end), reads the counts so far
+(``counted``), numbers the run, notes where each input was last recorded (closed as a gap, "the service was down", at the input's
 first frame of this run) and says where each file input is to be taken up again (``Resume``): the frame after the
 last one recorded, on the clock of the run that began it. What each camera's people show of the
 floor is written the same way (``floor``), and read back for the next run (``remembered_floor``)."""
@@ -23,7 +24,7 @@ from ray3d.refine.ankle_plane import SeenTwice
 from ray3d.store.database import Database, connect, shown, without_passwords
 from ray3d.store.lock import WriterLock, lock_path
 from ray3d.store.reader import remembered_floor
-from ray3d.store.restart import close_cut_off_runs, counts_so_far
+from ray3d.store.restart import counts_so_far, take_over_cut_off_runs
 
 DOWN_BETWEEN_RUNS = "the service was down"
 
@@ -63,7 +64,7 @@ class RunRecorder:
         # Whether the store already held a record of these inputs (this run appends to what they wrote).
         self.continues = bool(self._down_since)
         self.origin = self.resumes[0].origin  # every input's frame 0, one clock
-        self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0, "floor": 0, "behind": 0}
+        self.written = {"events": 0, "positions": 0, "people": 0, "gaps": 0, "floor": 0, "behind": 0, "carried": 0}
         self.lost = 0
         self._seq = 0
         self._last_at: float | None = None
@@ -72,7 +73,8 @@ class RunRecorder:
         self._second: dict[str, int] = {}
         self._pruned_at: int | None = None
         self._waiting: dict[str, list] = {"events": [], "positions": [], "people": [], "gaps": [], "floor": [],
-                                          "behind": []}
+                                          "behind": [], "carried": []}  # carried: the carried whose tracks ended
+        self._carrying = {person.person for person in self.carried}
         self._progress: dict[str, tuple[int, float]] = {}
         self._failed = False
         self._lock = threading.Lock()
@@ -85,11 +87,12 @@ class RunRecorder:
         it was begun on) and the gaps since the last run, each closed at this run's first frame of its input."""
         database, now = self._database, time.time()
         self._writer.note_holder(database)
-        self.closed = close_cut_off_runs(database)
-        self.counted = counts_so_far(database)
         previous = {source: (frame, at, first) for source, frame, at, first in database.rows(
             "SELECT source, frame, at, origin FROM progress")}
         taken_up = [previous[s] for s, is_file in zip(self.sources, files) if is_file and s in previous]
+        # One file taken up where it was left: its stream clock goes on, and so may the people in view then.
+        self.closed, self.carried = take_over_cut_off_runs(database, carry=len(self.sources) == 1 == len(taken_up))
+        self.counted = counts_so_far(database)
         clock = taken_up[0][2] if taken_up else origin if origin is not None else now
         resumes = [Resume(s, previous[s][0] + 1 if is_file and s in previous else 0, clock)
                    for s, is_file in zip(self.sources, files)]
@@ -107,13 +110,16 @@ class RunRecorder:
     # What the live loop hands over (any thread).
 
     def events(self, events: list[dict]) -> None:
-        rows = []
+        rows, ended = [], []
         for event in events:
+            if event["event"] == "track ended" and event["track"] in self._carrying:
+                ended.append((event["track"],))
             at = self.origin + float(event["time_s"])
             rows.append((self.run, self._seq, at, float(event["time_s"]), event["event"], str(event["track"]),
                          json.dumps(event)))
             self._seq += 1
         self._add("events", rows, at_most=max((r[2] for r in rows), default=None))
+        self._add("carried", ended)
 
     def positions(self, time_s: float, people, camera: str) -> None:
         """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time."""
@@ -234,6 +240,7 @@ class RunRecorder:
                       "stature_m = excluded.stature_m, stature_class = excluded.stature_class, "
                       "rejoins = excluded.rejoins", waiting["people"])
         database.many("INSERT INTO gaps (run, camera, from_at, to_at, why) VALUES (?, ?, ?, ?, ?)", waiting["gaps"])
+        database.many("DELETE FROM carried WHERE person = ?", waiting["carried"])
         database.many("INSERT INTO behind (run, camera, from_at, to_at, dropped_share) VALUES (?, ?, ?, ?, ?)",
                       waiting["behind"])
         database.many("INSERT INTO floor_evidence (run, camera, at, kind, camera_x, camera_y, camera_z, keypoints, "

@@ -34,6 +34,11 @@ _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared stan
 # the point between their ankles by more than a stride. (Not for a person missed: at a crossing the one in front
 # would take the place of the one hidden.)
 _SAME_BOX = 0.5
+# A person in view when a run was cut off is taken up by a track confirmed in the next run's first CLAIM_S
+# seconds within CLAIM_GATE_M of their last place, plus a brisk walk since it.
+CLAIM_S = 3.0
+CLAIM_GATE_M = 0.8
+CLAIM_SPEED_M_S = 2.0
 TOGETHER_M = 3.0  # two people one box may hold: side by side, or one passing a few metres behind the other
 
 
@@ -125,10 +130,13 @@ class FloorTracker:
         confirm_hits: detections before a new track counts (one-off false detections never become tracks).
         acceleration: how hard people change speed, m/s^2 (standard deviation).
         id_prefix: written before each track's number (a stream taken up again keeps apart from its old ids).
+        carried: people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``:
+            id, last place and its stream time): a track confirmed within ``CLAIM_S`` of the first frame where one of
+            them could have walked to takes up their id (the nearest), the others are numbered as usual.
     """
 
     def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5, confirm_hits: int = 3,
-                 acceleration: float = 2.0, id_prefix: str = ""):
+                 acceleration: float = 2.0, id_prefix: str = "", carried=()):
         self.camera, self.layout, self.confirm_hits, self.acceleration = camera, layout, confirm_hits, acceleration
         self.person_height = PersonScale(camera)
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
@@ -136,6 +144,8 @@ class FloorTracker:
         self._tracks: list[Track] = []
         self._confirmed = 0  # tracks confirmed so far (their ids), including those handed over by ``finished``
         self.id_prefix = id_prefix
+        self._carried = [person for person in carried if person.place is not None]
+        self._claim_until: int | None = None  # the last frame in which a carried person's id may be taken up
         self._last_frame: int | None = None
         self.frames_with_people = 0  # frames in which the detector found anybody
 
@@ -143,6 +153,8 @@ class FloorTracker:
         """Assign this frame's detections to people (``tracks()`` holds the result). Frames may be skipped
         (live use drops some): people move, and go unseen, for the frames since the last update."""
         elapsed = 1 if self._last_frame is None else max(1, frame_index - self._last_frame)
+        if self._claim_until is None:
+            self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
         self._last_frame = frame_index
         self.frames_with_people += bool(detections)
         measured = self._measure(detections, frame)
@@ -258,10 +270,25 @@ class FloorTracker:
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            person.track = Track(f"{self.id_prefix}{self._confirmed}", frames, detections, floor, person.colour,
-                                 noise)
-            self._confirmed += 1
+            track_id = self._claim(person, frame_index)
+            if track_id is None:
+                track_id = f"{self.id_prefix}{self._confirmed}"
+                self._confirmed += 1
+            person.track = Track(track_id, frames, detections, floor, person.colour, noise)
             self._tracks.append(person.track)
+
+    def _claim(self, person: _Person, frame_index: int) -> str | None:
+        """The id of the carried person nearest where ``person`` stands now, if they could have walked there since
+        they were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``) and it is still early enough; taken."""
+        if not self._carried or frame_index > self._claim_until:
+            return None
+        here, now = person.filter.statePost[:2, 0], frame_index * self.dt
+        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - carried.place_s) for carried in self._carried]
+        distance = [float(np.hypot(*(here - np.asarray(carried.place)))) for carried in self._carried]
+        within = [k for k in range(len(self._carried)) if distance[k] <= reach[k]]
+        if not within:
+            return None
+        return self._carried.pop(min(within, key=distance.__getitem__)).person
 
     def _measure(self, detections: list[Detection], frame: np.ndarray) -> list:
         """Each detection's floor point (2,), its covariance (2, 2) and (clothes colour, whether its box is clear
