@@ -97,10 +97,10 @@ def test_the_video_detectors_start_without_an_info_line(tmp_path):
     pytest.importorskip("ai_edge_litert", reason="the video extra is not installed: pip install 'ray3d[video]'")
     code = textwrap.dedent("""
         import numpy as np
-        from ray3d.video.full_frame import FullFramePeople
+        from ray3d.video.movenet import MoveNetPeople
         from ray3d.video.landmarks import BlazePoseLandmarks
         frame = np.zeros((240, 320, 3), np.uint8)
-        FullFramePeople(threads=1)(frame)
+        MoveNetPeople(threads=1)(frame)
         BlazePoseLandmarks(threads=1)(frame, np.array([[160.0, 120.0, 100.0, 0.0]]))
     """)
     log = tmp_path / "log"

@@ -26,6 +26,15 @@ def box_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return inter / np.maximum(area_a[:, None] + area_b[None] - inter, 1e-9)
 
 
+def whole_person(box: np.ndarray) -> np.ndarray:
+    """(..., 4) boxes of a person's keypoints (eyes to ankles) -> (..., 4) the whole person's: a tenth of the height
+    over the eyes, a twentieth under the ankles, a tenth of the width either side."""
+    box = np.asarray(box, dtype=np.float64)
+    tall, wide = box[..., 3] - box[..., 1], box[..., 2] - box[..., 0]
+    return np.stack([box[..., 0] - 0.1 * wide, box[..., 1] - 0.1 * tall, box[..., 2] + 0.1 * wide,
+                     box[..., 3] + 0.05 * tall], axis=-1)
+
+
 def box_inside(inner: np.ndarray, outer: np.ndarray) -> float:
     """The share of box ``inner`` (4,) that lies inside box ``outer`` (4,)."""
     return float(_intersection(inner, outer) / max(float(np.prod(inner[2:] - inner[:2])), 1e-9))

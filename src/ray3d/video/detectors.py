@@ -20,7 +20,6 @@ import dataclasses
 import functools
 import time
 from collections import deque
-from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -29,13 +28,17 @@ from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
-from ray3d.video.boxes import box_overlap
-from ray3d.video.movenet import MoveNetPeople
+from ray3d.video.boxes import box_overlap, whole_person
+from ray3d.video.movenet import MoveNetPeople, as_blazepose, person_regions
 from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
 
 
 EMPTY_MEMORY = 10  # looks (about five frames) over which a region that held nobody is remembered
+# A person the finder found counts as posed by the landmark network where a pose's whole-person box overlaps theirs
+# this much; one not posed needs this many of the finder's own keypoints seen to stand in.
+UNPOSED_OVERLAP = 0.4
+MIN_UNPOSED_JOINTS = 8
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,9 +81,9 @@ class PeopleDetector:
         camera: the video's camera; its geometry says how tall a person looks at each floor pixel.
         min_score: the landmark network's person score below which a crop holds nobody.
         threads: CPU threads for the networks.
-        finder: a full-frame person finder (``finder(frame)`` -> (N, 4) landmark regions and (N,) scores:
-            ``MoveNetPeople``, ``FullFramePeople``), also looked in where it finds somebody (``combined``); None:
-            motion and the previous frame only (``people``).
+        finder: the full-frame person finder (``MoveNetPeople``): looked in where it finds somebody
+            (``combined``), its own keypoints standing in for a person whose crop gave the landmark network nobody;
+            None: motion and the previous frame only (``people``).
         full_frame_every: run the finder on every n-th frame only (the people it found are followed from frame
             to frame anyway; somebody new who stands still is found up to n - 1 frames later).
 
@@ -93,13 +96,13 @@ class PeopleDetector:
     layout = BLAZEPOSE33.name
 
     def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2,
-                 finder: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
+                 finder: MoveNetPeople | None = None,
                  full_frame_every: int = 1):
         self.camera, self.min_score, self.full_frame_every = camera, min_score, max(1, int(full_frame_every))
         self._frames_seen = 0
         self.name = "combined" if finder is not None else "people"
         self._landmarks = BlazePoseLandmarks(threads)
-        self._full_frame = finder
+        self._finder = finder
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
         self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
@@ -120,9 +123,11 @@ class PeopleDetector:
         started = time.perf_counter()
         followed = self._previous + self._left_out
         known = as_regions([self._region_around(d) for d in followed])
-        looks_whole = self._full_frame is not None and self._frames_seen % self.full_frame_every == 0
+        looks_whole = self._finder is not None and self._frames_seen % self.full_frame_every == 0
         self._frames_seen += 1
-        whole = self._full_frame(frame)[0] if looks_whole else as_regions([])
+        seen_whole = self._finder.found(frame) if looks_whole else (np.zeros((0, 4)), np.zeros((0, 17, 3)),
+                                                                          np.zeros(0))
+        whole = person_regions(*seen_whole[:2])
         new = whole[~_near(whole, known)]
         blobs = self._proposals.blobs(frame)
         proposed = as_regions(self._proposals.split_blobs(blobs))
@@ -143,6 +148,7 @@ class PeopleDetector:
         if found:
             explained = np.stack([d.box for d in found + left_out])
             found += self._look(frame, self._proposals.unexplained(blobs, explained))
+        found += self._unposed(*seen_whole, found + left_out)
         self._previous = _without_duplicates(found)
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
@@ -172,9 +178,24 @@ class PeopleDetector:
             self._crop_s += 0.1 * (per_crop - self._crop_s)
         self._empty.append(as_regions(regions)[scores < self.min_score])
         vouched = np.zeros(len(regions), bool) if vouched is None else vouched
-        found = [(Detection(p, c, float(s), f if self._full_frame is not None else None), v)
+        found = [(Detection(p, c, float(s), f if self._finder is not None else None), v)
                  for p, c, s, f, v in zip(pixels, confidences, scores, following, vouched) if s >= self.min_score]
         return [d for d, v in found if self._person_sized(d, v)]
+
+    def _unposed(self, boxes: np.ndarray, keypoints: np.ndarray, scores: np.ndarray,
+                 posed: list[Detection]) -> list[Detection]:
+        """The people the finder found whose crops gave the landmark network nobody there (partly hidden, in a
+        crowd, small), each with the finder's own keypoints (``movenet.as_blazepose``) and its region for the next
+        frame's crop."""
+        if not len(boxes):
+            return []
+        if posed:
+            covered = box_overlap(boxes, whole_person(np.stack([d.box for d in posed]))).max(axis=1) >= UNPOSED_OVERLAP
+            boxes, keypoints, scores = boxes[~covered], keypoints[~covered], scores[~covered]
+        pixels, confidences = as_blazepose(keypoints)
+        regions = person_regions(boxes, keypoints)
+        found = [Detection(p, c, float(s), r) for p, c, s, r in zip(pixels, confidences, scores, regions)]
+        return [d for d in found if (d.confidences >= 0.5).sum() >= MIN_UNPOSED_JOINTS and self._person_sized(d, True)]
 
     def _region_around(self, detection: Detection) -> np.ndarray:
         """(4,) the crop region (centre u, centre v, side, rotation) for looking again at a person found in the last

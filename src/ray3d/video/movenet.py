@@ -19,6 +19,7 @@ import numpy as np
 
 from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
+from ray3d.skeleton import BLAZEPOSE33, COCO17
 from ray3d.video.boxes import box_inside, box_overlap
 from ray3d.video.landmarks import as_regions, upright_rotation
 from ray3d.video.proposals import ROI_MARGIN
@@ -28,6 +29,9 @@ PEOPLE_PER_PASS = 6
 KEYPOINTS = 17
 MIN_SCORE = 0.15            # the person score (MoveNet's box score) below which a box holds nobody
 MIN_KEYPOINT_SCORE = 0.3    # a keypoint this sure orients the crop
+# MoveNet's keypoint scores are not BlazePose's visibilities: one of SEEN_SCORE or more is a keypoint seen (MoveNet's
+# own demos draw from 0.1-0.3), which the video pipeline's confidences put at 0.5.
+SEEN_SCORE = 0.25
 SAME_PERSON_OVERLAP = 0.5   # two tiles' boxes overlapping this much (IoU), or one mostly inside the other: one person
 TILE_OVERLAP = 0.25
 # COCO-17 indices: the shoulders and hips, whose midpoints stand the crop upright as MediaPipe frames a person.
@@ -99,6 +103,26 @@ def person_regions(boxes: np.ndarray, keypoints: np.ndarray) -> np.ndarray:
     sure = (keypoints[:, HIPS + SHOULDERS, 2] >= MIN_KEYPOINT_SCORE).all(axis=1)
     rotation = np.where(sure, upright_rotation(hips, shoulders), 0.0) if len(boxes) else np.zeros(0)
     return as_regions(np.column_stack([centre, side, rotation]))
+
+
+def as_blazepose(keypoints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 17, 3) COCO-17 keypoints (u, v, MoveNet's score) -> (N, 33, 2) pixels and (N, 33) confidences in
+    BlazePose-33's layout (the video pipeline's): the 17 where BlazePose has them, their scores mapped so that
+    ``SEEN_SCORE`` is 0.5; BlazePose's other points (hands, feet, eyes' corners, mouth) at their parent's pixel,
+    unseen (confidence 0)."""
+    keypoints = np.asarray(keypoints, dtype=np.float64).reshape(-1, len(COCO17.joint_names), 3)
+    pixels = np.zeros((len(keypoints), BLAZEPOSE33.num_joints, 2))
+    confidences = np.zeros((len(keypoints), BLAZEPOSE33.num_joints))
+    score = keypoints[..., 2]
+    mapped = np.where(score >= SEEN_SCORE, 0.5 + 0.5 * (score - SEEN_SCORE) / (1 - SEEN_SCORE),
+                      0.5 * score / SEEN_SCORE)
+    for coco, name in enumerate(COCO17.joint_names):
+        pixels[:, BLAZEPOSE33.index(name)] = keypoints[:, coco, :2]
+        confidences[:, BLAZEPOSE33.index(name)] = mapped[:, coco]
+    for joint, parent in enumerate(BLAZEPOSE33.parents):  # parents come before their children
+        if BLAZEPOSE33.joint_names[joint] not in COCO17.joint_names:
+            pixels[:, joint] = pixels[:, parent]
+    return pixels, confidences
 
 
 class MoveNetPeople:

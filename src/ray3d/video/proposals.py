@@ -1,7 +1,7 @@
 """Where people may be in a frame of a fixed camera: moving foreground (OpenCV's MOG2 background model), cut
 into person-sized boxes with the camera's geometry (how tall a person standing at a floor pixel looks).
 
-People far away are 60-130 px tall, too small for MediaPipe's full-frame detector but found by background
+People far away are 60-130 px tall, too small for the full-frame finder at its input size but found by background
 subtraction; a blob of two people walking side by side or one behind the other is split where its size says
 it holds more than one person."""
 
