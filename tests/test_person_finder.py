@@ -13,8 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ray3d.errors import InputError
-from ray3d.video.movenet import (MODEL_FILE, PEOPLE_PER_PASS, ROI_MARGIN, TILE_OVERLAP, decode, input_shape,
-                                 once_each, person_regions, tile_boxes)
+from ray3d.skeleton import BLAZEPOSE33, COCO17
+from ray3d.video.boxes import whole_person
+from ray3d.video.movenet import (MODEL_FILE, PEOPLE_PER_PASS, ROI_MARGIN, SEEN_SCORE, TILE_OVERLAP, as_blazepose,
+                                 decode, input_shape, once_each, person_regions, tile_boxes)
 
 # The float16 MoveNet MultiPose Lightning file as Google published it (TF Hub lite-model/movenet/multipose/lightning/
 # tflite/float16/1, Apache-2.0), byte for byte: we ship it unchanged.
@@ -97,6 +99,28 @@ def test_regions_hold_the_person_and_stand_a_sure_lying_body_upright():
     assert person_regions(np.zeros((0, 4)), np.zeros((0, 17, 3))).shape == (0, 4)
 
 
+def test_the_finders_keypoints_stand_in_blazepose_layout_seen_where_movenet_sees_them():
+    keypoints = np.zeros((1, 17, 3))
+    keypoints[0, :, 0], keypoints[0, :, 1] = np.arange(17) * 10.0, 100.0 + np.arange(17)
+    keypoints[0, :, 2] = np.linspace(0.0, 1.0, 17)
+    pixels, confidences = as_blazepose(keypoints)
+    assert pixels.shape == (1, BLAZEPOSE33.num_joints, 2) and confidences.shape == (1, BLAZEPOSE33.num_joints)
+    for coco, name in enumerate(COCO17.joint_names):
+        np.testing.assert_allclose(pixels[0, BLAZEPOSE33.index(name)], keypoints[0, coco, :2])
+    heel, ankle = BLAZEPOSE33.index("l_heel"), BLAZEPOSE33.index("l_ankle")
+    np.testing.assert_allclose(pixels[0, heel], pixels[0, ankle])  # at its parent, unseen
+    assert confidences[0, heel] == 0.0
+    mapped = as_blazepose(np.array([[[0, 0, s]] * 17 for s in (0.0, SEEN_SCORE, 1.0)]))[1]
+    np.testing.assert_allclose(mapped[:, BLAZEPOSE33.index("nose")], [0.0, 0.5, 1.0])  # seen from SEEN_SCORE on
+    scores = np.linspace(0, 1, 50)
+    assert np.all(np.diff(as_blazepose(np.array([[[0, 0, s]] * 17 for s in scores]))[1][:, 0]) > 0)  # monotone
+
+
+def test_a_keypoint_box_grows_to_the_whole_person():
+    np.testing.assert_allclose(whole_person(np.array([100.0, 200.0, 120.0, 300.0])), [98, 190, 122, 305])
+    assert whole_person(np.zeros((3, 2, 4))).shape == (3, 2, 4)
+
+
 needs_litert = pytest.mark.skipif(importlib.util.find_spec("ai_edge_litert") is None,
                                   reason="the video extra is not installed: pip install 'ray3d[video]'")
 
@@ -113,3 +137,32 @@ def test_the_finder_runs_on_any_frame_and_tile_and_refuses_bad_sizes():
     for bad in ({"input_size": 100}, {"tiles": (0, 1)}):
         with pytest.raises(InputError):
             MoveNetPeople(threads=1, **bad)
+
+
+@needs_litert
+def test_a_person_the_finder_sees_whose_crop_shows_the_landmark_network_nobody_is_found_by_the_finders_pose():
+    """A grey frame holds nobody the landmark network can pose; a finder that saw a person there (MoveNet's output,
+    scripted) makes them a detection with its own keypoints, seen where it saw them; one it saw with too few
+    keypoints, or the size of no person standing there, stays out."""
+    from ray3d import Camera
+    from ray3d.video.detectors import PeopleDetector
+
+    camera = Camera.from_height_pitch(3.0, 15.0, (640, 480), hfov_deg=70.0)
+    foot = camera.project(np.array([[6.0, 0.0, 0.0]]))[0]
+    tall = float(np.linalg.norm(camera.project(np.array([[6.0, 0.0, 1.7]]))[0] - foot))
+    keypoints = np.zeros((3, 17, 3))
+    for person, (shift, seen, size) in enumerate(((0.0, 0.9, 1.0), (150.0, 0.1, 1.0), (-150.0, 0.9, 4.0))):
+        ys = foot[1] - size * tall * np.linspace(1.0, 0.05, 17)
+        keypoints[person] = np.column_stack([np.full(17, foot[0] + shift), ys, np.full(17, seen)])
+    boxes = np.concatenate([keypoints[..., :2].min(axis=1), keypoints[..., :2].max(axis=1)], axis=-1)
+
+    class Scripted:
+        def found(self, frame):
+            return boxes, keypoints, np.full(3, 0.5)
+
+    detector = PeopleDetector(camera, finder=Scripted())
+    found = detector(np.full((480, 640, 3), 128, np.uint8))
+    assert len(found) == 1
+    nose = BLAZEPOSE33.index("nose")
+    np.testing.assert_allclose(found[0].pixels[nose], keypoints[0, 0, :2])
+    assert found[0].confidences[nose] > 0.5 and found[0].score == 0.5

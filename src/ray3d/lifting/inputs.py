@@ -78,7 +78,11 @@ def checked_keypoints(keypoints, confidences, skeleton: Skeleton,
 def stand_in_for_unseen(pixels: np.ndarray, never_seen: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(T, J, 2) pixels of ``skeleton`` with each joint ``never_seen`` (J,) placed on its parent (parents come
     first), as training simulates a detector's miss: the network then predicts it from the rest of the body,
-    and the output flags it as filled in."""
+    and the output flags it as filled in. The person's root must have been seen: an ``InputError`` otherwise
+    (there is nothing to place them by)."""
+    if never_seen[0]:
+        raise InputError(f"keypoints: the root ({skeleton.joint_names[0]}, or both hips) is missing in every frame "
+                         "so far (NaN or confidence 0): there is nothing to place the person by")
     pixels = pixels.copy()
     for joint, parent in enumerate(skeleton.parents):
         if never_seen[joint] and parent >= 0:
@@ -158,9 +162,6 @@ def prepare_track(keypoints: np.ndarray, camera: Camera, confidences, fps: float
         convert_keypoints(keypoints, skeleton, confidences)
     check_feet_below_horizon(h36m_pixels, h36m_found, camera)
     never_seen = ~found.any(axis=0)
-    if never_seen[0]:
-        raise InputError(f"keypoints: the root ({inputs.joint_names[0]}, or both hips) is missing in every frame "
-                         "(NaN or confidence 0): there is nothing to place the person by")
     input_fps = fps or MODEL_FPS
     seen_pixels = temporal.fill_missing(pixels, ~found)
     pixels = temporal.smooth(stand_in_for_unseen(seen_pixels, never_seen, inputs), smooth_2d, input_fps)

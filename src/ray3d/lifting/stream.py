@@ -7,7 +7,7 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.lifting.inputs import MODEL_FPS, camera_rays, checked_keypoints, model_inputs
+from ray3d.lifting.inputs import MODEL_FPS, camera_rays, checked_keypoints, model_inputs, stand_in_for_unseen
 from ray3d.skeleton import layout_skeleton
 
 
@@ -99,12 +99,7 @@ class LiftStream:
         keypoints, confidences = checked_keypoints(keypoints, confidences, self.skeleton)
         pixels, seen, scores = model_inputs(keypoints, self.skeleton, confidences, self.inputs)
         self._last_seen = np.where(seen[:, None], pixels, self._last_seen)
-        filled = self._last_seen.copy()
-        if np.isnan(filled[0]).any():
-            raise InputError("keypoints: the root (pelvis, or both hips) has not been seen yet")
-        for joint, parent in enumerate(self.inputs.parents):  # parents come before their children
-            if parent >= 0 and np.isnan(filled[joint]).any():
-                filled[joint] = filled[parent]
+        filled = stand_in_for_unseen(self._last_seen[None], np.isnan(self._last_seen).any(axis=-1), self.inputs)[0]
         return filled, scores
 
     def _append(self, pixels: np.ndarray, scores: np.ndarray) -> None:
