@@ -15,12 +15,18 @@ NAMES = ("pelvis", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle", "
          "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow", "r_wrist")
 BVH_TO_WORLD = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # y up -> z up (row vectors)
 
-root = bvhio.readAsHierarchy(sys.argv[1])
-lifted = np.load(sys.argv[2])
-worst = 0.0
-for frame in range(len(lifted)):
-    root.loadPose(frame)
-    joints = {joint.Name: joint for joint, _, _ in root.layout()}
-    positions = np.array([list(joints[name].PositionWorld) for name in NAMES]) @ BVH_TO_WORLD
-    worst = max(worst, float(np.abs(positions - lifted[frame]).max()))
-print(f"{sys.argv[1]}: {len(lifted)} frames, largest joint coordinate difference {1e3 * worst:.4f} mm")
+
+def main() -> None:
+    root = bvhio.readAsHierarchy(sys.argv[1])
+    lifted = np.load(sys.argv[2])
+    worst = 0.0
+    for frame in range(len(lifted)):
+        root.loadPose(frame)
+        joints = {joint.Name: joint for joint, _, _ in root.layout()}
+        positions = np.array([list(joints[name].PositionWorld) for name in NAMES]) @ BVH_TO_WORLD
+        worst = max(worst, float(np.abs(positions - lifted[frame]).max()))
+    print(f"{sys.argv[1]}: {len(lifted)} frames, largest joint coordinate difference {1e3 * worst:.4f} mm")
+
+
+if __name__ == "__main__":
+    main()

@@ -22,31 +22,37 @@ from ray3d.lifting.lifter import Lifter
 BINS_M = (0.0, 4.0, 8.0, 16.0, 30.0, 60.0)
 NEAR_M = 8.0
 
-checkpoint, out = sys.argv[1], sys.argv[2]
-lifter, motion = Lifter.load(checkpoint), load_shipped(None, "test")
-rows = [r for cameras in ("level-test", "far-test") for r in run(lifter, motion, cameras=grid(cameras), seed=1)
-        if "refused" not in r]
-distance = np.array([r["network_predicted_distance_m"] for r in rows])
-shared = np.array([r["network_distance_error"] for r in rows])
-spread = np.array([r["network_distance_error_frame_sd"] for r in rows])
-table = []
-for low, high in zip(BINS_M[:-1], BINS_M[1:]):
-    inside = (distance >= low) & (distance < high)
-    if inside.sum() >= 5:
-        table.append({"from_m": low, "to_m": high, "pairs": int(inside.sum()),
-                      "median_distance_m": float(np.median(distance[inside])),
-                      "shared_rms": float(np.sqrt(np.mean(shared[inside] ** 2))),
-                      "frame_sd": float(np.median(spread[inside]))})
-# The frames' spread falls with the distance here (4-5 % near, 1 % far), where the refinement's form a + b d
-# grows: a is the near tracks' median (where the refinement leans on the network most), b = 0.
-near = float(np.median(spread[distance < NEAR_M]))
-result = {"checkpoint": checkpoint, "pairs": len(rows), "bins": table,
-          "uncertainty": {"depth_bias_sd": [[round(b["median_distance_m"], 1), round(b["shared_rms"], 4)]
-                                            for b in table],
-                          "depth_sd": [round(near, 4), 0.0]}}
-with open(out, "w") as handle:
-    json.dump(result, handle, indent=1)
-for b in table:
-    print(f"{b['from_m']:>4.0f}-{b['to_m']:<4.0f} m  {b['pairs']:>4} pairs  shared rms {100 * b['shared_rms']:.1f} %  "
-          f"frame sd {100 * b['frame_sd']:.1f} %")
-print(json.dumps(result["uncertainty"]))
+
+def main() -> None:
+    checkpoint, out = sys.argv[1], sys.argv[2]
+    lifter, motion = Lifter.load(checkpoint), load_shipped(None, "test")
+    rows = [r for cameras in ("level-test", "far-test") for r in run(lifter, motion, cameras=grid(cameras), seed=1)
+            if "refused" not in r]
+    distance = np.array([r["network_predicted_distance_m"] for r in rows])
+    shared = np.array([r["network_distance_error"] for r in rows])
+    spread = np.array([r["network_distance_error_frame_sd"] for r in rows])
+    table = []
+    for low, high in zip(BINS_M[:-1], BINS_M[1:]):
+        inside = (distance >= low) & (distance < high)
+        if inside.sum() >= 5:
+            table.append({"from_m": low, "to_m": high, "pairs": int(inside.sum()),
+                          "median_distance_m": float(np.median(distance[inside])),
+                          "shared_rms": float(np.sqrt(np.mean(shared[inside] ** 2))),
+                          "frame_sd": float(np.median(spread[inside]))})
+    # The frames' spread falls with the distance here (4-5 % near, 1 % far), where the refinement's form a + b d
+    # grows: a is the near tracks' median (where the refinement leans on the network most), b = 0.
+    near = float(np.median(spread[distance < NEAR_M]))
+    result = {"checkpoint": checkpoint, "pairs": len(rows), "bins": table,
+              "uncertainty": {"depth_bias_sd": [[round(b["median_distance_m"], 1), round(b["shared_rms"], 4)]
+                                                for b in table],
+                              "depth_sd": [round(near, 4), 0.0]}}
+    with open(out, "w") as handle:
+        json.dump(result, handle, indent=1)
+    for b in table:
+        print(f"{b['from_m']:>4.0f}-{b['to_m']:<4.0f} m  {b['pairs']:>4} pairs  "
+              f"shared rms {100 * b['shared_rms']:.1f} %  frame sd {100 * b['frame_sd']:.1f} %")
+    print(json.dumps(result["uncertainty"]))
+
+
+if __name__ == "__main__":
+    main()

@@ -15,17 +15,6 @@ from ray3d import cameras
 from ray3d.demo import demo_clip
 from ray3d.lifting.lifter import Lifter
 
-parser = argparse.ArgumentParser()
-parser.add_argument("--model", default="ray3d")
-parser.add_argument("--backends", nargs="+", default=["torch", "torchscript"])
-parser.add_argument("--threads", type=int, default=2)
-parser.add_argument("--frames", type=int, default=300)
-args = parser.parse_args()
-torch.set_num_threads(args.threads)
-
-camera = cameras.h36m("S9", "54138969")
-pixels = camera.project(demo_clip()[:args.frames])
-
 
 def median_ms(call, items) -> float:
     times = []
@@ -36,7 +25,23 @@ def median_ms(call, items) -> float:
     return 1e3 * float(np.median(times[20:]))  # the first 20: warm-up
 
 
-print(f"pixels -> rays, one frame: {median_ms(camera.pixels_to_rays, pixels):.3f} ms")
-for backend in args.backends:
-    stream = Lifter.load(args.model, backend=backend).stream(camera)
-    print(f"{args.model} {backend}: push {median_ms(stream.push, pixels):.2f} ms")
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--model", default="ray3d")
+    parser.add_argument("--backends", nargs="+", default=["torch", "torchscript"])
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--frames", type=int, default=300)
+    args = parser.parse_args()
+    torch.set_num_threads(args.threads)
+
+    camera = cameras.h36m("S9", "54138969")
+    pixels = camera.project(demo_clip()[:args.frames])
+
+    print(f"pixels -> rays, one frame: {median_ms(camera.pixels_to_rays, pixels):.3f} ms")
+    for backend in args.backends:
+        stream = Lifter.load(args.model, backend=backend).stream(camera)
+        print(f"{args.model} {backend}: push {median_ms(stream.push, pixels):.2f} ms")
+
+
+if __name__ == "__main__":
+    main()

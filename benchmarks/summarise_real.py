@@ -11,16 +11,23 @@ from pathlib import Path
 import numpy as np
 from refine_sweep import share_of_distance
 
-folder = Path(sys.argv[1])
-rows = {}
-for path in sorted(folder.glob("*@*.json")):
-    model, cameras = path.stem.split("@", 1)
-    rows.setdefault(model, {})[cameras] = json.loads(path.read_text())
-print("| model | cameras | pairs | Abs-MPJPE | MRPE | MRPE / distance (median over cameras) | MRPE spread over cameras |")
-print("|---|---|---|---|---|---|---|")
-for model, sets in rows.items():
-    for cameras, r in sets.items():
-        mrpe = np.array([c["mrpe_mm"] for c in r["per_camera"].values()])
-        spread = 100 * (mrpe.max() - mrpe.min()) / mrpe.mean()
-        print(f"| {model} | {cameras} | {r['pairs']} | {r['abs_mpjpe_mm']:.1f} | {r['mrpe_mm']:.1f} | "
-              f"{100 * share_of_distance(r):.1f} % | {spread:.1f} % |")
+
+def main() -> None:
+    folder = Path(sys.argv[1])
+    rows = {}
+    for path in sorted(folder.glob("*@*.json")):
+        model, cameras = path.stem.split("@", 1)
+        rows.setdefault(model, {})[cameras] = json.loads(path.read_text())
+    print("| model | cameras | pairs | Abs-MPJPE | MRPE | MRPE / distance (median over cameras) | "
+          "MRPE spread over cameras |")
+    print("|---|---|---|---|---|---|---|")
+    for model, sets in rows.items():
+        for cameras, r in sets.items():
+            mrpe = np.array([c["mrpe_mm"] for c in r["per_camera"].values()])
+            spread = 100 * (mrpe.max() - mrpe.min()) / mrpe.mean()
+            print(f"| {model} | {cameras} | {r['pairs']} | {r['abs_mpjpe_mm']:.1f} | {r['mrpe_mm']:.1f} | "
+                  f"{100 * share_of_distance(r):.1f} % | {spread:.1f} % |")
+
+
+if __name__ == "__main__":
+    main()
