@@ -11,9 +11,10 @@ without and with the refinement (``--smooth-3d savgol`` smooths every lifted seq
 import argparse
 
 import numpy as np
+
 from ray3d import cameras, metrics
-from ray3d.data.motion import load_shipped
 from ray3d.data.detector_emulation import body_frames, detector_points, offset_joints
+from ray3d.data.motion import load_shipped
 from ray3d.data.virtual_cameras import centre_clip
 from ray3d.lifting.lifter import Lifter
 from ray3d.skeleton import COCO17
@@ -36,7 +37,8 @@ def main() -> None:
             e = {"h36m17": [], "coco17": [], "coco17 noisy": []}
             for cam in cams:
                 for clip in clips:
-                    if not cam.sees(clip): continue
+                    if not cam.sees(clip):
+                        continue
                     coco = detector_points(clip, COCO17)
                     offsets = rng.normal(0.0, 0.03, (1, 17, 3))  # per joint, in the body frame, fixed over the clip
                     moved = offset_joints(coco[None], body_frames(clip)[None], offsets, COCO17)[0]

@@ -19,15 +19,15 @@ import cv2
 import numpy as np
 
 from ray3d import InputError, cameras
-from ray3d.demo import demo_clip
 from ray3d.batch import read_manifest
 from ray3d.checkpoints import load_model, resolve
+from ray3d.data.bvh import read_bvh
+from ray3d.demo import demo_clip
 from ray3d.io.camera_files import read_camera, read_floor, save_cameras
-from ray3d.site.files import read_site
 from ray3d.io.floor_points import read_floor_points
 from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
-from ray3d.data.bvh import read_bvh
 from ray3d.io.world import LiftResult, World, read_world, write_world
+from ray3d.site.files import read_site
 
 
 def seeds(folder: Path) -> dict[Path, object]:

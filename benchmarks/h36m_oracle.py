@@ -2,14 +2,16 @@
 
 Usage: python benchmarks/h36m_oracle.py [MODEL] [CAMERA_SET]; every 16th frame, test performers, GT 2D."""
 import sys
+
 import numpy as np
+
 import ray3d.evaluate as ev
 from ray3d import metrics
 from ray3d.checkpoints import load_model
+from ray3d.data.virtual_cameras import centre_clip, grid
 from ray3d.models.inference import inference_network
-from ray3d.data.virtual_cameras import grid, centre_clip
-from ray3d.temporal import sequence_windows
 from ray3d.refine import joint_directions, refine_track
+from ray3d.temporal import sequence_windows
 
 
 def main() -> None:
@@ -25,13 +27,15 @@ def main() -> None:
     ratios = []
     for camera in grid(sets):
         seen = [i for i, c in enumerate(clips) if camera.sees(c)]
-        if not seen: continue
+        if not seen:
+            continue
         stacked = np.concatenate([windows[i] for i in seen])
         pred, pix = ev.predict_windows(model, stacked, camera, return_pixels=True)
         truth_all = stacked[:, window.target]
         b = np.cumsum([0] + [len(windows[i]) for i in seen])
         for k, i in enumerate(seen):
-            tr = slice(b[k], b[k+1]); truth = truth_all[tr]
+            tr = slice(b[k], b[k+1])
+            truth = truth_all[tr]
             rays = joint_directions(camera, pix[tr], model.config.input_skeleton)
             ref, info = refine_track(pred[tr], camera, float(motion.clips["fps"][i]) / stride, rays)
             r = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
@@ -40,8 +44,10 @@ def main() -> None:
             res["base"].append(metrics.abs_mpjpe(ref, truth, reduction="none"))
             res["rays"].append(metrics.abs_mpjpe(on, truth, reduction="none"))
             # oracle single scale about the camera centre (fit root distance)
-            d_p = np.linalg.norm(on[:, 0] - C, axis=-1); d_t = np.linalg.norm(truth[:, 0] - C, axis=-1)
-            s = np.median(d_t / d_p); ratios.append(s)
+            d_p = np.linalg.norm(on[:, 0] - C, axis=-1)
+            d_t = np.linalg.norm(truth[:, 0] - C, axis=-1)
+            s = np.median(d_t / d_p)
+            ratios.append(s)
             res["oracle_scale"].append(metrics.abs_mpjpe(C + s * (on - C), truth, reduction="none"))
             # oracle root: shift the whole pose so root matches truth
             res["oracle_root"].append(metrics.abs_mpjpe(on - on[:, :1] + truth[:, :1], truth, reduction="none"))

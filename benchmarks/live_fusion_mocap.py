@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fusion_mocap import (FPS, cameras, crossing_people, identity_switches, scene_arguments,  # noqa: E402
-                          seen, test_walks)
+from fusion_mocap import FPS, cameras, crossing_people, identity_switches, scene_arguments, seen, test_walks  # noqa: E402
 
 from ray3d import Lifter  # noqa: E402
 from ray3d.fusion.live import LiveFusion  # noqa: E402

@@ -20,10 +20,10 @@ from pathlib import Path
 import numpy as np
 
 from ray3d.io.camera_files import read_camera
-from ray3d.site.files import read_site
 from ray3d.lifting.lifter import Lifter
 from ray3d.live.runner import LiveOptions, run_live
 from ray3d.live.source import FrameSource, _opened
+from ray3d.site.files import read_site
 from ray3d.store import RunRecorder, read_record
 from ray3d.video import make_detector
 

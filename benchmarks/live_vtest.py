@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from ray3d.io.camera_files import read_camera
-from ray3d.site.files import read_site
 from ray3d.io.world import read_world
 from ray3d.lifting.lifter import Lifter
 from ray3d.live.runner import LiveOptions, run_live
 from ray3d.live.source import FrameSource
+from ray3d.site.files import read_site
 from ray3d.video import make_detector
 
 

@@ -33,14 +33,13 @@ import numpy as np
 from tqdm import tqdm
 
 from ray3d.io.camera_files import read_camera
+from ray3d.lifting.options import VideoOptions
+from ray3d.skeleton import BLAZEPOSE33
 from ray3d.video import make_detector, read_frames, read_video_info
 from ray3d.video.detectors import Detection
 from ray3d.video.frames import camera_for_video, spread_frames
-from ray3d.lifting.options import VideoOptions
-from ray3d.skeleton import BLAZEPOSE33
 from ray3d.video.pipeline import CONFIRM_FRAMES, follow_people
 from ray3d.video.tracking import FloorTracker
-
 
 
 def detect(video: Path, camera_path: Path, out: Path) -> None:

@@ -13,15 +13,24 @@ from hypothesis import strategies as st
 
 from ray3d import Camera, Lifter
 from ray3d.bench.real_video import emulated_detections
-from ray3d.body import ADULT_BODY_SIZE_M, body_sizes, lowest_ankle_height
+from ray3d.body import ADULT_BODY_SIZE_M, POPULATION_SIZE_SD, body_sizes, lowest_ankle_height
 from ray3d.data.samples import scale_bones
 from ray3d.demo import demo_clip
 from ray3d.errors import InputError
 from ray3d.geometry.floor import Floor, FloorRegion
-from ray3d.body import POPULATION_SIZE_SD
-from ray3d.refine.ankle_plane import (APPLY_CHANCE, PRIOR_CHANCE_OFF, PRIOR_SD_M, AnklePlane, PlaneObservation,
-                                      SizeEvidence, decide_ankle_plane, given_ankle_plane, observe_ankle_plane,
-                                      observe_plane, size_evidence)
+from ray3d.refine.ankle_plane import (
+    APPLY_CHANCE,
+    PRIOR_CHANCE_OFF,
+    PRIOR_SD_M,
+    AnklePlane,
+    PlaneObservation,
+    SizeEvidence,
+    decide_ankle_plane,
+    given_ankle_plane,
+    observe_ankle_plane,
+    observe_plane,
+    size_evidence,
+)
 from ray3d.skeleton import layout_skeleton
 
 CONTACT, CONTACT_SD = 0.12, 0.025

@@ -392,8 +392,8 @@ def _valid_files(folder) -> dict:
     batch manifests (CSV, JSON) and world files (JSON, CSV)."""
     from ray3d.batch import read_manifest
     from ray3d.io.camera_files import read_floor
-    from ray3d.site.files import read_site
     from ray3d.io.world import LiftResult, World, write_world
+    from ray3d.site.files import read_site
 
     site = {"zones": [{"name": "room", "polygon": [[0, 0], [4, 0], [4, 3]], "max_occupancy": 2}],
             "lines": [{"name": "door", "start": [0, -1], "end": [0, 1]}]}

@@ -8,13 +8,12 @@ import cv2
 import numpy as np
 import pytest
 import torch
+from conftest import points_in_front, random_camera
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from ray3d import Camera, InputError, cameras
 from ray3d.geometry import camera_pitch, camera_roll, rotation_from_angles
-
-from conftest import points_in_front, random_camera
 
 
 def _seeds(n: int) -> list[int]:

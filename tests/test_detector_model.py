@@ -18,8 +18,7 @@ from ray3d.data.virtual_cameras import sample_cameras
 from ray3d.geometry import CameraBatch
 from ray3d.models import LiftingNetwork, ModelConfig, TensorBatch, preset
 from ray3d.models.network import predict_with_flip
-from ray3d.skeleton import (BLAZEPOSE33, BODY25, COCO17, DETECTOR18, DETECTOR_LAYOUTS, H36M17, HALPE26, convert,
-                            flip)
+from ray3d.skeleton import BLAZEPOSE33, BODY25, COCO17, DETECTOR18, DETECTOR_LAYOUTS, H36M17, HALPE26, convert, flip
 from ray3d.temporal import Window
 
 TINY = dict(channels=16, hidden=32)

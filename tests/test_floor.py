@@ -15,9 +15,9 @@ from ray3d import Camera, InputError
 from ray3d.body import body_sizes
 from ray3d.cli import main
 from ray3d.demo import demo_clip
-from ray3d.metrics import root_error_in_sds
 from ray3d.geometry.floor import FLAT_FLOOR, Floor, FloorRegion
 from ray3d.io.camera_files import floor_of_camera_file, read_floor, save_cameras
+from ray3d.metrics import root_error_in_sds
 from ray3d.refine import RefineConfig, refine_track, scale_about
 from ray3d.skeleton import H36M17
 

@@ -8,14 +8,13 @@ import json
 
 import numpy as np
 import pytest
+from browser import console_errors, needs_chromium, screenshot
 
 from ray3d import InputError
 from ray3d.data.virtual_cameras import mounted_camera
 from ray3d.demo import demo_clip
 from ray3d.fusion import find_time_offset, fuse_worlds
 from ray3d.io.world import LiftResult, World, read_world, write_world
-
-from browser import console_errors, needs_chromium, screenshot
 
 FPS = 10.0
 CAMERAS = [mounted_camera(yaw, height, distance, None, f"cam{k}")
@@ -142,8 +141,9 @@ def test_a_camera_too_far_off_to_be_joined_is_named_and_two_walking_together_rai
 
 
 def test_the_fused_world_file_says_which_cameras_saw_each_frame(tmp_path):
-    import jsonschema
     from importlib import resources
+
+    import jsonschema
 
     truth = _person()
     worlds = [_world(CAMERAS[0], {"1": _seen(CAMERAS[0], truth, np.arange(0, 40))}),

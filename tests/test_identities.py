@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 from ray3d import cameras
 from ray3d.io.world import LiftResult, World, read_world, write_world
+from ray3d.lifting.options import VideoOptions
 from ray3d.site import CountingLine, Site, site_events
 from ray3d.site.analytics import zone_summaries
-from ray3d.lifting.options import VideoOptions
 from ray3d.video.identities import REJOIN_WITHIN_S, rejoin_tracks
 from ray3d.video.pipeline import follow_people
 from ray3d.video.tracking import Track

@@ -81,16 +81,16 @@ def test_bad_bvh_files_say_what_is_wrong(raw, tmp_path):
     with pytest.raises(InputError, match="truncated: no MOTION"):
         import_bvh(header_only)
     wrong_count = _edit(source, tmp_path, lambda lines: [
-        l.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 2 Zrotation Yrotation Xrotation", 1)
-        if i == 8 else l for i, l in enumerate(lines)])
+        text.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 2 Zrotation Yrotation Xrotation", 1)
+        if i == 8 else text for i, text in enumerate(lines)])
     with pytest.raises(InputError, match="line 9: CHANNELS says 2 channels but lists 3"):
         import_bvh(wrong_count)
     extra_channel = _edit(source, tmp_path, lambda lines: [
-        l.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 4 Zrotation Yrotation Xrotation Yrotation")
-        if i == 8 else l for i, l in enumerate(lines)])
+        text.replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 4 Zrotation Yrotation Xrotation Yrotation")
+        if i == 8 else text for i, text in enumerate(lines)])
     with pytest.raises(InputError, match="motion rows hold .* the hierarchy declares 97 channels"):
         import_bvh(extra_channel)
-    renamed = _edit(source, tmp_path, lambda lines: [l.replace("LeftUpLeg", "LeftThighBone") for l in lines])
+    renamed = _edit(source, tmp_path, lambda lines: [text.replace("LeftUpLeg", "LeftThighBone") for text in lines])
     with pytest.raises(InputError, match="unknown joint names.*cgspeed-motionbuilder, which needs LeftUpLeg"):
         import_bvh(renamed)
     with pytest.raises(InputError, match="not a BVH file"):
@@ -103,10 +103,10 @@ def test_bad_amc_files_say_what_is_wrong(raw, tmp_path):
     truncated = _edit(source, tmp_path, lambda lines: lines[:-5])
     with pytest.raises(InputError, match=r"1 frame\(s\) incomplete or truncated \(first: frame 343"):
         import_amc(asf, truncated)
-    wrong_values = _edit(source, tmp_path, lambda lines: [l + " 0.5" if l.startswith("lfemur") else l for l in lines])
+    wrong_values = _edit(source, tmp_path, lambda lines: [text + " 0.5" if text.startswith("lfemur") else text for text in lines])
     with pytest.raises(InputError, match="bone lfemur has 4 values, the skeleton declares 3 dofs"):
         import_amc(asf, wrong_values)
-    unknown = _edit(source, tmp_path, lambda lines: [l.replace("lradius", "lulna") for l in lines])
+    unknown = _edit(source, tmp_path, lambda lines: [text.replace("lradius", "lulna") for text in lines])
     with pytest.raises(InputError, match="bone 'lulna' is not animated"):
         import_amc(asf, unknown)
 

@@ -10,6 +10,7 @@ import time
 
 import numpy as np
 import pytest
+from browser import needs_chromium, screenshot
 
 from ray3d import InputError, cameras
 from ray3d.demo import demo_clip
@@ -17,8 +18,6 @@ from ray3d.io.world import LiftResult, World, append_world_csv, read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
 from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
-
-from browser import needs_chromium, screenshot
 
 CAMERA = cameras.h36m("S9", "54138969")
 FPS = 10.0
@@ -164,9 +163,9 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, d
 
 def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_it(tmp_path):
     from ray3d.lifting.lifter import Lifter
+    from ray3d.lifting.options import LiftOptions
     from ray3d.live.people import LivePeople
     from ray3d.live.source import LiveFrame
-    from ray3d.lifting.options import LiftOptions
 
     people = _scene()
     detector = _ScriptedDetector(people)

@@ -18,9 +18,9 @@ pytest.importorskip("ray")
 
 import ray  # noqa: E402
 import ray.cloudpickle  # noqa: E402
-
 import test_live  # noqa: E402
 from test_live import _ScriptedDetector  # noqa: E402
+
 from ray3d.io.world import read_world  # noqa: E402
 from ray3d.jobs import CameraChoice, Job  # noqa: E402
 from ray3d.jobs.live import local_inputs, open_live, run_live_job  # noqa: E402

@@ -15,16 +15,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from browser import CHROMIUM, console_errors
+from services import RtspStream, mosquitto_broker, needs_rtsp
+from test_live import ACROSS, CAMERA, DOOR, FPS, LOOKING, ROOM, SPOT, _frames, _scene, _ScriptedDetector
 
 from ray3d.io.world import read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup
 from ray3d.site import Site, Zone
 from ray3d.store import RunRecorder, read_record
-
-from browser import CHROMIUM, console_errors
-from services import RtspStream, mosquitto_broker, needs_rtsp
-from test_live import ACROSS, CAMERA, DOOR, FPS, LOOKING, ROOM, SPOT, _frames, _scene, _ScriptedDetector
 
 FIXTURES = Path(__file__).parent / "fixtures"
 
@@ -74,9 +73,9 @@ def _lines(path: Path) -> list[dict]:
 
 
 def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_both(tmp_path, capsys):
-    from ray3d.cli import main
-
     import datetime
+
+    from ray3d.cli import main
 
     out, people = tmp_path / "live", _scene()
     first, recorder = _live(out, people, start=datetime.datetime(2026, 12, 1, 9, 0, 0).astimezone())
@@ -180,9 +179,10 @@ def test_two_cameras_live_events_are_those_of_the_report_on_the_world_file_they_
     is has been decided, so a person's first moments count. The report on that world file finds the live run's
     events: the same kinds, people, places and directions, each within a quarter second (the live positions are
     the causal answers, the world file's the whole tracks'; a track is confirmed live two frames after it began)."""
+    from test_live import ACROSS, LOOKING, SPOT
+
     from ray3d import cameras
     from ray3d.site import Zone
-    from test_live import ACROSS, LOOKING, SPOT
 
     hall = Zone("hall", np.array([SPOT + a * ACROSS + b * LOOKING for a, b in ((0.6, -3), (4, -3), (4, 3), (0.6, 3))]))
     facing = cameras.h36m("S9", "55011271")
@@ -286,9 +286,10 @@ def test_names_become_topics_by_one_rule_and_two_that_would_share_one_are_refuse
 
 
 def test_a_broker_that_is_down_never_holds_up_the_stream():
+    from services import free_port
+
     from ray3d.live.mqtt import MqttPublisher
     from ray3d.site.events import SiteMonitor
-    from services import free_port
 
     site = Site((ROOM,), (DOOR,))
     said: list[str] = []
@@ -334,8 +335,8 @@ class _StandingPerson:
 def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_with_three_gaps(tmp_path, monkeypatch):
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs, run_live_job
-    from ray3d.live.runner import LiveOptions
     from ray3d.live.reconnect import ReconnectingSource
+    from ray3d.live.runner import LiveOptions
 
     monkeypatch.setenv("OPENCV_FFMPEG_CAPTURE_OPTIONS", "rtsp_transport;udp")  # this server has no TCP transport
     stream = RtspStream(CAMERA.image_size, FPS)
@@ -415,8 +416,9 @@ def test_the_same_live_run_gives_the_same_store_and_report_on_postgresql_as_on_s
     record, and the same report from each."""
     import datetime
 
-    from ray3d.cli import main
     from services import postgresql_server
+
+    from ray3d.cli import main
 
     start = datetime.datetime(2026, 12, 1, 9, 0, 0).astimezone()
     site = tmp_path / "site.json"

@@ -179,9 +179,10 @@ def test_flip_test_is_consistent_for_a_mirror_symmetric_input(name):
 
 
 def test_gravity_aligned_model_round_trips_its_targets():
+    import numpy as np
+
     from ray3d.data.virtual_cameras import CameraRanges, sample_cameras
     from ray3d.geometry import CameraBatch
-    import numpy as np
 
     model = LiftingNetwork(preset("rie-decoupled", remove_roll=True, **TINY)).eval()
     rng = np.random.default_rng(0)

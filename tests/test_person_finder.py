@@ -15,8 +15,19 @@ from hypothesis import strategies as st
 from ray3d.errors import InputError
 from ray3d.skeleton import BLAZEPOSE33, COCO17
 from ray3d.video.boxes import whole_person
-from ray3d.video.movenet import (MODEL_FILE, PEOPLE_PER_PASS, ROI_MARGIN, SEEN_SCORE, TILE_OVERLAP, as_blazepose,
-                                 decode, input_shape, once_each, person_regions, tile_boxes)
+from ray3d.video.movenet import (
+    MODEL_FILE,
+    PEOPLE_PER_PASS,
+    ROI_MARGIN,
+    SEEN_SCORE,
+    TILE_OVERLAP,
+    as_blazepose,
+    decode,
+    input_shape,
+    once_each,
+    person_regions,
+    tile_boxes,
+)
 
 # The float16 MoveNet MultiPose Lightning file as Google published it (TF Hub lite-model/movenet/multipose/lightning/
 # tflite/float16/1, Apache-2.0), byte for byte: we ship it unchanged.

@@ -17,8 +17,13 @@ from ray3d.io.world import read_world
 from ray3d.lifting.lifter import SMALL_BATCHES_BEFORE_TRACING, Lifter
 from ray3d.models import PRESETS, LiftingNetwork
 from ray3d.models.inference import inference_network
-from ray3d.models.precision import (Bfloat16Products, Int8Products, ReducedPrecisionNetwork, input_layer_names,
-                                    output_layer_names)
+from ray3d.models.precision import (
+    Bfloat16Products,
+    Int8Products,
+    ReducedPrecisionNetwork,
+    input_layer_names,
+    output_layer_names,
+)
 from ray3d.models.tensor_batch import TensorBatch
 
 

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from conftest import random_camera
 
 from ray3d import Camera, InputError, cameras
 from ray3d.baselines.rfrh import DEFAULT_ROOT_HEIGHT_M, rfrh_root
-
-from conftest import random_camera
 
 
 @pytest.mark.parametrize("camera", cameras.h36m_all()[::5], ids=lambda c: c.name)

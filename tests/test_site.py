@@ -8,15 +8,14 @@ import json
 
 import numpy as np
 import pytest
+from browser import console_errors, needs_chromium, screenshot
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ray3d import InputError, cameras
 from ray3d.io.world import LiftResult, World
-from ray3d.site.files import read_site
 from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
-
-from browser import console_errors, needs_chromium, screenshot
+from ray3d.site.files import read_site
 
 DOOR = CountingLine("door", np.array([0.0, -1.0]), np.array([0.0, 1.0]))  # along +y: its left is -x
 ROOM = Zone("room", np.array([[1.0, -2.0], [4.0, -2.0], [4.0, 2.0], [1.0, 2.0]]))

@@ -15,13 +15,11 @@ import time
 
 import numpy as np
 import pytest
+from services import postgresql_server
 
 from ray3d import InputError
 from ray3d.geometry.uncertainty import PersonNow
-from ray3d.store import RunRecorder, read_record
-from ray3d.store import schema
-
-from services import postgresql_server
+from ray3d.store import RunRecorder, read_record, schema
 
 
 def _person(track: str, x: float, y: float) -> PersonNow:

@@ -8,8 +8,15 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from ray3d import InputError
-from ray3d.temporal import (Window, fill_missing, interpolate_at, resample, resample_back, sequence_windows,
-                            window_indices)
+from ray3d.temporal import (
+    Window,
+    fill_missing,
+    interpolate_at,
+    resample,
+    resample_back,
+    sequence_windows,
+    window_indices,
+)
 
 
 def test_windows_replicate_the_clip_edges():

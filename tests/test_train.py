@@ -95,8 +95,8 @@ def test_two_gloo_processes_with_batch_b_train_as_one_with_batch_2b(tiny_data_di
 
 
 def test_export_keeps_weights_and_provenance_only(tiny_data_dir, tmp_path):
-    from ray3d.checkpoints import export
     from ray3d import InputError
+    from ray3d.checkpoints import export
 
     run = tmp_path / "run"
     train(_config(tiny_data_dir, epochs=1, batches_per_epoch=2), run, progress=False)

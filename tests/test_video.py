@@ -21,9 +21,9 @@ from ray3d.io.world import read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
-from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
 from ray3d.video.boxes import box_overlap
 from ray3d.video.clothes import clothes_boxes, clothes_colour, colour_distance
+from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
 
 SIZE, FPS, FRAMES = (640, 480), 20.0, 40
 CAMERA = Camera.from_height_pitch(3.0, 15.0, SIZE, hfov_deg=70.0)

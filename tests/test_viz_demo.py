@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from browser import console_errors, needs_chromium, screenshot
 from PIL import Image
 
 from ray3d import InputError, cameras
@@ -13,13 +14,10 @@ from ray3d.cli import main
 from ray3d.demo import demo_clip, run_demo
 from ray3d.io.keypoints import Keypoints, read_keypoints, write_keypoints_json
 from ray3d.io.world import LiftResult, World, write_world
+from ray3d.video.frames import read_video_info
 from ray3d.viz.animation import render_frames, save_animation
 from ray3d.viz.html_viewer import write_viewer
-from ray3d.video.frames import read_video_info
 from ray3d.viz.plots import plot_sweep
-
-from browser import console_errors, needs_chromium, screenshot
-
 
 
 def test_gif_has_one_frame_per_stride(tmp_path):

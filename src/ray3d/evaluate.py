@@ -16,8 +16,8 @@ import numpy as np
 import torch
 
 from ray3d import metrics
-from ray3d.body import POSTURES, postures
 from ray3d.baselines.rfrh import rfrh_root
+from ray3d.body import POSTURES, postures
 from ray3d.checkpoints import RFRH, load_model
 from ray3d.console import progress_bar
 from ray3d.data import motion as motion_data

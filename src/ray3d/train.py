@@ -9,8 +9,8 @@ import dataclasses
 import json
 import os
 import time
-from pathlib import Path
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,8 +23,8 @@ from ray3d.data.samples import Batch, SampleConfig, SampleGenerator
 from ray3d.data.virtual_cameras import CameraRanges
 from ray3d.errors import InputError
 from ray3d.models.network import LiftingNetwork, ModelConfig, lifting_loss, predict_world
-from ray3d.models.tensor_batch import TensorBatch
 from ray3d.models.presets import preset
+from ray3d.models.tensor_batch import TensorBatch
 
 DATA_PROVENANCE = ("CMU Graphics Lab Motion Capture Database (mocap.cs.cmu.edu; free for research and commercial "
                    "use, not for resale; created with funding from NSF EIA-0196217) and HDM05 (Mueller et al. 2007, "

@@ -21,7 +21,6 @@ import tempfile
 import time
 from pathlib import Path
 
-
 from ray3d.batch.manifest import Entry, read_manifest
 from ray3d.console import progress_bar
 from ray3d.errors import InputError

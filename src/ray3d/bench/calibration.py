@@ -22,8 +22,8 @@ from ray3d.calibrate import from_person
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
 from ray3d.geometry import Camera
-from ray3d.skeleton import H36M17
 from ray3d.io.atomic import atomic_path
+from ray3d.skeleton import H36M17
 
 IMAGE_SIZE = (1920, 1080)
 # name -> (focal length given, stature given as the person's own (else the adult default), 2D noise in px)

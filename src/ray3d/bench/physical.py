@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ray3d.io.world import LiftResult
 from ray3d.body import ANKLES, head_over_ankle, lowest_ankle_height, stature
+from ray3d.io.world import LiftResult
 from ray3d.skeleton import H36M17
 from ray3d.temporal import seen_frames
 

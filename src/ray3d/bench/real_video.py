@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from ray3d import metrics
-from ray3d.body import HEAD_OVER_ANKLE_OF_STATURE
 from ray3d.bench.physical import CHECKS, summarise, track_checks
-from ray3d.data.motion import MotionSet
+from ray3d.body import HEAD_OVER_ANKLE_OF_STATURE
 from ray3d.data.detector_emulation import body_frames, detector_offsets, detector_points, offset_joints
+from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import CameraRanges, centre_clip, sample_cameras
 from ray3d.geometry import Camera
 from ray3d.io.atomic import atomic_path

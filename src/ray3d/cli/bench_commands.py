@@ -94,9 +94,8 @@ def _check_floor_offset(offset: float) -> None:
 def level(args: argparse.Namespace) -> int:
     from ray3d.bench.level import run, write
     from ray3d.data import motion as motion_data
-    from ray3d.jobs import load_lifter
-
     from ray3d.data.virtual_cameras import grid
+    from ray3d.jobs import load_lifter
 
     if args.clips_per_camera < 1 or args.max_frames < 1 or args.camera_step < 1:
         raise InputError("bench level: clips per camera, frames and the camera step must be at least 1",
@@ -163,7 +162,7 @@ def add_parser(commands) -> None:
     from pathlib import Path
 
     from ray3d.checkpoints import DETECTOR_MODEL
-    from ray3d.cli.arguments import (add_data_dir, add_force)
+    from ray3d.cli.arguments import add_data_dir, add_force
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     bench_parser = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")

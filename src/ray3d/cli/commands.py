@@ -139,11 +139,10 @@ def batch(args: argparse.Namespace) -> int:
 
 
 def viz(args: argparse.Namespace) -> int:
-    from ray3d.io.camera_files import read_camera
-    from ray3d.temporal import check_frame_rate
-    from ray3d.io.world import read_world
     from ray3d.console import progress_bar
-
+    from ray3d.io.camera_files import read_camera
+    from ray3d.io.world import read_world
+    from ray3d.temporal import check_frame_rate
     from ray3d.viz.animation import check_animation_path, frame_span, render_frames, save_animation
     from ray3d.viz.html_viewer import write_viewer
 
@@ -191,7 +190,7 @@ def add_parser(commands) -> None:
     """``ray3d demo``, ``batch``, ``viz`` and ``calibrate``'s flags, each bound to its handler here."""
 
     from ray3d.body import ADULT_STATURE_M
-    from ray3d.cli.arguments import (add_force, add_lens_arguments)
+    from ray3d.cli.arguments import add_force, add_lens_arguments
 
     demo_parser = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
                                             "the baselines, write an HTML viewer and a GIF")

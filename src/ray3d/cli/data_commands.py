@@ -96,7 +96,7 @@ def add_parser(commands) -> None:
     """``ray3d data`` and its subcommands's flags, each bound to its handler here."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import (add_data_dir, add_force)
+    from ray3d.cli.arguments import add_data_dir, add_force
     from ray3d.data.virtual_cameras import SET_NAMES
 
     data_parser = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")

@@ -7,8 +7,7 @@ import argparse
 import sys
 
 from ray3d.cli.arguments import job_from_args, parse_offsets
-from ray3d.cli.printing import (print_ankle_plane, print_fusion, print_keypoint_notes, print_notes,
-                                print_refinements)
+from ray3d.cli.printing import print_ankle_plane, print_fusion, print_keypoint_notes, print_notes, print_refinements
 from ray3d.io.atomic import check_output
 
 
@@ -86,7 +85,7 @@ def add_parser(commands) -> None:
     """``ray3d lift`` and ``ray3d fuse``'s flags, each bound to its handler here."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import (add_camera_arguments, add_force, add_lifting_arguments)
+    from ray3d.cli.arguments import add_camera_arguments, add_force, add_lifting_arguments
 
     lift_parser = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
     lift_parser.add_argument("--keypoints", required=True, type=Path, action="append",

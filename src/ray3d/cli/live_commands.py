@@ -27,12 +27,11 @@ EXIT_CODES = {"ended": 0, "until": 0, "stalled": 3, "broke off": 4}
 def live(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ray3d.cli.arguments import job_from_args
-    from ray3d.cli.arguments import parse_offsets
-    from ray3d.site.files import read_site
+    from ray3d.cli.arguments import job_from_args, parse_offsets
     from ray3d.jobs.live import open_live, run_live_job, start_record
     from ray3d.live.mqtt import MqttPublisher
     from ray3d.live.runner import LiveOptions, stop_on_signals
+    from ray3d.site.files import read_site
     from ray3d.site.places import Site
 
     plan = read_site(args.site) if args.site else None

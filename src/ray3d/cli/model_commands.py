@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.io.atomic import check_output, refuse_existing
 from ray3d.cli.printing import write_json
+from ray3d.io.atomic import check_output, refuse_existing
 
 
 def train(args: argparse.Namespace) -> int:
-    from ray3d.train import train as run, training_config
+    from ray3d.train import train as run
+    from ray3d.train import training_config
 
     config = training_config(args.config, args.preset, epochs=args.epochs, batches_per_epoch=args.batches_per_epoch,
                              batch_size=args.batch_size, seed=args.seed, threads=args.threads, data_dir=args.data_dir)
@@ -23,7 +24,8 @@ def train(args: argparse.Namespace) -> int:
 
 
 def evaluate(args: argparse.Namespace) -> int:
-    from ray3d.evaluate import METRICS, evaluate as run, evaluation_cameras, evaluation_motion
+    from ray3d.evaluate import METRICS, evaluation_cameras, evaluation_motion
+    from ray3d.evaluate import evaluate as run
 
     if args.json is not None:  # refused before any work, not after it
         refuse_existing(check_output(args.json), args.force)
@@ -67,7 +69,8 @@ def evaluate(args: argparse.Namespace) -> int:
 
 
 def export(args: argparse.Namespace) -> int:
-    from ray3d.checkpoints import export as copy_weights, load_model
+    from ray3d.checkpoints import export as copy_weights
+    from ray3d.checkpoints import load_model
 
     if args.onnx:
         from ray3d.io.atomic import atomic_path
@@ -108,7 +111,7 @@ def add_parser(commands) -> None:
     """``ray3d train``, ``evaluate``, ``models`` and ``export``'s flags, each bound to its handler here."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import (add_data_dir, add_force, add_precision)
+    from ray3d.cli.arguments import add_data_dir, add_force, add_precision
     from ray3d.data.virtual_cameras import SET_NAMES
 
     train_parser = commands.add_parser("train", help="train a model on the training performers with random cameras")

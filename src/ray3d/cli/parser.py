@@ -6,8 +6,16 @@ from __future__ import annotations
 import argparse
 
 import ray3d
-from ray3d.cli import (bench_commands, commands, data_commands, fusion_commands, live_commands, model_commands,
-                       site_commands, video_commands)
+from ray3d.cli import (
+    bench_commands,
+    commands,
+    data_commands,
+    fusion_commands,
+    live_commands,
+    model_commands,
+    site_commands,
+    video_commands,
+)
 
 COMMAND_MODULES = (commands, data_commands, model_commands, fusion_commands, video_commands, live_commands,
                    site_commands, bench_commands)

@@ -7,8 +7,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from ray3d.io.atomic import check_output, refuse_existing
 from ray3d.cli.printing import print_ankle_plane, print_site_doubts, print_site_report
+from ray3d.io.atomic import check_output, refuse_existing
 
 
 def site(args: argparse.Namespace) -> int:

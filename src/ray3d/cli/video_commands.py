@@ -59,7 +59,7 @@ def add_parser(commands) -> None:
     """``ray3d video``'s flags, each bound to its handler here."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import (add_camera_arguments, add_force, add_lifting_arguments, add_time_buckets)
+    from ray3d.cli.arguments import add_camera_arguments, add_force, add_lifting_arguments, add_time_buckets
     from ray3d.io.world import WRITTEN_FORMATS
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 

@@ -20,7 +20,6 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry import y_up_to_z_up
 from ray3d.temporal import resample
 
-
 UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001, "inch": 0.0254, "cmu": 0.0254 / 0.45}
 DEFAULT_BVH_UNITS = {"cgspeed-motionbuilder": "cmu", "cgspeed-3dsmax": "cmu", "cgspeed-daz": "cm", "ray3d": "m"}
 FLOOR_PERCENTILE = 2.0  # of the per-frame lowest foot point: robust to the odd jump or glitch

@@ -11,6 +11,15 @@ import dataclasses
 
 import numpy as np
 
+from ray3d.data.detector_emulation import (
+    body_frames,
+    detector_offsets,
+    detector_points,
+    hidden_joints,
+    occluder_rows,
+    offset_joints,
+    stand_in_hidden,
+)
 from ray3d.data.motion import MotionSet
 from ray3d.data.virtual_cameras import CameraRanges, sample_cameras
 from ray3d.errors import InputError
@@ -18,8 +27,6 @@ from ray3d.geometry import CameraBatch
 from ray3d.geometry import transforms as tf
 from ray3d.skeleton import H36M17, LEG_PARTS, Skeleton, conversion_matrix, flip, layout_skeleton, mirror_pixels
 from ray3d.temporal import Window, window_indices
-from ray3d.data.detector_emulation import (body_frames, detector_offsets, detector_points,
-                                          hidden_joints, occluder_rows, offset_joints, stand_in_hidden)
 
 # How fast a joint's confidence falls with its 2D noise (a fraction of the person's height in the image).
 CONFIDENCE_NOISE_SCALE = 0.05

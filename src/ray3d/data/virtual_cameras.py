@@ -15,7 +15,7 @@ import numpy as np
 
 from ray3d import cameras as camera_tables
 from ray3d.errors import InputError
-from ray3d.geometry import CameraBatch, Camera, centre_looking_at, pinhole_intrinsics, rotation_from_angles
+from ray3d.geometry import Camera, CameraBatch, centre_looking_at, pinhole_intrinsics, rotation_from_angles
 
 ORBIT_TARGET = np.array([0.0, 0.0, 1.8])
 BASE_CAMERA_ID = "55011271"

@@ -25,8 +25,15 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.fusion.clock import find_time_offset
-from ray3d.fusion.tracks import (MIN_SHARED_FRAMES, VELOCITY_GATE_M_S, CameraTrack, floor_velocity, handover_reach_m,
-                                 on_clock, pair_distance)
+from ray3d.fusion.tracks import (
+    MIN_SHARED_FRAMES,
+    VELOCITY_GATE_M_S,
+    CameraTrack,
+    floor_velocity,
+    handover_reach_m,
+    on_clock,
+    pair_distance,
+)
 from ray3d.geometry.uncertainty import information_weighted, root_spread
 from ray3d.io.world import LiftResult, World
 

@@ -19,11 +19,9 @@ from collections import deque
 import numpy as np
 
 from ray3d.fusion.tracks import GATE_FLOOR_M, gate_m, handover_reach_m
-from ray3d.geometry.uncertainty import information_weighted, root_spread
 from ray3d.geometry import Camera
-from ray3d.geometry.uncertainty import PersonNow
+from ray3d.geometry.uncertainty import PersonNow, information_weighted, root_spread
 from ray3d.temporal import velocity
-
 
 WALK_S = 0.5  # a velocity is taken over the last half second of places, once they span half of it
 AMBIGUOUS = "ambiguous"  # two people as near as each other: wait

@@ -2,8 +2,8 @@
 camera placement and batches of cameras."""
 
 from ray3d.geometry.camera import Camera
-from ray3d.geometry.intrinsics import focal_from_hfov, parse_image_size, pinhole_intrinsics
 from ray3d.geometry.camera_batch import CameraBatch
+from ray3d.geometry.intrinsics import focal_from_hfov, parse_image_size, pinhole_intrinsics
 from ray3d.geometry.transforms import (
     camera_center,
     camera_pitch,

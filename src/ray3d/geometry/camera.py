@@ -10,9 +10,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ray3d.errors import InputError
-from ray3d.geometry.intrinsics import parse_image_size, pinhole_intrinsics
 from ray3d.geometry import transforms as tf
 from ray3d.geometry.arrays import Array, check_points, like, namespace, numeric_array
+from ray3d.geometry.intrinsics import parse_image_size, pinhole_intrinsics
 
 # Real calibration files write rotations with 7 significant digits (|R R^T - I| ~ 1e-6): within this, R is taken
 # as the nearest rotation; beyond it, it is refused.

@@ -18,8 +18,7 @@ from ray3d.geometry import Camera, parse_image_size
 from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import FLAT_FLOOR, Floor, FloorRegion, checked_floor_z
 from ray3d.io.atomic import atomic_path, check_output
-from ray3d.io.camera_keys import (FLOOR_KEY, FLOOR_Z_KEY, OPENCV_FIELDS, check_camera_document,
-                                  refuse_near_misses)
+from ray3d.io.camera_keys import FLOOR_KEY, FLOOR_Z_KEY, OPENCV_FIELDS, check_camera_document, refuse_near_misses
 from ray3d.io.text_files import read_json
 
 

@@ -17,8 +17,8 @@ from ray3d.io.atomic import atomic_path
 from ray3d.io.dataset_files import DATASET_FPS, load_positions_2d
 from ray3d.io.detections import TrackDetections
 from ray3d.io.frame_names import FrameNames
-from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.io.safe_npz import read_npz_entries
+from ray3d.io.text_files import read_csv_rows, read_json
 from ray3d.skeleton import LAYOUTS, convert_keypoints, identify_17_joint_layout, layout_named_by, layout_skeleton
 from ray3d.temporal import check_frame_rate
 

@@ -5,8 +5,8 @@ only when asked); ``read_world`` gives the same ``World`` back."""
 from __future__ import annotations
 
 import csv
-import io
 import dataclasses
+import io
 import json
 from pathlib import Path
 
@@ -17,8 +17,8 @@ from ray3d.geometry import Camera
 from ray3d.geometry.uncertainty import Positioned
 from ray3d.io.atomic import atomic_path
 from ray3d.io.bvh_export import trc_text, write_bvh_files
-from ray3d.io.text_files import read_json
 from ray3d.io.safe_npz import read_npz_entries
+from ray3d.io.text_files import read_json
 from ray3d.skeleton import H36M17
 
 FORMATS = (".json", ".csv", ".npz")

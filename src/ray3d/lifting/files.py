@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable
 
+from ray3d.geometry import Camera
 from ray3d.io.keypoints import Keypoints, read_keypoints
 from ray3d.io.world import World
-from ray3d.geometry import Camera
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions
 

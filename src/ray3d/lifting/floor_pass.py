@@ -15,8 +15,16 @@ from ray3d.errors import InputError
 from ray3d.io.world import LiftResult
 from ray3d.lifting.inputs import PreparedTrack
 from ray3d.lifting.tracks import CameraTracks, people_seen_twice
-from ray3d.refine import (AnklePlane, RefineConfig, given_ankle_plane, network_position_sd, observe_ankle_plane,
-                          on_observed_rays, refine_track, size_evidence)
+from ray3d.refine import (
+    AnklePlane,
+    RefineConfig,
+    given_ankle_plane,
+    network_position_sd,
+    observe_ankle_plane,
+    on_observed_rays,
+    refine_track,
+    size_evidence,
+)
 from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence, floor_evidence
 from ray3d.skeleton import H36M17
 

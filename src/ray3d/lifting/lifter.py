@@ -24,16 +24,16 @@ from ray3d.geometry.floor import FLAT_FLOOR, Floor
 from ray3d.io.detections import TrackDetections
 from ray3d.io.keypoints import Keypoints
 from ray3d.io.world import LiftResult, World
+from ray3d.lifting.floor_pass import lift_views
+from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, camera_rays, prepare_track
+from ray3d.lifting.options import LiftOptions
+from ray3d.lifting.stream import LiftStream
+from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, progress_labels
 from ray3d.models.inference import BATCH_PER_GROUP, inference_network
 from ray3d.models.network import LiftingNetwork, predict_world
 from ray3d.models.precision import check_precision, with_precision
 from ray3d.models.tensor_batch import TensorBatch
-from ray3d.lifting.floor_pass import lift_views
-from ray3d.lifting.options import LiftOptions
 from ray3d.refine import RefineConfig
-from ray3d.lifting.inputs import MODEL_FPS, PreparedTrack, camera_rays, prepare_track
-from ray3d.lifting.stream import LiftStream
-from ray3d.lifting.tracks import CameraTracks, LiftedTracks, gathered, progress_labels
 from ray3d.skeleton import Skeleton, conversion_matrix
 
 SMALL_BATCHES_BEFORE_TRACING = 3

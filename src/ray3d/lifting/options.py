@@ -15,6 +15,7 @@ from ray3d.refine import RefineConfig
 from ray3d.refine.ankle_plane import checked_evidence
 from ray3d.temporal import OUTPUT_SMOOTHING, SMOOTHING_METHODS
 
+
 def _smoothing(name: str, value: str | None) -> str | None:
     """A smoothing method, "none" (or None) for none."""
     if value is None or value == "none":

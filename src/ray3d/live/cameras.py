@@ -13,12 +13,12 @@ import threading
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.io.world import World
 from ray3d.lifting.inputs import prepare_track
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions
 from ray3d.lifting.tracks import LiftedTracks
-from ray3d.geometry.uncertainty import PersonNow
 from ray3d.live.floor import CROSSED_JOINTS, FloorPool, TrackFloor
 from ray3d.live.people import LivePeople, below_the_stream
 from ray3d.live.source import LiveFrame, SourceGroup

@@ -24,8 +24,7 @@ from collections.abc import Callable
 from urllib.parse import urlsplit
 
 from ray3d.errors import InputError
-from ray3d.site.events import (DWELL_ABOVE_LIMIT, FALL, LINE_CROSSED, OCCUPANCY_ABOVE_LIMIT, ZONE_ENTERED,
-                               ZONE_LEFT)
+from ray3d.site.events import DWELL_ABOVE_LIMIT, FALL, LINE_CROSSED, OCCUPANCY_ABOVE_LIMIT, ZONE_ENTERED, ZONE_LEFT
 from ray3d.site.places import Site
 
 DISCOVERY_PREFIX = "homeassistant"
@@ -253,8 +252,8 @@ class MqttPublisher:
                     for z, people in monitor.occupants.items()},
                  **{f"{self.prefix}/zone/{topic_name(z.name)}/{topic}": count(z.name, what)
                     for z in self.site.zones for topic, what in (("entries", "entered"), ("exits", "left"))},
-                 **{f"{self.prefix}/line/{topic_name(l.name)}/{d}": count(l.name, d)
-                    for l in self.site.lines for d in ("forward", "back")}}
+                 **{f"{self.prefix}/line/{topic_name(line.name)}/{d}": count(line.name, d)
+                    for line in self.site.lines for d in ("forward", "back")}}
         for topic, value in state.items():
             if self._state.get(topic) != value:
                 self._state[topic] = value

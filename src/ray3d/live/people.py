@@ -21,8 +21,8 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
-from ray3d.geometry.uncertainty import PersonNow
 from ray3d.geometry.floor import FLAT_FLOOR, Floor
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.stream import LiftStream, lift_streams
 from ray3d.live.source import LiveFrame
@@ -31,7 +31,6 @@ from ray3d.temporal import OneEuro
 from ray3d.video.detectors import PoseDetector
 from ray3d.video.pipeline import CONFIRM_FRAMES
 from ray3d.video.tracking import FloorTracker, Track
-
 
 RUNNER_SHARE = 0.1  # of a frame's period, kept for the events, the outputs and the page after the people
 # The One-Euro filter's minimum cutoff (Hz) and its growth per m/s on each person's answers: a frame's jitter and

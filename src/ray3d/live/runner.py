@@ -22,18 +22,18 @@ from typing import TextIO
 import numpy as np
 
 from ray3d.errors import InputError
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.lifting.lifter import Lifter
-from ray3d.site.files import EventLines
-from ray3d.live.outputs import Webhook
+from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.live.cameras import LocalCameras
 from ray3d.live.health import BEHIND_SHARE, WINDOW_S, Keeping
-from ray3d.geometry.uncertainty import PersonNow
+from ray3d.live.outputs import Webhook
 from ray3d.live.server import LiveBoard, LiveServer
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
-from ray3d.lifting.options import LiftOptions, VideoOptions
-from ray3d.site.analytics import TimeBuckets
 from ray3d.live.views import Views
+from ray3d.site.analytics import TimeBuckets
 from ray3d.site.events import SiteMonitor
+from ray3d.site.files import EventLines
 from ray3d.site.places import Site
 from ray3d.video.tracking import CLAIM_S
 
@@ -320,8 +320,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     giving_up_frames, first_settled = int(round((CLAIM_S + 2.0) * views.fps)), None
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
-                       "lines": [{"name": l.name, "start": l.start.tolist(), "end": l.end.tolist()}
-                                 for l in site.lines]})
+                       "lines": [{"name": line.name, "start": line.start.tolist(), "end": line.end.tolist()}
+                                 for line in site.lines]})
     server = LiveServer(board, options.host, options.port, options.token) if options.page else None
     outputs = _Outputs(events_path, options, monitor, recorder, mqtt, buckets, views.label)
     if mqtt is not None:  # its counts going on from the store's

@@ -15,11 +15,11 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.fusion.live import WAIT_S, LiveFusion
+from ray3d.geometry.uncertainty import PersonNow
 from ray3d.io.world import append_world_csv
 from ray3d.live.cameras import FrameResult
 from ray3d.live.floor import JoinedAnkles, floor_shown
 from ray3d.refine.ankle_plane import AnklePlane
-from ray3d.geometry.uncertainty import PersonNow
 from ray3d.site.analytics import stature_class
 
 

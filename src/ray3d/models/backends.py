@@ -6,7 +6,6 @@ Runtime backend (optional extra: ``pip install ray3d[onnx]``). Both run the netw
 from __future__ import annotations
 
 import importlib.util
-
 import io
 import warnings
 from pathlib import Path

@@ -29,8 +29,7 @@ from torch import nn
 
 from ray3d.errors import InputError
 from ray3d.models.blocks import FrameGroupLinear, stack_frames
-from ray3d.models.inference import (BATCH_PER_GROUP, InferenceOnly, StackedLinear, StackedRIEBranch,
-                                    inference_network)
+from ray3d.models.inference import BATCH_PER_GROUP, InferenceOnly, StackedLinear, StackedRIEBranch, inference_network
 from ray3d.models.network import predict_with_flip
 from ray3d.models.tensor_batch import TensorBatch
 

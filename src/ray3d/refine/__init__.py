@@ -35,10 +35,9 @@ detector jitter on people 100 px tall it found one planted foot in ten frames; d
 sizes come from the training performers of the shipped mocap.
 """
 
-from ray3d.refine.config import CUES, UNCERTAINTY_FIELDS, RefineConfig, Refinement
 from ray3d.refine.ankle_plane import AnklePlane, given_ankle_plane, observe_ankle_plane, size_evidence
-from ray3d.refine.track import (joint_directions, network_position_sd, on_observed_rays, refine_track,
-                                scale_about)
+from ray3d.refine.config import CUES, UNCERTAINTY_FIELDS, RefineConfig, Refinement
+from ray3d.refine.track import joint_directions, network_position_sd, on_observed_rays, refine_track, scale_about
 
 __all__ = ["CUES", "UNCERTAINTY_FIELDS", "AnklePlane", "RefineConfig", "Refinement", "given_ankle_plane",
            "joint_directions", "network_position_sd", "observe_ankle_plane", "on_observed_rays", "refine_track",

@@ -17,7 +17,6 @@ from ray3d.geometry import Camera
 from ray3d.geometry.floor import Floor
 from ray3d.refine.config import CUES, EVIDENCE_FPS, PINNED_SD, UNCERTAINTY_SAMPLES, RefineConfig
 
-
 PRIORS = 4  # the rows of the track's terms' priors, last of the linear rows: size, network error, contact, head
 
 

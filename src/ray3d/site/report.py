@@ -29,9 +29,9 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     ``out_dir`` (``site_outputs``: the report, the viewer, every table and both plots; with ``every_s``, the
     counts per bucket of that many seconds in ``by-time.csv`` and the report, wall-clock from ``start_time``, a
     ``datetime``, when given)."""
-    from ray3d.site.files import write_csv, write_site_tables
     from ray3d.site.analytics import by_time, heat_map, person_frames, track_summaries, zone_summaries
     from ray3d.site.events import EVENT_KINDS, replay_site
+    from ray3d.site.files import write_csv, write_site_tables
     from ray3d.viz.html_viewer import write_viewer
     from ray3d.viz.plots import plot_floor_plan, plot_occupancy
     from ray3d.viz.site_report import write_site_report

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 
-from ray3d.site.events import (LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT, CarriedPerson)
+from ray3d.site.events import LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT, CarriedPerson
 from ray3d.store.database import Database
 
 CUT_OFF = "cut off"  # the ending of a run whose end was never noted, once the next run has closed it

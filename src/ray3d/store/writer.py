@@ -6,9 +6,10 @@ wait; beyond, new rows are counted as lost and said once).
 Beginning, it takes the store's writer lock (``lock.WriterLock``: one live run writes a store at a time), closes
 what runs cut off left open (``restart.take_over_cut_off_runs``: ``closed``, or ``carried``: the people in view
 then, whom this run may take up with their ids, kept in the store until their tracks end), reads the counts so far
-(``counted``), numbers the run, notes where each input was last recorded (closed as a gap, "the service was down", at the input's
-first frame of this run) and says where each file input is to be taken up again (``Resume``): the frame after the
-last one recorded, on the clock of the run that began it. What each camera's people show of the
+(``counted``), numbers the run, notes where each input was last recorded (closed as a gap, "the service was
+down", at the input's first frame of this run) and says where each file input is to be taken up again
+(``Resume``): the frame after the last one recorded, on the clock of the run that began it. What each camera's
+people show of the
 floor is written the same way (``floor``), and read back for the next run (``remembered_floor``)."""
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import time
 from collections.abc import Callable
 
 from ray3d.refine.ankle_plane import SeenTwice
+from ray3d.site.events import TRACK_ENDED
 from ray3d.store.database import Database, connect, shown, without_passwords
 from ray3d.store.lock import WriterLock, lock_path
 from ray3d.store.reader import remembered_floor
@@ -112,7 +114,7 @@ class RunRecorder:
     def events(self, events: list[dict]) -> None:
         rows, ended = [], []
         for event in events:
-            if event["event"] == "track ended" and event["track"] in self._carrying:
+            if event["event"] == TRACK_ENDED.name and event["track"] in self._carrying:
                 ended.append((event["track"],))
             at = self.origin + float(event["time_s"])
             rows.append((self.run, self._seq, at, float(event["time_s"]), event["event"], str(event["track"]),

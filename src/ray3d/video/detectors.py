@@ -29,10 +29,9 @@ from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
 from ray3d.video.boxes import box_overlap, whole_person
-from ray3d.video.movenet import MoveNetPeople, as_blazepose, person_regions
 from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
+from ray3d.video.movenet import MoveNetPeople, as_blazepose, person_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
-
 
 EMPTY_MEMORY = 10  # looks (about five frames) over which a region that held nobody is remembered
 # A person the finder found counts as posed by the landmark network where a pose's whole-person box overlaps theirs

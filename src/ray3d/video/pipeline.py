@@ -16,17 +16,17 @@ import numpy as np
 from ray3d.console import progress_bar
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.io.bvh_export import export_paths
 from ray3d.io.detections import TrackDetections
 from ray3d.io.keypoints import Keypoints, write_keypoints_json
-from ray3d.io.bvh_export import export_paths
 from ray3d.io.world import World, check_world_output, write_world
 from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.temporal import check_frame_rate
 from ray3d.video.boxes import outside_picture
 from ray3d.video.detectors import PoseDetector
-from ray3d.video.identities import Rejoin, rejoin_tracks
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
+from ray3d.video.identities import Rejoin, rejoin_tracks
 from ray3d.video.overlay import write_overlay
 from ray3d.video.tracking import FloorTracker, Track
 from ray3d.viz.html_viewer import write_viewer

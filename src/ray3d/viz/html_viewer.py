@@ -19,9 +19,8 @@ import numpy as np
 
 from ray3d.io.atomic import write_text
 from ray3d.io.world import LiftResult
-from ray3d.viz.animation import PALETTE, as_track, frustum_lines
 from ray3d.skeleton import H36M17
-
+from ray3d.viz.animation import PALETTE, as_track, frustum_lines
 
 _TEMPLATE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>

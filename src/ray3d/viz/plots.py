@@ -107,7 +107,7 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
     fig, (counts, people) = plt.subplots(2, 1, figsize=(10.5, 5.5), dpi=110, sharex=True)
     series = {"entries": [sum(row.get(f"{z.name}: entries", 0) for z in site.zones) for row in rows],
               "exits": [sum(row.get(f"{z.name}: exits", 0) for z in site.zones) for row in rows],
-              "crossings": [sum(row.get(f"{l.name}: forward", 0) + row.get(f"{l.name}: back", 0) for l in site.lines)
+              "crossings": [sum(row.get(f"{line.name}: forward", 0) + row.get(f"{line.name}: back", 0) for line in site.lines)
                             for row in rows]}
     shown = [(name, values) for name, values in series.items() if any(values)] or [("entries", series["entries"])]
     for k, (name, values) in enumerate(shown):

@@ -12,7 +12,6 @@ from pathlib import Path
 
 from ray3d.io.atomic import write_text
 
-
 _STYLE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
 <style>
