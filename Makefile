@@ -1,4 +1,4 @@
-# The two set-up commands of the README: `make demo` (the main job) and `make test` (the whole suite).
+# The two set-up commands of the README: `make demo` (the main job) and `make test` (lint, then the whole suite).
 # Each creates the virtual environment .venv on first use and installs what it needs into it, at the exact
 # versions of constraints.txt.
 PYTHON ?= python3
@@ -16,6 +16,7 @@ demo: $(BIN)/.installed
 	$(BIN)/ray3d demo
 
 test: $(BIN)/.installed browser services
+	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/python -m pytest -q
 
 # Headless Chromium for the HTML viewer's test (Debian packages); without it that one test is skipped.

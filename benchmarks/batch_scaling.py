@@ -55,8 +55,8 @@ def timed(manifest: Path, out: Path, workers: int) -> dict:
     finished = time.perf_counter()
     ray.shutdown()
     assert not report.failed, report.failed
-    return {"workers": workers, "seconds_with_ray_start": finished - started, "seconds_after_ray_start": finished - ready,
-            "frames": sum(r.frames for r in report.reports)}
+    return {"workers": workers, "seconds_with_ray_start": finished - started,
+            "seconds_after_ray_start": finished - ready, "frames": sum(r.frames for r in report.reports)}
 
 
 def main() -> None:

@@ -158,7 +158,8 @@ def main() -> None:
         views, _ = cameras(3)
         worlds = [w for w in (lifted(lifter, c, seen(c, people, rng)) for c in views) if w is not None]
         fusion = fuse_worlds(worlds)
-        switches = sum(identity_switches(people, track.frames, track.joints[:, 0]) for track in fusion.world.tracks.values())
+        switches = sum(identity_switches(people, track.frames, track.joints[:, 0])
+                       for track in fusion.world.tracks.values())
         crossing.append((len(fusion.world.tracks), switches))
     rng = np.random.default_rng(args.seed + 3)
     named = []
@@ -174,11 +175,12 @@ def main() -> None:
     print(f"Abs-MPJPE where two or more cameras see: fused {1000 * fused_error.mean():.1f} mm, best single camera "
           f"{1000 * best_error.mean():.1f} mm: {100 * (1 - fused_error.mean() / best_error.mean()):.1f} % lower "
           f"({len(fused_error)} pairs; per pair lower in {np.mean(fused_error < best_error) * 100:.0f} %)")
-    print("time offsets, frames (true, found, sd): " + ", ".join(f"({t}, {f:.2f}, {s:.2f})" for t, f, s in offsets_found))
+    print("time offsets, frames (true, found, sd): "
+          + ", ".join(f"({t}, {f:.2f}, {s:.2f})" for t, f, s in offsets_found))
     print(f"two people crossing, 3 cameras: (world tracks, identity switches) {crossing}")
     print(f"cam2 placed 0.5 m off: the agreement check names {named}")
-    print(f"4 cameras: lifting each {seconds['lifting']:.2f} s, fusing {seconds['fusing']:.2f} s: fusing 4 cameras costs "
-          f"{(seconds['lifting'] + seconds['fusing']) / seconds['lifting']:.2f}x the 4 single-camera runs")
+    print(f"4 cameras: lifting each {seconds['lifting']:.2f} s, fusing {seconds['fusing']:.2f} s: fusing 4 cameras "
+          f"costs {(seconds['lifting'] + seconds['fusing']) / seconds['lifting']:.2f}x the 4 single-camera runs")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """Fuzz every file reader: valid files of each format (keypoints JSON / CSV / npz, AlphaPose and mmpose results,
 camera JSON / YAML / OpenCV JSON / calibration TOML, world JSON / CSV / npz, floor points CSV, BVH, site JSON / YAML,
-floor regions, batch manifests CSV / JSON, OpenPose frames, checkpoint JSON) mutated at random (bytes flipped, cut, repeated, inserted) and read back.
+floor regions, batch manifests CSV / JSON, OpenPose frames, checkpoint JSON) mutated at random (bytes flipped, cut,
+repeated, inserted) and read back.
 A reader may return a result or raise ``InputError``; anything else is a crash and is listed.
 
     python benchmarks/fuzz_readers.py --files 10000 [--seed 0] [--out DIR]
@@ -37,12 +38,14 @@ def seeds(folder: Path) -> dict[Path, object]:
     pixels = camera.project(clip)
     files = {}
     np.savez(folder / "k.npz", keypoints=pixels, fps=50.0)
-    keypoints = Keypoints(pixels, np.ones(pixels.shape[:2]), np.arange(8), np.zeros(8, dtype=int), "h36m17", 50.0, "seed")
+    keypoints = Keypoints(pixels, np.ones(pixels.shape[:2]), np.arange(8), np.zeros(8, dtype=int), "h36m17", 50.0,
+                          "seed")
     write_keypoints_json(folder / "k.json", keypoints)
     with open(folder / "k.csv", "w") as f:
         f.write("frame,joint,x,y,score\n" + "".join(f"{t},{j},{pixels[t, j, 0]:.2f},{pixels[t, j, 1]:.2f},1\n"
                                                      for t in range(8) for j in range(17)))
-    files.update({folder / "k.npz": read_keypoints, folder / "k.json": read_keypoints, folder / "k.csv": read_keypoints})
+    files.update({folder / "k.npz": read_keypoints, folder / "k.json": read_keypoints,
+                  folder / "k.csv": read_keypoints})
     save_cameras(folder / "c.json", [camera])
     K = camera.K
     (folder / "c.yaml").write_text(

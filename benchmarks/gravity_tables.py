@@ -31,7 +31,8 @@ def rolled(cameras, seed: int = 0):
     for camera, roll in zip(cameras, np.radians(rolls)):
         turn = np.array([[np.cos(roll), -np.sin(roll), 0.0], [np.sin(roll), np.cos(roll), 0.0], [0.0, 0.0, 1.0]])
         R = turn @ camera.R
-        out.append(dataclasses.replace(camera, R=R, t=-R @ camera.center, name=f"{camera.name}@roll{np.degrees(roll):+.1f}"))
+        out.append(dataclasses.replace(camera, R=R, t=-R @ camera.center,
+                                       name=f"{camera.name}@roll{np.degrees(roll):+.1f}"))
     return out
 
 
@@ -68,4 +69,5 @@ def main(runs: Path, out: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1] if len(sys.argv) > 1 else "runs/tables"), Path(sys.argv[2] if len(sys.argv) > 2 else "results/tables"))
+    main(Path(sys.argv[1] if len(sys.argv) > 1 else "runs/tables"),
+         Path(sys.argv[2] if len(sys.argv) > 2 else "results/tables"))

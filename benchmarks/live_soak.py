@@ -1,7 +1,8 @@
 """A soak of ``ray3d live``: a video looped at its own rate for a long time (30 minutes by default), the page
 served and read by a client as a browser would. Every 10 s it notes the process's resident memory and the
 live path's queues; at the end it checks that every event was written (the log's lines against the runner's
-count, and the store's rows: OUT/site.db, SQLite, as ``ray3d live`` writes it) and reports the memory after the first minute, its largest rise after that, and the frames dropped.
+count, and the store's rows: OUT/site.db, SQLite, as ``ray3d live`` writes it) and reports the memory after the first
+minute, its largest rise after that, and the frames dropped.
 
     python benchmarks/live_soak.py ../shared/data/real-video/vtest.avi \\
         --camera ../shared/data/real-video/vtest_camera.json --site benchmarks/vtest_site.json \\
@@ -95,7 +96,8 @@ def main() -> None:
     print(json.dumps({
         "ending": summary.why, "minutes": round((time.monotonic() - start) / 60, 1), "read": summary.read,
         "processed": summary.processed, "dropped_percent": round(100 * summary.dropped / max(summary.read, 1), 2),
-        "latency_ms": {"median": float(np.median(summary.latency_ms)), "p99": float(np.percentile(summary.latency_ms, 99))},
+        "latency_ms": {"median": float(np.median(summary.latency_ms)),
+                       "p99": float(np.percentile(summary.latency_ms, 99))},
         "events": summary.events, "events_written": written, "events_in_the_store": stored,
         "store_rows_lost": recorder.lost, "store_written": recorder.written, "tracks": summary.tracks,
         "left_out": len(summary.left_out), "snapshots_read_by_the_page_client": snapshots[0],

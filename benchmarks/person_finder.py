@@ -8,8 +8,8 @@ of ``vtest.avi``), for each full-frame finder, with the time per frame.
 A person is found where a detection's box (its confident keypoints, grown to the head's top and the soles: the
 keypoints stop at the eyes and ankles) overlaps theirs by 0.5 or more (intersection over union), each detection
 matched to one person at most; "loosely" where its centre lies in their box and its height is 0.6-1.5 times theirs
-(the annotation's boxes are MoveNet's, of another shape than a pose's). Every frame of the video is run (the detector follows people from frame to frame);
-the annotated ones are scored. Needs the video extra.
+(the annotation's boxes are MoveNet's, of another shape than a pose's). Every frame of the video is run (the detector
+follows people from frame to frame); the annotated ones are scored. Needs the video extra.
 """
 
 from __future__ import annotations

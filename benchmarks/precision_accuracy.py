@@ -22,13 +22,14 @@ def main() -> None:
     args = parser.parse_args()
     clips, _ = evaluation_motion()
     reduced = [p for p in PRECISIONS if p != "fp32"]
-    print("| model | cameras | fp32 Abs-MPJPE / MPJPE mm | " + " | ".join(f"{p} change (Abs / MPJPE) mm" for p in reduced)
-          + " |")
+    print("| model | cameras | fp32 Abs-MPJPE / MPJPE mm | "
+          + " | ".join(f"{p} change (Abs / MPJPE) mm" for p in reduced) + " |")
     print("|---|---|---|" + "---|" * len(reduced))
     for model in args.models:
         for spec in args.cameras:
             cameras = evaluation_cameras(spec)
-            result = {p: evaluate(model, clips, cameras, frame_stride=args.frame_stride, precision=p) for p in PRECISIONS}
+            result = {p: evaluate(model, clips, cameras, frame_stride=args.frame_stride, precision=p)
+                      for p in PRECISIONS}
             full = result["fp32"]
             changes = " | ".join(f"{result[p]['abs_mpjpe_mm'] - full['abs_mpjpe_mm']:+.2f} / "
                                  f"{result[p]['mpjpe_mm'] - full['mpjpe_mm']:+.2f}" for p in reduced)

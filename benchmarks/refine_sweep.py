@@ -71,7 +71,8 @@ def main() -> None:
     rows = [("refined (GT-2D defaults)", GT_2D), ("network only", False)]
     rows += [(text, variant(text)) for text in args.variants]
     print(f"{args.checkpoint}, {args.cameras} cameras, {args.split} performers ({motion.num_clips} clips"
-          f"{', without ' + args.exclude_clips + '*' if args.exclude_clips else ''}), every {args.frame_stride}th frame")
+          f"{', without ' + args.exclude_clips + '*' if args.exclude_clips else ''}), "
+          f"every {args.frame_stride}th frame")
     print("| refinement | Abs-MPJPE | MRPE | MRPE / distance |")
     print("|---|---|---|---|")
     results = []

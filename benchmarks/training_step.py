@@ -60,7 +60,8 @@ def main() -> None:
         step(fixed)
     result = {"ray3d": training.__file__, "preset": args.preset,
               "step_samples_per_s": args.batch / median_seconds(lambda: step(fixed), args.repeats),
-              "loop_samples_per_s": args.batch / median_seconds(lambda: step(generator.batch(args.batch)), args.repeats)}
+              "loop_samples_per_s": args.batch / median_seconds(lambda: step(generator.batch(args.batch)),
+                                                                args.repeats)}
     if args.dropout_masks:
         x = torch.randn(3 * args.batch, 640)
         words = (x.numel() + 3) // 4

@@ -37,7 +37,8 @@ def count_sheets(video: Path, keypoints, frames: list[int], out_dir: Path, rows_
             seen = keypoints.pixels[row][keypoints.confidences[row] >= 0.5]
             (x0, y0), (x1, y1) = seen.min(axis=0).astype(int), seen.max(axis=0).astype(int)
             cv2.rectangle(canvas, (x0, y0), (x1, y1), (0, 255, 0), 1)
-            cv2.putText(canvas, str(keypoints.tracks[row]), (x0, y0 - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 255, 255), 1)
+            cv2.putText(canvas, str(keypoints.tracks[row]), (x0, y0 - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                        (0, 255, 255), 1)
         cv2.putText(canvas, f"frame {index}: {len(rows)} found", (10, (rows_shown[0] or 0) + 25),
                     cv2.FONT_HERSHEY_SIMPLEX, 0.8, (0, 255, 255), 2)
         found[index] = len(rows)

@@ -262,7 +262,8 @@ def compare(detections: Path, camera_path: Path, video: Path, annotation: Path, 
                         "precision": round(result.CLEAR.CLR_Pr, 3), "tracks": tracks,
                         "tracks per person": round(tracks / len(people), 2)}
     print(f"{len(people)} annotated people; {sum(len(v) for v in by_frame.values())} detections")
-    print("| tracker | IDF1 | ID switches | MOTA | recall / precision | tracks (per person) |\n|---|---|---|---|---|---|")
+    print("| tracker | IDF1 | ID switches | MOTA | recall / precision | tracks (per person) |\n"
+          "|---|---|---|---|---|---|")
     for name, s in scores.items():
         print(f"| {name} | {s['IDF1']:.3f} | {s['ID switches']} | {s['MOTA']:.3f} | {s['recall']:.3f} / "
               f"{s['precision']:.3f} | {s['tracks']} ({s['tracks per person']}) |")

@@ -133,7 +133,8 @@ class RtspStream:
     def start(self) -> None:
         width, height = self.size
         self._publisher = subprocess.Popen(
-            [FFMPEG, "-loglevel", "error", "-re", "-f", "lavfi", "-i", f"testsrc=size={width}x{height}:rate={self.fps:g}",
+            [FFMPEG, "-loglevel", "error", "-re", "-f", "lavfi", "-i",
+             f"testsrc=size={width}x{height}:rate={self.fps:g}",
              "-c:v", "mpeg4", "-q:v", "8", "-g", "5", "-f", "rtsp",
              f"rtsp://127.0.0.1:{self.source_port}/camera"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 

@@ -76,7 +76,8 @@ def test_a_negative_opencv_matrix_size_cannot_abort_the_process(tmp_path):
     cannot take pytest down."""
     camera = tmp_path / "negative.yaml"
     camera.write_text(CAMERA_FILES["negative.yaml"][0])
-    code = f"from ray3d.io.camera_files import read_camera\ntry:\n read_camera({str(camera)!r})\nexcept ValueError as e:\n print(e)"
+    code = (f"from ray3d.io.camera_files import read_camera\ntry:\n read_camera({str(camera)!r})\n"
+            "except ValueError as e:\n print(e)")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0 and "expected a whole number 1-16, got -1" in run.stdout
 

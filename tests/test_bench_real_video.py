@@ -28,7 +28,8 @@ def test_the_checks_of_a_person_gliding_on_the_floor():
     checks = track_checks(LiftResult(clip, interpolated, 30.0, np.arange(len(clip))))
     assert checks["frames"] == 80 and checks["ankle_on_floor_fraction"] == 1.0
     assert checks["walking_speed_1s_m_s"] == pytest.approx(1.2) and checks["speed_p90_m_s"] == pytest.approx(1.2)
-    assert checks["bone_length_cv"] == pytest.approx(0.0, abs=1e-9) and checks["jitter_m_s2"] == pytest.approx(0.0, abs=1e-6)
+    assert (checks["bone_length_cv"] == pytest.approx(0.0, abs=1e-9)
+            and checks["jitter_m_s2"] == pytest.approx(0.0, abs=1e-6))
     assert checks["foot_skating_m_s"] == pytest.approx(1.2)  # it glides: the planted foot slides at the body's speed
     assert checks["stature_m"] == pytest.approx((clip[0, 10, 2] - 0.07) / 0.873)
 

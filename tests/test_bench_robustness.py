@@ -17,7 +17,8 @@ def test_robustness_bench_writes_every_sweep(mocap_dir, tiny_checkpoint, tmp_pat
     out = tmp_path / "robustness"
     assert main(["bench", "robustness", "--out", str(out), "--models", f"tiny={tiny_checkpoint}", "rfrh",
                  "--clips", "2", "--frame-stride", "30", "--camera-stride", "10", "--data-dir", str(mocap_dir)]) == 0
-    names = ["focal", "principal-point", "rotation", "pitch", "distance", "scale"] + [f"noise-{p}" for p in NOISE_LEVELS]
+    names = (["focal", "principal-point", "rotation", "pitch", "distance", "scale"]
+             + [f"noise-{p}" for p in NOISE_LEVELS])
     for name in names:
         with (out / f"{name}.csv").open() as handle:
             rows = list(csv.DictReader(handle))

@@ -23,7 +23,8 @@ def test_bench_speed_writes_the_documented_json(tmp_path, capsys):
     assert result["machine"]["cores"] >= 1 and result["machine"]["blas"] and result["rounds"] == 2
     forms = [(r["model"], r["form"]) for r in result["inference"]]
     for model in ("videopose3d", "poselifter"):  # every precision of the inference form, the trained form, a trace
-        assert {(model, f) for f in ("torch fp32", "torch bf16", "torch int8", "torch as trained", "torchscript")} <= set(forms)
+        assert ({(model, f) for f in ("torch fp32", "torch bf16", "torch int8", "torch as trained", "torchscript")}
+                <= set(forms))
     for record in result["inference"]:
         assert KEYS <= set(record)
         assert record["batch_frames_per_s"] > 0 and record["latency_ms"] > 0

@@ -227,7 +227,8 @@ def test_a_17_joint_file_is_read_as_the_layout_its_geometry_shows(tmp_path, tiny
     ("line.npz", lambda: np.tile(400 + np.r_[:17][:, None] * [0.0, 10.0], (FRAMES, 1, 1)),  # joints on a line
      "fits neither COCO-17 nor H36M-17; name the layout (--layout)"),
     ("normalised.npz", lambda: CAMERA.project(_world()) / 1000.0, "look normalised"),
-    ("elsewhere.npz", lambda: CAMERA.project(_world()) + 5000.0, "elsewhere.npz: keypoints: 100% lie outside camera h36m:S9:55011271's 1000x1000"),
+    ("elsewhere.npz", lambda: CAMERA.project(_world()) + 5000.0,
+     "elsewhere.npz: keypoints: 100% lie outside camera h36m:S9:55011271's 1000x1000"),
 ])
 def test_keypoints_that_do_not_fit_are_refused(tmp_path, tiny_checkpoint, capsys, name, pixels, message):
     path, out = tmp_path / name, tmp_path / "never.json"

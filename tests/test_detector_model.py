@@ -55,7 +55,8 @@ def test_every_detector_layout_gives_the_detector_joints_by_name(layout, rng):
     converted = convert(pixels, layout, DETECTOR18)
     for j, name in enumerate(DETECTOR18.joint_names[1:], start=1):
         np.testing.assert_array_equal(converted[:, j], pixels[:, layout.index(name)])
-    np.testing.assert_allclose(converted[:, 0], (pixels[:, layout.index("l_hip")] + pixels[:, layout.index("r_hip")]) / 2)
+    np.testing.assert_allclose(converted[:, 0],
+                               (pixels[:, layout.index("l_hip")] + pixels[:, layout.index("r_hip")]) / 2)
     with pytest.raises(InputError, match="cannot convert h36m17 to detector18"):
         convert(rng.uniform(0, 1, (2, 17, 2)), H36M17, DETECTOR18)
 
@@ -85,8 +86,8 @@ def test_face_points_turn_and_move_with_the_person(yaw, shift):
     turn = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
     offset = np.array([*shift, 0.0])
     moved = person @ turn.T + offset
-    np.testing.assert_allclose(detector_points(moved, DETECTOR18), detector_points(person, DETECTOR18) @ turn.T + offset,
-                               atol=1e-9)
+    np.testing.assert_allclose(detector_points(moved, DETECTOR18),
+                               detector_points(person, DETECTOR18) @ turn.T + offset, atol=1e-9)
 
 
 def _windows(count: int, rng) -> tuple[np.ndarray, CameraBatch]:

@@ -103,7 +103,8 @@ def test_bad_amc_files_say_what_is_wrong(raw, tmp_path):
     truncated = _edit(source, tmp_path, lambda lines: lines[:-5])
     with pytest.raises(InputError, match=r"1 frame\(s\) incomplete or truncated \(first: frame 343"):
         import_amc(asf, truncated)
-    wrong_values = _edit(source, tmp_path, lambda lines: [text + " 0.5" if text.startswith("lfemur") else text for text in lines])
+    wrong_values = _edit(source, tmp_path,
+                         lambda lines: [text + " 0.5" if text.startswith("lfemur") else text for text in lines])
     with pytest.raises(InputError, match="bone lfemur has 4 values, the skeleton declares 3 dofs"):
         import_amc(asf, wrong_values)
     unknown = _edit(source, tmp_path, lambda lines: [text.replace("lradius", "lulna") for text in lines])

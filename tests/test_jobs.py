@@ -77,7 +77,8 @@ def test_a_whole_job_lifts_fuses_and_reports_with_one_model_loaded_per_layout(tm
     assert len(done.inputs) == 2 and len(done.world.tracks) == 1 and done.fusion is not None
     assert len(read_world(tmp_path / "out" / "world.json").cameras) == 2
     assert done.files == {"world": tmp_path / "out" / "world.json", "site": tmp_path / "out" / "site"}
-    assert [row["place"] for row in done.site.places] == ["all"] and (tmp_path / "out" / "site" / "report.html").exists()
+    assert ([row["place"] for row in done.site.places] == ["all"]
+            and (tmp_path / "out" / "site" / "report.html").exists())
     assert job.lifter("h36m17") is job.lifter("h36m17") is job.lifter(None) is not None
     sent = pickle.loads(pickle.dumps(job))
     assert sent._lifters == {} and (sent.inputs, sent.site) == (job.inputs, job.site) and job._lifters

@@ -557,7 +557,8 @@ source = FrameSource(_frames(400, people=people), 10.0, "scene", paced=True)
 stop = threading.Event()
 caught = stop_on_signals(stop, source)
 print("started", flush=True)
-summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), lifter, options=LiveOptions(page=False), stop=stop,
+summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), lifter, \
+options=LiveOptions(page=False), stop=stop,
                    video_options=VideoOptions(min_track_s=0.5))
 print(summary.ending, summary.processed, flush=True)
 sys.exit(128 + caught[0] if caught else 0)

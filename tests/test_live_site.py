@@ -138,9 +138,10 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
                                  "lines": [{"name": "door", "start": DOOR.start.tolist(), "end": DOOR.end.tolist()}]}))
     assert main(["site", "--store", str(out / "site.db"), "--site", str(other), "--out", str(tmp_path / "hall")]) == 0
     said = capsys.readouterr()
-    assert [line for line in said.err.strip().splitlines() if "zone" in line] == ["note: zone 'hall': no run of the record followed it; its entries and "
-                                             "exits are not in it (its occupancy and heat map come from the "
-                                             "positions)"]
+    assert ([line for line in said.err.strip().splitlines() if "zone" in line]
+            == ["note: zone 'hall': no run of the record followed it; its entries and "
+                "exits are not in it (its occupancy and heat map come from the "
+                "positions)"])
     assert "zone hall: 0 entries, 0 exits" in said.out
 
 

@@ -18,7 +18,8 @@ def test_split_is_by_performer_and_holds_both_sources(mocap_dir):
     assert set().union(*performers.values()) == set(everything.clips["orig_subject"])
     for split in ("validation", "test"):
         assert performers[split] == set(SPLITS[split])
-        assert any(p.startswith("cmu") for p in performers[split]) and any(p.startswith("hdm05") for p in performers[split])
+        assert (any(p.startswith("cmu") for p in performers[split])
+                and any(p.startswith("hdm05") for p in performers[split]))
     sizes = {s: load_shipped(mocap_dir, s).num_frames for s in performers}
     assert sum(sizes.values()) == everything.num_frames
     assert sizes["test"] > 10_000 and sizes["validation"] > 10_000

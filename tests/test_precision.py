@@ -139,7 +139,8 @@ def test_lift_on_the_command_line_in_int8(tmp_path, demo):
     np.savez(keypoints, keypoints=pixels[:60], layout="h36m17", fps=50.0)
     spec = f"h36m:{DEMO_CAMERA[0]}:{DEMO_CAMERA[1]}"
     out = tmp_path / "world.json"
-    assert main(["lift", "--keypoints", str(keypoints), "--camera", spec, "--precision", "int8", "--out", str(out)]) == 0
+    assert main(["lift", "--keypoints", str(keypoints), "--camera", spec, "--precision", "int8",
+                 "--out", str(out)]) == 0
     assert read_world(out).track().joints.shape == (60, 17, 3)
     with pytest.raises(SystemExit) as refused:  # argparse's choices: one line, exit code 2
         main(["lift", "--keypoints", str(keypoints), "--camera", spec, "--precision", "fp16",

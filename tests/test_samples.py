@@ -38,7 +38,8 @@ def test_rays_and_targets_satisfy_the_ncs_identity(rng):
     config = SampleConfig(flip_probability=0.0, cameras=CameraRanges(distortion_k1=(-0.2, 0.0), roll_deg=4))
     batch = SampleGenerator(_motion(rng), config, NINE, seed=2).batch(64)
     assert batch.rays.shape == (64, 9, 17, 3) and batch.pixels.shape == (64, 9, 17, 2)
-    assert batch.pose.shape == (64, 17, 3) and batch.root.shape == (64, 3) and batch.cameras.height_pitch.shape == (64, 2)
+    assert (batch.pose.shape == (64, 17, 3) and batch.root.shape == (64, 3)
+            and batch.cameras.height_pitch.shape == (64, 2))
     np.testing.assert_array_equal(batch.pose[:, 0], 0.0)
     cams = batch.cameras
     depth = tf.world_to_camera(batch.world.astype(np.float64), cams.R[:, None], cams.t[:, None])[..., 2:3]

@@ -50,7 +50,8 @@ def test_the_camera_schema_accepts_what_ray3d_writes_and_reads_and_refuses_what_
         validator.validate(json.loads((tmp_path / path).read_text()))
         read_camera(tmp_path / path)
     validator.validate({"floor_regions": FLOOR})
-    assert len(read_floor(tmp_path / "floor.json").regions) == 2 and len(read_floor(tmp_path / "single.json").regions) == 2
+    assert (len(read_floor(tmp_path / "floor.json").regions) == 2
+            and len(read_floor(tmp_path / "single.json").regions) == 2)
     good = camera.to_dict()
     wrong_cameras = [{k: v for k, v in good.items() if k != "fx"}, {**good, "R": good["R"][:2]},
                      {**good, "t": [0, 0]}, {**good, "dist": [0, 0, 0]}, {"cameras": []}]
@@ -84,8 +85,9 @@ def test_the_manifest_schema_names_the_readers_columns_and_refuses_what_it_refus
         assert len(read_manifest(tmp_path / "m.json")) == 2
     row = rows[0]
     for k, wrong in enumerate([[{**row, "colour": "red"}], [{k: v for k, v in row.items() if k != "input"}],
-                               [{**row, "precision": "fp8"}], [{**row, "every": "soon"}], [{**row, "flip_test": "perhaps"}],
-                               {"inputs": [row], "extra": 1}, [], [{**row, "image_size": "wide"}]]):
+                               [{**row, "precision": "fp8"}], [{**row, "every": "soon"}],
+                               [{**row, "flip_test": "perhaps"}], {"inputs": [row], "extra": 1}, [],
+                               [{**row, "image_size": "wide"}]]):
         assert not validator.is_valid(wrong), k
         (tmp_path / f"wrong{k}.json").write_text(json.dumps(wrong))
         with pytest.raises(InputError):

@@ -60,9 +60,9 @@ class KeypointSource:
     """How one kind of keypoints stands a person on the floor, shared by everybody it sees (what many people do not
     average away): its ankle keypoint of a planted, shod foot stands ``planted_ankle_m`` +/- ``planted_ankle_sd_m``
     over the floor (where its ankle rays meet the floor), while the refined pose's lowest ankle, the network's
-    drawn only part of the way to those rays, rests ``pose_ankle_m`` over it; it gives an adult of the prior's size a size chain of ``body_size_m``, and the network's pose
-    on its keypoints' rays reads that adult's size chain as ``read_size_m`` (what people's sizes tell of the floor
-    from), known to a relative ``read_size_sd``."""
+    drawn only part of the way to those rays, rests ``pose_ankle_m`` over it; it gives an adult of the prior's size a
+    size chain of ``body_size_m``, and the network's pose on its keypoints' rays reads that adult's size chain as
+    ``read_size_m`` (what people's sizes tell of the floor from), known to a relative ``read_size_sd``."""
 
     planted_ankle_m: float
     planted_ankle_sd_m: float

@@ -130,8 +130,8 @@ def person_axis_pixels(keypoints: np.ndarray, layout: str = "h36m17", confidence
 
 
 def from_person(keypoints, image_size: tuple[int, int], person_height: float = ADULT_STATURE_M,
-                focal_px: float | None = None, layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M, bootstrap: int = 30,
-                seed: int = 0, max_frames: int = 400, model_error: bool = True,
+                focal_px: float | None = None, layout: str = "h36m17", person_height_sd: float = ADULT_STATURE_SD_M,
+                bootstrap: int = 30, seed: int = 0, max_frames: int = 400, model_error: bool = True,
                 confidences=None) -> PersonCalibration:
     """The camera's height, pitch and roll (and focal length when ``focal_px`` is None) from 2D keypoints of
     people standing or walking on the floor, seen by a camera with square pixels and its principal point at
@@ -206,8 +206,9 @@ def _fit_warnings(axis: np.ndarray, rms_px: float, height_fraction_sd: float, fo
     tall = np.linalg.norm(axis[:, 3] - axis[:, 0], axis=-1)  # head above the ankles, pixels
     warnings = []
     if rms_px > 0.1 * np.median(tall):
-        warnings.append(f"the upright-body model fits poorly (RMS {rms_px:.1f} px, {100 * rms_px / np.median(tall):.0f}% "
-                        "of a person's height): are they bending or sitting, or are the keypoints wrong?")
+        warnings.append(f"the upright-body model fits poorly (RMS {rms_px:.1f} px, "
+                        f"{100 * rms_px / np.median(tall):.0f}% of a person's height): are they bending or sitting, "
+                        "or are the keypoints wrong?")
     if len(axis) < 50:
         warnings.append(f"only {len(axis)} upright frames: the estimate rests on little")
     if focal_unknown and np.percentile(tall, 90) < 1.3 * np.percentile(tall, 10):

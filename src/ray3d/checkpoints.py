@@ -81,7 +81,8 @@ def model_config(document: dict[str, Any]) -> ModelConfig:
     known = {f.name: f.type for f in dataclasses.fields(ModelConfig)}
     unknown = sorted(set(fields) - set(known))
     if unknown:
-        raise InputError(f"checkpoint JSON: model: unknown field {unknown[0]!r}; the fields are {', '.join(sorted(known))}")
+        raise InputError(f"checkpoint JSON: model: unknown field {unknown[0]!r}; the fields are "
+                         f"{', '.join(sorted(known))}")
     for name, value in fields.items():
         if not _of_type(value, known[name]):
             raise InputError(f"checkpoint JSON: model: {name}: expected {known[name]}, got {value!r:.40}")
@@ -117,7 +118,8 @@ def model_from_checkpoint(tensors: dict[str, torch.Tensor], document: dict[str, 
         mismatch = next((line.strip() for line in str(err).splitlines() if "size mismatch" in line), str(err)[:200])
         raise InputError(f"checkpoint does not fit its configuration: {mismatch}") from None
     if missing or unexpected:
-        raise InputError(f"checkpoint does not fit its configuration (missing {missing[:3]}, unexpected {unexpected[:3]})")
+        raise InputError(f"checkpoint does not fit its configuration (missing {missing[:3]}, "
+                         f"unexpected {unexpected[:3]})")
     return model.eval()
 
 

@@ -58,8 +58,8 @@ def run_demo(out_dir: str | Path = "ray3d-demo", checkpoint: str = "ray3d", base
     viewer = write_viewer(out_dir / "viewer.html", {"truth": truth, **predictions}, fps=60.0, camera=camera,
                           title="ray3d demo: CMU 02_04 (jump, balance) seen by Human3.6M camera S9/54138969",
                           overwrite=True)
-    images = render_frames({checkpoint: predictions[checkpoint]}, camera, {checkpoint: pixels}, truth, stride=gif_stride,
-                           fps=60.0)
+    images = render_frames({checkpoint: predictions[checkpoint]}, camera, {checkpoint: pixels}, truth,
+                           stride=gif_stride, fps=60.0)
     animation = save_animation(images, out_dir / "demo.gif", fps=60.0 / gif_stride, overwrite=True)
     return {"table": table, "viewer": viewer, "animation": animation, "frames": len(truth), "camera": camera.name,
             "seconds": time.perf_counter() - started}

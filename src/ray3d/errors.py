@@ -46,8 +46,8 @@ def reads_file(what: str):
                 raise InputError(f"{path}: nested too deeply to be a {what}") from None
             except Exception as err:  # the file boundary: whatever a malformed file makes the parsers raise
                 detail = str(err).strip().splitlines()[0][:200] if str(err).strip() else ""
-                raise InputError(f"{path}: not a readable {what} ({type(err).__name__}{': ' + detail if detail else ''})"
-                                 ) from None
+                raise InputError(f"{path}: not a readable {what} "
+                                 f"({type(err).__name__}{': ' + detail if detail else ''})") from None
         return read
 
     return decorate

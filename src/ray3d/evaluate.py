@@ -47,8 +47,8 @@ def _window(model: LiftingNetwork | str) -> Window:
 def predict_windows(model: LiftingNetwork | str, windows: np.ndarray, camera: Camera, flip_test: bool = False,
                   chunk: int = 8192, given: Camera | None = None, noise_px: float = 0.0,
                   rng: np.random.Generator | None = None, return_pixels: bool = False):
-    """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the target
-    frames (centre, or last for a causal model); for RFRH only the root (joint 0) is predicted and the other joints are NaN.
+    """(N, F, J, 3) world windows seen (GT 2D) by ``camera`` -> (N, J, 3) predicted world joints of the target frames
+    (centre, or last for a causal model); for RFRH only the root (joint 0) is predicted and the other joints are NaN.
 
     ``given`` is the camera the model is told about (default: the true one), e.g. a mis-calibrated copy: the
     pixels come from ``camera``, the rays, camera parameters and the way back to the world from ``given``.
@@ -131,8 +131,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
     ``noise_px`` perturbs the 2D input like a detector's jitter (see ``predict_windows``; ``seed`` fixes it);
     ``refine`` lifts each (camera, clip) as one track with the track-level refinement (``ray3d.refine``), at the
     clip's rate over ``frame_stride`` (a ``RefineConfig`` sets its uncertainties; ``True`` takes the defaults
-    with ``keypoint_error`` 0 for GT 2D, since the joints' rays are then exact). ``progress`` shows a bar over the cameras.
-    ``within_1sd`` / ``within_2sd``: the share of frames whose root lies within 1 / 2 of its reported standard
+    with ``keypoint_error`` 0 for GT 2D, since the joints' rays are then exact). ``progress`` shows a bar over the
+    cameras. ``within_1sd`` / ``within_2sd``: the share of frames whose root lies within 1 / 2 of its reported standard
     deviation along its ray (``across_...``: across it; ``ray3d.metrics.root_error_in_sds``), with or without
     the refinement; not for RFRH. ``precision``: the network's arithmetic (``models.precision``: fp32, bf16,
     int8). ``per_posture``: the same
@@ -224,7 +224,8 @@ def evaluate(model: LiftingNetwork | str, motion: MotionSet, cameras: list[Camer
 
 
 def evaluation_motion(mocap: str | Path | None = None, split: str | None = None,
-                      datasets: tuple[str, ...] | None = None, data_dir: str | Path | None = None) -> tuple[MotionSet, str]:
+                      datasets: tuple[str, ...] | None = None,
+                      data_dir: str | Path | None = None) -> tuple[MotionSet, str]:
     """The clips to evaluate on and a description of them: the shipped mocap's ``split`` (default the test
     performers) of ``datasets`` (default all), or a motion npz of one's own (its ``split``: default ``test`` for
     a shipped file, every clip for any other)."""

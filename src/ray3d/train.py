@@ -309,7 +309,8 @@ def train(config: TrainConfig, out: str | Path, resume: bool = False, progress: 
             state["history"].append(record)
             state["epoch"] = epoch + 1
             if progress:
-                print(f"epoch {epoch + 1}: loss {record['loss']:.4f}  validation Abs-MPJPE {record['abs_mpjpe_mm']:.1f} "
+                print(f"epoch {epoch + 1}: loss {record['loss']:.4f}  "
+                      f"validation Abs-MPJPE {record['abs_mpjpe_mm']:.1f} "
                       f"MPJPE {record['mpjpe_mm']:.1f} MRPE {record['mrpe_mm']:.1f} mm  "
                       f"({record['samples_per_s']:,.0f} samples/s)", flush=True)
             weights = prefixed(shipped.state_dict(), MODEL_PREFIX)

@@ -6,9 +6,9 @@ CSV with a header row, or JSON (a list of objects, or ``{"inputs": [...]}``). Co
 - ``name``: the input's output folder below the job's (default: the input's file name without suffix);
 - the camera: ``camera`` (a camera file or ``h36m:SUBJECT:CAMERA_ID``), or ``camera_height``, ``pitch``,
   ``roll``, ``hfov`` or ``focal``, and ``image_size`` (``WIDTHxHEIGHT``; a video's own by default);
-- the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``precision``, ``smooth_2d``,
-  ``smooth_3d``, ``flip_test``, ``refine``, ``floor`` (a floor regions file), ``floor_z`` (where the floor lies in
-  the camera's frame; default: observed from the people), ``frame`` (world or camera),
+- the options of ``ray3d lift`` / ``ray3d video``, same names and defaults: ``checkpoint``, ``precision``,
+  ``smooth_2d``, ``smooth_3d``, ``flip_test``, ``refine``, ``floor`` (a floor regions file), ``floor_z`` (where the
+  floor lies in the camera's frame; default: observed from the people), ``frame`` (world or camera),
   ``format``, ``site`` (a site file: its report in ``NAME/site``, with ``every`` (15min) and ``start_time`` its
   counts per time bucket); for keypoints ``layout``, ``fps``, ``subject``,
   ``action`` and ``camera_index``; for videos ``detector``, ``fps``, ``start``, ``frames``, ``max_gap``,

@@ -2,8 +2,8 @@
 degrees down, 2.5-6 m away, landscape and portrait), through an emulated detector whose joints sit where real
 detectors put them (``ray3d.data.samples.DETECTOR_JOINT_OFFSETS_M``, a share drawn per pair), people of statures
 1.45-1.95 m, joints outside the picture unseen; each pair lifted as ``Lifter.lift`` lifts, refined and not, beside
-the no-learning guess from the same detections (``ray3d.baselines.floor_guess``). Where a real low camera was worse than the guess (issue 45), this is the set that
-shows it without the recording.
+the no-learning guess from the same detections (``ray3d.baselines.floor_guess``). Where a real low camera was worse than
+the guess (issue 45), this is the set that shows it without the recording.
 """
 
 from __future__ import annotations
@@ -163,8 +163,8 @@ def write(out_dir: str | Path, rows: list[dict]) -> list[Path]:
                      f"{100 * totals[f'{name}_within_1sd']:.0f} % | {100 * totals[f'{name}_within_2sd']:.0f} % | "
                      f"{100 * totals[f'{name}_across_within_1sd']:.0f} % | "
                      f"{100 * totals[f'{name}_across_within_2sd']:.0f} % |")
-    lines.append(f"\n{totals['pairs']} pairs lifted beside the guess; {totals['feet_never_seen']} more had no guess (the "
-                 f"feet never in the picture), {totals['refused']} could not be lifted."
+    lines.append(f"\n{totals['pairs']} pairs lifted beside the guess; {totals['feet_never_seen']} more had no guess "
+                 f"(the feet never in the picture), {totals['refused']} could not be lifted."
                  + ("" if totals["ankle_plane_over_floor_m"] is None else
                     f" The ankle plane used: {totals['ankle_plane_over_floor_m']:.3f} m over the floor (median); the "
                     f"people's floor applied for {100 * totals['floor_applied_share']:.0f} % of the pairs."))

@@ -46,7 +46,8 @@ def emulated_detections(clip: np.ndarray, camera: Camera, rng: np.random.Generat
                                layout)[0]
     pixels = camera.project(points)
     height = np.ptp(pixels[..., 1], axis=1)
-    noisy = pixels + rng.normal(0.0, 1.0, pixels.shape) * (EMULATED_NOISE[0] + EMULATED_NOISE[1] * height)[:, None, None]
+    noisy = pixels + (rng.normal(0.0, 1.0, pixels.shape)
+                      * (EMULATED_NOISE[0] + EMULATED_NOISE[1] * height)[:, None, None])
     missed = rng.random(pixels.shape[:2]) < EMULATED_MISSES
     # The pelvis, or the hips it comes from, is kept, so that every frame has a root.
     root = ["pelvis"] if "pelvis" in layout.joint_names else ["l_hip", "r_hip"]
@@ -145,7 +146,8 @@ def write(out_dir: str | Path, emulated: list[dict], video: list[dict] | None = 
                      for key in ("within_1sd", "within_2sd", "across_within_1sd", "across_within_2sd")}
             lines.append(f"Refinement {'on' if refine else 'off'}: the true root within the reported sd along its ray "
                          f"in {share['within_1sd']:.1f} % of person-frames within 1 sd, {share['within_2sd']:.1f} % "
-                         f"within 2; across it {share['across_within_1sd']:.1f} % / {share['across_within_2sd']:.1f} %.")
+                         f"within 2; across it {share['across_within_1sd']:.1f} % / "
+                         f"{share['across_within_2sd']:.1f} %.")
     lines.append("")
     files = [out_dir / "real-video.json", out_dir / "real-video.md"]
     with atomic_path(files[0], overwrite=True) as temporary:

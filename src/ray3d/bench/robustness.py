@@ -124,7 +124,8 @@ def write(sweeps: list[Sweep], out_dir: str | Path) -> list[Path]:
         methods = list(dict.fromkeys(r["method"] for r in sweep.rows))
         xs = sorted({r["x"] for r in sweep.rows})
         value = {(r["method"], r["x"]): r for r in sweep.rows}
-        with atomic_path(out_dir / f"{sweep.name}.csv", overwrite=True) as temporary, temporary.open("w", newline="") as f:
+        with atomic_path(out_dir / f"{sweep.name}.csv",
+                         overwrite=True) as temporary, temporary.open("w", newline="") as f:
             writer = csv.writer(f)
             writer.writerow(["method", sweep.variable, "mpjpe_mm", "mrpe_mm", "frames"])
             for r in sweep.rows:
@@ -145,7 +146,8 @@ def write(sweeps: list[Sweep], out_dir: str | Path) -> list[Path]:
                   for metric, label in (("mpjpe_mm", "MPJPE (mm)"), ("mrpe_mm", "MRPE (mm)"))}
         plot_sweep_panels(xs, panels, sweep.variable, f"robustness: {sweep.name}", out_dir / f"{sweep.name}.png")
         written += [out_dir / f"{sweep.name}.{suffix}" for suffix in ("csv", "md", "png")]
-    index = "\n".join(f"## {sweep.name}\n\n![{sweep.name}]({sweep.name}.png)\n\n{(out_dir / f'{sweep.name}.md').read_text()}"
+    index = "\n".join(f"## {sweep.name}\n\n![{sweep.name}]({sweep.name}.png)\n\n"
+                      f"{(out_dir / f'{sweep.name}.md').read_text()}"
                       for sweep in sweeps)
     with atomic_path(out_dir / "summary.md", overwrite=True) as temporary:
         temporary.write_text("# Robustness sweeps (test performers, GT 2D, mm)\n\n" + index)

@@ -6,8 +6,8 @@ Runtime with the onnx extra), the live ``LiftStream.push``, and training (one st
 train``'s loop with the sample generator in it). What bounds them, timed in the same rounds: the matrix-product
 peak in fp32, bf16 and int8 (the fastest of (8192 x 640) @ (640 x 640), (4096 x 1024) @ (1024 x 1024) and
 (4096 x 2048) @ (2048 x 2048) products through ``nn.Linear``, and as ``models.precision`` runs its bf16 and int8
-layers) and the memory read bandwidth. Each figure runs for about ``ROUND_SECONDS`` per round (as many calls as fit; the mean for rates,
-the median for latencies).
+layers) and the memory read bandwidth. Each figure runs for about ``ROUND_SECONDS`` per round (as many calls as fit; the
+mean for rates, the median for latencies).
 
 Why rounds: on a shared 2-core machine the rate drifts by tens of percent over minutes, so one form timed after
 another measured the order more than the form. Every figure is timed once per round, in an order rotated from

@@ -123,7 +123,8 @@ def speed(args: argparse.Namespace) -> int:
     result = measure_all(args.models, args.rounds, args.video, camera, args.video_frames, batch_size=args.batch,
                          train_batch=args.train_batch)
     m = result["machine"]
-    print(f"{m['cpu']}, {m['cores']} cores ({m['cpu_capability']}; bf16 {'native' if m['bf16_native'] else 'emulated'}), "
+    print(f"{m['cpu']}, {m['cores']} cores ({m['cpu_capability']}; "
+          f"bf16 {'native' if m['bf16_native'] else 'emulated'}), "
           f"torch {m['torch']} on {m['torch_threads']} threads, BLAS {m['blas']}, int8 engine {m['quantized_engine']}, "
           f"oneDNN bf16: {'; '.join(m['onednn_kernels']) or '-'}; {result['rounds']} interleaved rounds, medians")
     print(f"{'model':<13}{'form':<18}{'batch f/s':>10}{'x fp32':>8}{'% fp32 peak':>12}{'% own peak':>11}"
@@ -137,7 +138,8 @@ def speed(args: argparse.Namespace) -> int:
         peaks = ", ".join(f"{p} {v:.0f}" for p, v in r["peaks_gflops"].items())
         paths = "; ".join(f"{layer} {'+'.join(ops)}" for layer, ops in r["layer_gemm_paths"].items())
         print(f"  {r['model']}: matmul peaks {peaks} GFLOP/s, memory {r['memory_gbps']:.1f} GB/s (same rounds); fp32 "
-              f"bounds: batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, latency >= {r['bound_latency_ms']:.2f} ms; {paths}")
+              f"bounds: batch <= {r['bound_batch_frames_per_s']:,.0f} f/s, latency >= {r['bound_latency_ms']:.2f} ms; "
+              f"{paths}")
     for r in result["training"]:
         loop = ("-" if r["train_loop_samples_per_s"] is None else
                 f"{r['train_loop_samples_per_s']:,.0f} ({100 * r['train_loop_fraction_of_bound']:.0f} %)")
@@ -167,7 +169,8 @@ def add_parser(commands) -> None:
 
     bench_parser = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
     bench_commands_parser = bench_parser.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
-    robustness_parser = bench_commands_parser.add_parser("robustness", help="the paper's robustness sweeps (CSV, markdown, PNG)")
+    robustness_parser = bench_commands_parser.add_parser("robustness",
+                                                         help="the paper's robustness sweeps (CSV, markdown, PNG)")
     robustness_parser.add_argument("--out", required=True, type=Path, help="folder for the sweep files")
     robustness_parser.add_argument("--models", nargs="+", default=["ray3d", "videopose3d", "rie", "rfrh"],
                             help="shipped names, checkpoint paths or rfrh, optionally LABEL=MODEL (default: the "
@@ -177,8 +180,9 @@ def add_parser(commands) -> None:
     robustness_parser.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
     add_data_dir(robustness_parser)
     robustness_parser.set_defaults(handler=robustness)
-    calibration_parser = bench_commands_parser.add_parser("calibration", help="camera estimation from a walking person: errors "
-                                                                "and their cost to Ray3D (CSV, JSON, markdown)")
+    calibration_parser = bench_commands_parser.add_parser("calibration",
+                                                          help="camera estimation from a walking person: errors "
+                                                               "and their cost to Ray3D (CSV, JSON, markdown)")
     calibration_parser.add_argument("--out", required=True, type=Path, help="folder for calibration.{csv,json,md}")
     calibration_parser.add_argument("--pairs", type=int, default=12, help="random (camera, walking clip) pairs")
     calibration_parser.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
@@ -190,11 +194,14 @@ def add_parser(commands) -> None:
                              help="whose walking clips (default: the test performers)")
     add_data_dir(calibration_parser)
     calibration_parser.set_defaults(handler=calibration)
-    real_parser = bench_commands_parser.add_parser("real-video", help="physical checks (feet on the floor, stature, walking speed, "
-                                                        "bones, skating, jitter) on a video and on emulated detections")
+    real_parser = bench_commands_parser.add_parser("real-video",
+                                                   help="physical checks (feet on the floor, stature, walking speed, "
+                                                        "bones, skating, jitter) on a video and on emulated "
+                                                        "detections")
     real_parser.add_argument("--out", required=True, type=Path, help="folder for real-video.{json,md}")
     real_parser.add_argument("--video", type=Path, help="a video of people walking on a floor (needs --camera)")
-    real_parser.add_argument("--keypoints", type=Path, help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
+    real_parser.add_argument("--keypoints", type=Path,
+                             help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
     real_parser.add_argument("--camera", help="the video's camera file")
     real_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     real_parser.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
@@ -206,38 +213,49 @@ def add_parser(commands) -> None:
     real_parser.add_argument("--seed", type=int, default=0)
     add_data_dir(real_parser)
     real_parser.set_defaults(handler=real_video)
-    near_parser = bench_commands_parser.add_parser("real-near", help="near, low real cameras against 3D truth: each view of "
-                                     "../shared/data/real-near through ray3d video's finder and lifter")
+    near_parser = bench_commands_parser.add_parser("real-near",
+                                                   help="near, low real cameras against 3D truth: each view of "
+                                                        "../shared/data/real-near through ray3d video's finder and "
+                                                        "lifter")
     near_parser.add_argument("--data", type=Path, default=Path("../shared/data/real-near"),
                       help="the real-near folder (default ../shared/data/real-near)")
     near_parser.add_argument("--out", required=True, type=Path, help="folder for real-near.{json,md}")
     near_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
-    near_parser.add_argument("--checkpoint", default=DETECTOR_MODEL, help=f"the model that lifts (default {DETECTOR_MODEL})")
+    near_parser.add_argument("--checkpoint", default=DETECTOR_MODEL,
+                             help=f"the model that lifts (default {DETECTOR_MODEL})")
     near_parser.add_argument("--views", nargs="+", help="which cameras (default: cam01 cam02 cam03 cam04)")
     near_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
                       help="give each camera with its z = 0 this far above the floor (a calibration board on a "
                            "table; negative: below), default 0")
     near_parser.set_defaults(handler=real_near)
-    level_parser = bench_commands_parser.add_parser("level", help="low, nearly level cameras (the level-test set) through an "
-                                      "emulated detector with real detectors' joint offsets, beside the floor guess")
+    level_parser = bench_commands_parser.add_parser("level",
+                                                    help="low, nearly level cameras (the level-test set) through an "
+                                                         "emulated detector with real detectors' joint offsets, "
+                                                         "beside the floor guess")
     level_parser.add_argument("--out", required=True, type=Path, help="folder for level.{json,md}")
-    level_parser.add_argument("--checkpoint", default=DETECTOR_MODEL, help=f"the model that lifts (default {DETECTOR_MODEL})")
+    level_parser.add_argument("--checkpoint", default=DETECTOR_MODEL,
+                              help=f"the model that lifts (default {DETECTOR_MODEL})")
     level_parser.add_argument("--clips-per-camera", type=int, default=1, help="test clips per camera (default 1)")
-    level_parser.add_argument("--max-frames", type=int, default=300, help="frames of each clip, at 30 frames/s (default 300)")
+    level_parser.add_argument("--max-frames", type=int, default=300,
+                              help="frames of each clip, at 30 frames/s (default 300)")
     level_parser.add_argument("--seed", type=int, default=0)
     level_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
                        help="give the lifter and the guess each camera with its z = 0 this far above the floor (a "
                             "calibration board on a table; negative: below), default 0")
     level_parser.add_argument("--population-scale", type=float, default=1.0, metavar="F",
                               help="every person's size times F (1.04: a population 4 %% taller than the prior's)")
-    level_parser.add_argument("--camera-step", type=int, default=1, metavar="N", help="every Nth camera of the set (default 1)")
-    level_parser.add_argument("--floor-z", type=float, metavar="M", help="tell the lifter the floor lies here in the given "
-                       "camera's frame (0: its z = 0 assumed to be the floor; default: decided on the people)")
+    level_parser.add_argument("--camera-step", type=int, default=1, metavar="N",
+                              help="every Nth camera of the set (default 1)")
+    level_parser.add_argument("--floor-z", type=float, metavar="M",
+                              help="tell the lifter the floor lies here in the given camera's frame (0: its z = 0 "
+                                   "assumed to be the floor; default: decided on the people)")
     add_data_dir(level_parser)
     level_parser.set_defaults(handler=level)
-    speed_bench_parser = bench_commands_parser.add_parser("speed", help="inference and training speed of every model preset")
+    speed_bench_parser = bench_commands_parser.add_parser("speed",
+                                                          help="inference and training speed of every model preset")
     speed_bench_parser.add_argument("--json", type=Path, help="write the results here")
-    speed_bench_parser.add_argument("--models", nargs="+", help="presets to measure (default: ray3d ray3d-paper; all: every preset)")
+    speed_bench_parser.add_argument("--models", nargs="+",
+                                    help="presets to measure (default: ray3d ray3d-paper; all: every preset)")
     speed_bench_parser.add_argument("--rounds", type=int, default=7,
                              help="interleaved rounds: every figure and bound timed once per round (median)")
     speed_bench_parser.add_argument("--batch", type=int, default=1024, help="windows per inference batch")

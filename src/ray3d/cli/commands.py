@@ -53,7 +53,8 @@ def calibrate(args: argparse.Namespace) -> int:
     camera, rms = from_floor_points(floor_xy, pixels, intrinsics, image_size, name=args.out.stem)
     save_cameras(args.out, [camera], overwrite=args.force, reprojection_rms_px=rms)
     print(f"camera height {camera.camera_height:.3f} m, pitch {np.degrees(camera.pitch):.2f} deg, roll "
-          f"{np.degrees(camera.roll):.2f} deg; reprojection RMS {rms:.2f} px over {len(pixels)} floor points -> {args.out}")
+          f"{np.degrees(camera.roll):.2f} deg; reprojection RMS {rms:.2f} px over {len(pixels)} floor points -> "
+          f"{args.out}")
     return 0
 
 
@@ -199,8 +200,9 @@ def add_parser(commands) -> None:
     demo_parser.add_argument("--frames", type=int, help="use only the first N frames")
     demo_parser.set_defaults(handler=demo)
 
-    batch_parser = commands.add_parser("batch", help="every video and keypoint file of a manifest, each one task on a Ray "
-                                              "cluster or a local Ray (pip install 'ray3d[cluster]')")
+    batch_parser = commands.add_parser("batch",
+                                       help="every video and keypoint file of a manifest, each one task on a Ray "
+                                            "cluster or a local Ray (pip install 'ray3d[cluster]')")
     batch_parser.add_argument("manifest", type=Path, help="CSV or JSON: input, camera (or camera_height, pitch, hfov), "
                                                    "options (docs/batch.md)")
     batch_parser.add_argument("--out", required=True, type=Path, help="output folder: NAME/ per input and summary.csv")
@@ -210,17 +212,20 @@ def add_parser(commands) -> None:
                                                    "at once (default no limit)")
     batch_parser.add_argument("--retries", type=int, default=2,
                        help="retries of a task that crashed or raised (default 2; a bad input is not retried)")
-    batch_parser.add_argument("--cpus-per-task", type=float, default=1, help="CPUs (torch threads) per task (default 1)")
+    batch_parser.add_argument("--cpus-per-task", type=float, default=1,
+                              help="CPUs (torch threads) per task (default 1)")
     batch_parser.add_argument("--gpus-per-task", type=float, default=0, help="GPUs per task (default 0)")
     batch_parser.set_defaults(handler=batch)
 
-    viz_parser = commands.add_parser("viz", help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
+    viz_parser = commands.add_parser("viz",
+                                     help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
                                           "ray3d video): every track, with its id and path on the floor")
     viz_parser.add_argument("world", nargs="+", type=Path,
                      help="world files (.json/.csv/.npz): several people, or one per method to compare")
     viz_parser.add_argument("--camera", help="the camera drawn and projected through (default: the first world file's)")
     viz_parser.add_argument("--html", type=Path, help="write the interactive viewer here")
-    viz_parser.add_argument("--animation", type=Path, help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
+    viz_parser.add_argument("--animation", type=Path,
+                            help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
     viz_parser.add_argument("--track", help="show only this track (default: every track)")
     viz_parser.add_argument("--keypoints", type=Path,
                      help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
@@ -229,9 +234,10 @@ def add_parser(commands) -> None:
     add_force(viz_parser, "replace existing outputs")
     viz_parser.set_defaults(handler=viz)
 
-    calibrate_parser = commands.add_parser("calibrate", help="a camera from floor points with known positions, or from a "
-                                                      "person walking on the floor; or where a calibrated camera's "
-                                                      "floor lies (--floor-of)")
+    calibrate_parser = commands.add_parser("calibrate",
+                                           help="a camera from floor points with known positions, or from a "
+                                                "person walking on the floor; or where a calibrated camera's "
+                                                "floor lies (--floor-of)")
     calibrate_parser.add_argument("--floor-points", type=Path,
                            help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
     calibrate_parser.add_argument("--from-person", type=Path, metavar="KEYPOINTS",

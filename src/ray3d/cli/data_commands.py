@@ -102,7 +102,8 @@ def add_parser(commands) -> None:
     data_parser = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
     data_commands_parser = data_parser.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
 
-    info_parser = data_commands_parser.add_parser("info", help="what motion data is available: clips, frames, minutes, splits")
+    info_parser = data_commands_parser.add_parser("info",
+                                                  help="what motion data is available: clips, frames, minutes, splits")
     add_data_dir(info_parser)
     info_parser.set_defaults(handler=data_info)
 
@@ -125,12 +126,14 @@ def add_parser(commands) -> None:
     cams_parser.add_argument("--out", required=True, type=Path)
     cams_parser.add_argument("--split", default="test", choices=["train", "validation", "test", "all"],
                       help="clips the cameras must see entirely (default: test)")
-    cams_parser.add_argument("--no-filter", action="store_true", help="write the whole grid, without the in-image filter")
+    cams_parser.add_argument("--no-filter", action="store_true",
+                             help="write the whole grid, without the in-image filter")
     add_data_dir(cams_parser)
     add_force(cams_parser, "replace OUT if it exists")
     cams_parser.set_defaults(handler=cameras)
 
-    speed_parser = data_commands_parser.add_parser("samples-speed", help="measure the training-sample generator's throughput")
+    speed_parser = data_commands_parser.add_parser("samples-speed",
+                                                   help="measure the training-sample generator's throughput")
     speed_parser.add_argument("--batch", type=int, default=1024)
     speed_parser.add_argument("--frames", type=int, default=9)
     speed_parser.add_argument("--repeats", type=int, default=20)

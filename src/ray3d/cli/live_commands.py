@@ -122,7 +122,8 @@ def add_parser(commands) -> None:
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     parser = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
-                                            "a growing world file, a page on localhost (pip install 'ray3d[video,live]')")
+                                            "a growing world file, a page on localhost "
+                                            "(pip install 'ray3d[video,live]')")
     parser.add_argument("source", nargs="+", help="a video file (played at its own rate), a camera device number, or a "
                                                 "stream URL OpenCV opens (rtsp://, http://); several: one per "
                                                 "calibrated camera, their people followed as one world")
@@ -135,8 +136,8 @@ def add_parser(commands) -> None:
     parser.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
     parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     parser.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")
-    parser.add_argument("--unpaced", action="store_true", help="read a file as fast as it is processed, every frame, not at its "
-                      "rate")
+    parser.add_argument("--unpaced", action="store_true",
+                        help="read a file as fast as it is processed, every frame, not at its rate")
     parser.add_argument("--stall-timeout", type=float, default=5.0,
                       help="seconds without a frame before the stream counts as stalled (default 5; exit code 3)")
     parser.add_argument("--max-gap", type=float, default=0.5,
@@ -152,8 +153,8 @@ def add_parser(commands) -> None:
     parser.add_argument("--store", help="the site's store: every event, position and person, appended by each run, "
                                       "one run writing it at a time (default OUT/site.db, SQLite; or "
                                       "postgresql://USER@HOST/DB; docs/live.md)")
-    parser.add_argument("--mqtt", help="publish events and zone occupancy to an MQTT broker, mqtt://HOST[:PORT]/PREFIX, "
-                                     "with Home Assistant discovery")
+    parser.add_argument("--mqtt", help="publish events and zone occupancy to an MQTT broker, "
+                                       "mqtt://HOST[:PORT]/PREFIX, with Home Assistant discovery")
     parser.add_argument("--until", type=until, help="end the run on purpose after a duration (8h, 30min) or at a "
                                                   "date and time (ISO 8601); exit 0")
     parser.add_argument("--reconnect-max", type=float, default=30.0, help="a network stream that stalls or breaks "

@@ -100,7 +100,8 @@ def models(args: argparse.Namespace) -> int:
     for name, config in PRESETS.items():
         model = LiftingNetwork(config)
         print(f"{name:<15}{config.frames:>7}{count_parameters(model):>12,}{flops_per_frame(model) / 1e6:>14.2f}  "
-              f"{config.input:<15}{config.backbone:<12}{config.root:<12}{'yes' if config.camera_embedding else 'no':<12}"
+              f"{config.input:<15}{config.backbone:<12}{config.root:<12}"
+              f"{'yes' if config.camera_embedding else 'no':<12}"
               f"{'yes' if name in shipped else 'no'}")
     print(f"\nshipped weights (Lifter.load(NAME), --checkpoint NAME): {', '.join(sorted(shipped))}; what each was "
           "trained on: src/ray3d/assets/models/MODELS.md")
@@ -116,7 +117,8 @@ def add_parser(commands) -> None:
 
     train_parser = commands.add_parser("train", help="train a model on the training performers with random cameras")
     train_parser.add_argument("--config", type=Path, help="training config JSON (see configs/); default: Ray3D lite")
-    train_parser.add_argument("--preset", help="model preset replacing the config's model (ray3d, videopose3d, rie, ...)")
+    train_parser.add_argument("--preset",
+                              help="model preset replacing the config's model (ray3d, videopose3d, rie, ...)")
     train_parser.add_argument("--out", required=True, type=Path, help="run folder: best.*, last.*, config.json")
     train_parser.add_argument("--resume", action="store_true", help="continue the run in --out from its last epoch")
     train_parser.add_argument("--epochs", type=int)
@@ -128,21 +130,26 @@ def add_parser(commands) -> None:
     train_parser.add_argument("--quiet", action="store_true", help="no progress bar or per-epoch lines")
     train_parser.set_defaults(handler=train)
 
-    evaluation_parser = commands.add_parser("evaluate", help="MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
+    evaluation_parser = commands.add_parser("evaluate",
+                                            help="MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
     evaluation_parser.add_argument("--checkpoint", default="ray3d",
                             help="a checkpoint path or a shipped model name (ray3d, videopose3d, rie, ...) or rfrh")
-    evaluation_parser.add_argument("--mocap", type=Path, help="a motion npz (default: the shipped mocap's test performers)")
+    evaluation_parser.add_argument("--mocap", type=Path,
+                                   help="a motion npz (default: the shipped mocap's test performers)")
     evaluation_parser.add_argument("--split", choices=["train", "validation", "test", "all"],
                             help="clips to use (default: test for the shipped files, all for any other npz)")
-    evaluation_parser.add_argument("--cameras", required=True, help=f"a camera set ({', '.join(SET_NAMES)}) or a cameras JSON")
+    evaluation_parser.add_argument("--cameras", required=True,
+                                   help=f"a camera set ({', '.join(SET_NAMES)}) or a cameras JSON")
     evaluation_parser.add_argument("--datasets", help="with the shipped mocap: cmu, hdm05 or cmu,hdm05 (default both)")
     evaluation_parser.add_argument("--joints", choices=["h36m17", "h36m14"], default="h36m17",
                             help="joints scored (h36m14: without spine, thorax and neck/nose)")
     evaluation_parser.add_argument("--noise-px", type=float, default=0.0,
                             help="Gaussian noise on the 2D input, standard deviation in pixels (a detector's jitter)")
-    evaluation_parser.add_argument("--flip-test", action="store_true", help="average with the mirrored input's prediction")
+    evaluation_parser.add_argument("--flip-test", action="store_true",
+                                   help="average with the mirrored input's prediction")
     evaluation_parser.add_argument("--refine", action="store_true",
-                            help="lift each (camera, clip) as a track with the track-level refinement, as ray3d lift does")
+                            help="lift each (camera, clip) as a track with the track-level refinement, as "
+                                 "ray3d lift does")
     evaluation_parser.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
     add_precision(evaluation_parser)
     evaluation_parser.add_argument("--json", type=Path, help="write the results here")
@@ -153,10 +160,14 @@ def add_parser(commands) -> None:
     models_parser = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
     models_parser.set_defaults(handler=models)
 
-    exporting_parser = commands.add_parser("export", help="a trained checkpoint -> inference weights (.safetensors + .json)")
-    exporting_parser.add_argument("--checkpoint", default="ray3d", help="a shipped model name or e.g. runs/NAME/best.safetensors")
-    exporting_parser.add_argument("--out", required=True, type=Path, help="target .safetensors (its .json is written beside)")
-    exporting_parser.add_argument("--onnx", action="store_true", help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
+    exporting_parser = commands.add_parser("export",
+                                           help="a trained checkpoint -> inference weights (.safetensors + .json)")
+    exporting_parser.add_argument("--checkpoint", default="ray3d",
+                                  help="a shipped model name or e.g. runs/NAME/best.safetensors")
+    exporting_parser.add_argument("--out", required=True, type=Path,
+                                  help="target .safetensors (its .json is written beside)")
+    exporting_parser.add_argument("--onnx", action="store_true",
+                                  help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
     exporting_parser.add_argument("--image-width", type=float, default=1000.0,
                            help="with --onnx: the image width pixel-input models normalise by (default 1000)")
     exporting_parser.add_argument("--last-weights", action="store_true",

@@ -35,7 +35,8 @@ def print_ankle_plane(tracks: dict, camera=None) -> None:
 
 
 def print_refinements(tracks: dict, camera=None) -> None:
-    """Each track's refinement, and after the work (a refusal stays one line) what is implausible of them and the camera."""
+    """Each track's refinement, and after the work (a refusal stays one line) what is implausible of them and the
+    camera."""
     for doubt in () if camera is None else [*camera.doubts()[1], *low_camera_doubts(tracks, camera)]:
         print(f"warning: {doubt}", file=sys.stderr)
     print_ankle_plane(tracks, camera)
@@ -43,11 +44,12 @@ def print_refinements(tracks: dict, camera=None) -> None:
         if result.refinement:
             r = result.refinement
             print(f"  track {track}: stature {r['stature_m']:.2f} m, moved x{r['median_scale']:.2f} along the rays, "
-                  f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, position +- {r['position_sd_m']:.2f} m")
+                  f"feet on the floor in {100 * r['contact_fraction']:.0f}% of frames, "
+                  f"position +- {r['position_sd_m']:.2f} m")
             low, high = PLAUSIBLE_STATURE_M  # outside it the camera is the likelier error
             if not low <= r["stature_m"] <= high:
-                print(f"warning: track {track} comes out {r['stature_m']:.2f} m tall, outside {low}-{high} m: check the "
-                      "camera's height, pitch and lens", file=sys.stderr)
+                print(f"warning: track {track} comes out {r['stature_m']:.2f} m tall, outside {low}-{high} m: "
+                      "check the camera's height, pitch and lens", file=sys.stderr)
 
 
 def low_camera_doubts(tracks: dict, camera) -> tuple[str, ...]:
@@ -105,7 +107,8 @@ def print_site_report(report, world) -> None:
     kinds: dict[str, int] = {}
     for event in report.events:
         kinds[event["event"]] = kinds.get(event["event"], 0) + 1
-    print(f"{len(report.events)} events of {len(world.tracks)} tracks ({', '.join(f'{n} {k}' for k, n in kinds.items())}) "
+    print(f"{len(report.events)} events of {len(world.tracks)} tracks "
+          f"({', '.join(f'{n} {k}' for k, n in kinds.items())}) "
           f"-> {report.folder}: {', '.join(p.name for p in report.files)}")
 
 

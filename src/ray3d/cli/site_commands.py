@@ -74,7 +74,8 @@ def add_parser(commands) -> None:
     from ray3d.cli.arguments import add_force, add_time_buckets, wall_clock
 
     parser = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
-                                            "(lines crossed, zones entered and left) and per-track and per-place tables")
+                                            "(lines crossed, zones entered and left) and per-track and per-place "
+                                            "tables")
     parser.add_argument("world", type=Path, nargs="?", help="a world file (.json/.csv/.npz) of ray3d lift or ray3d "
                       "video (or --store)")
     parser.add_argument("--store", help="report on a site's store instead (ray3d live's OUT/site.db, or "

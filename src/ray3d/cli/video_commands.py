@@ -66,19 +66,21 @@ def add_parser(commands) -> None:
     video_parser = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
                                               "viewer and overlay video (pip install 'ray3d[video]'); several "
                                               "videos, one per camera: one world, one track per person")
-    video_parser.add_argument("input", type=Path, nargs="+", help="the video file(s) (anything OpenCV reads: .mp4, .avi, "
-                                                           "...); several: one per calibrated camera, in step")
+    video_parser.add_argument("input", type=Path, nargs="+",
+                              help="the video file(s) (anything OpenCV reads: .mp4, .avi, ...); several: one per "
+                                   "calibrated camera, in step")
     add_camera_arguments(video_parser, image_size_note=" (default: the video's)", several=True)
     video_parser.add_argument("--find-offsets", action="store_true", help="several videos: find how far apart they "
                                                                    "started from the people both see")
-    video_parser.add_argument("--out", required=True, type=Path, help="folder for world.*, keypoints.json, viewer.html, "
-                                                                "overlay.mp4")
+    video_parser.add_argument("--out", required=True, type=Path,
+                              help="folder for world.*, keypoints.json, viewer.html, overlay.mp4")
     video_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     video_parser.add_argument("--start", type=int, default=0, help="first frame to process (default 0)")
     video_parser.add_argument("--frames", type=int, help="how many frames to process (default: to the end)")
     video_parser.add_argument("--max-gap", type=float, default=0.5,
                        help="seconds a person may go undetected and keep their track (default 0.5)")
-    video_parser.add_argument("--min-track", type=float, default=1.0, help="drop tracks shorter than this, seconds (default 1)")
+    video_parser.add_argument("--min-track", type=float, default=1.0,
+                              help="drop tracks shorter than this, seconds (default 1)")
     video_parser.add_argument("--rejoin", type=float, default=3.0,
                        help="take a person up again after a gap of up to this many seconds where their walk led, in "
                             "the same clothes: one identity (default 3; 0: never)")
@@ -86,8 +88,9 @@ def add_parser(commands) -> None:
                        help="world file format (.trc: OpenSim / Pose2Sim markers; .bvh: one skeleton per track)")
     video_parser.add_argument("--fps", type=float, help="override the frame rate the video reports")
     video_parser.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
-    video_parser.add_argument("--site", type=Path, help="also analyse the people on this site file's zones and lines: a "
-                       "report, tables and plots in OUT/site (as ray3d site does; docs/site.md)")
+    video_parser.add_argument("--site", type=Path,
+                              help="also analyse the people on this site file's zones and lines: a report, tables "
+                                   "and plots in OUT/site (as ray3d site does; docs/site.md)")
     add_time_buckets(video_parser)
     video_parser.add_argument("--privacy", action="store_true", help="write nothing derived from the pixels but "
                        "skeletons, tracks and events: no overlay video")

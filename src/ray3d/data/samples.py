@@ -88,10 +88,10 @@ class SampleConfig:
 class Batch:
     """One batch (B samples, F frames, J joints), float32 numpy arrays.
 
-    pixels (B, F, J, 2) and rays (B, F, J, 3) in the NCS of the J joints the model sees; pose (B, K, 3) root-relative NCS pose of the window's target frame (row 0 is zero)
-    and root (B, 3) NCS root, of the K H36M-17 joints; visible (B, F, J) False where a joint was dropped;
-    confidences (B, F, J) in [0, 1]; cameras and world (B, K, 3): the cameras and the target frame's world
-    joints, to go back to the world (they describe the scene before any flip).
+    pixels (B, F, J, 2) and rays (B, F, J, 3) in the NCS of the J joints the model sees; pose (B, K, 3) root-relative
+    NCS pose of the window's target frame (row 0 is zero) and root (B, 3) NCS root, of the K H36M-17 joints; visible
+    (B, F, J) False where a joint was dropped; confidences (B, F, J) in [0, 1]; cameras and world (B, K, 3): the
+    cameras and the target frame's world joints, to go back to the world (they describe the scene before any flip).
     """
 
     pixels: np.ndarray

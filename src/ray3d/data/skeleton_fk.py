@@ -54,5 +54,6 @@ class KinematicTree:
                 positions[:, i] = translations[:, i]
             else:
                 world_rotations[:, i] = world_rotations[:, parent] @ local_rotations[:, i]
-                positions[:, i] = positions[:, parent] + (world_rotations[:, parent] @ translations[:, i, :, None])[..., 0]
+                positions[:, i] = (positions[:, parent]
+                                   + (world_rotations[:, parent] @ translations[:, i, :, None])[..., 0])
         return positions

@@ -108,7 +108,8 @@ def grid(set_name: str) -> list[Camera]:
     if set_name == "intrinsic-test":
         fx, fy, cx, cy = base_intrinsics()
         y, p, d = TEST_SWEEP_YAWS_DEG[0], TEST_BASE_PITCH_DEG, TEST_BASE_DISTANCE_M
-        return [orbit_camera(y, p, d, f"intrinsic:focal{df:+04.0f}:centre{dc:+04.0f}", (fx + df, fy + df, cx + dc, cy + dc))
+        return [orbit_camera(y, p, d, f"intrinsic:focal{df:+04.0f}:centre{dc:+04.0f}",
+                             (fx + df, fy + df, cx + dc, cy + dc))
                 for df in INTRINSIC_OFFSETS_PX for dc in INTRINSIC_OFFSETS_PX]
     if set_name == "scale-test":
         # The bodies change (SCALE_TEST_FACTORS), not the cameras: the rotation sweep sees every scale.

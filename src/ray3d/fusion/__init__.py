@@ -1,9 +1,10 @@
 """Several calibrated cameras, one world: each camera's people (its ``World``, lifted as one camera lifts them)
 brought onto one clock, the tracks that are the same person joined into one world track, and their joints fused.
 
-- **Clock** (``ray3d.fusion.clock``): camera c's frame f happens at ``f / fps_c - offset_c`` seconds of the first camera's clock. The
-  offsets are given, or found from the people themselves (``find_time_offset``: the shift that best aligns the
-  bodies of the people two cameras see at once, with its uncertainty). Every track is read on the first camera's frames.
+- **Clock** (``ray3d.fusion.clock``): camera c's frame f happens at ``f / fps_c - offset_c`` seconds of the first
+  camera's clock. The offsets are given, or found from the people themselves (``find_time_offset``: the shift that best
+  aligns the bodies of the people two cameras see at once, with its uncertainty). Every track is read on the first
+  camera's frames.
 - **Who is who** (``associate``): two tracks of different cameras are one person when, over the frames both see,
   their floor points lie within what their position uncertainties allow (``pair_distance``); a person walking out of one
   camera's view and into another's within ``handover_s`` is kept when the new track starts where the old one's

@@ -19,7 +19,8 @@ from ray3d.io.world import World
 
 BOUNCE_SD_M = 0.015   # how well two cameras agree on the pelvis' height about its mean
 FINE_WINDOW_S = 0.25  # the body alone decides within this of the first stage's offset (half a stride or less)
-FLOOR_IN_FINE = 0.1   # the floor's weight beside the body's in the second stage: enough to decide where the body stands still
+FLOOR_IN_FINE = 0.1   # the floor's weight beside the body's in the second stage: enough to decide where the body
+                      # stands still
 MIN_SD_STEPS = 0.25  # the parabola's resolution: no offset is surer than a quarter of a step
 BLOCK_S = 0.25        # the bootstrap's blocks: errors within one are alike
 

@@ -25,6 +25,6 @@ from ray3d.geometry.transforms import (
 __all__ = [
     "Camera", "CameraBatch", "camera_center", "camera_pitch", "camera_roll", "camera_to_normalized",
     "camera_to_pixels", "camera_to_world", "centre_looking_at", "focal_from_hfov", "forward_direction",
-    "normalized_to_camera", "parse_image_size", "pinhole_intrinsics", "pixels_to_camera_rays", "rays_camera_to_normalized",
-    "rays_normalized_to_camera", "rotation_from_angles", "world_to_camera", "y_up_to_z_up",
+    "normalized_to_camera", "parse_image_size", "pinhole_intrinsics", "pixels_to_camera_rays",
+    "rays_camera_to_normalized", "rays_normalized_to_camera", "rotation_from_angles", "world_to_camera", "y_up_to_z_up",
 ]

@@ -78,7 +78,8 @@ class Camera:
         if fx <= 0 or fy <= 0:
             raise InputError(f"camera field K: singular or flipped intrinsics (fx={fx}, fy={fy}); both must be > 0")
         if K[0, 1] != 0 or K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
-            raise InputError(f"camera field K: must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {K.tolist()}")
+            raise InputError("camera field K: must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), "
+                             f"got {K.tolist()}")
         n_dist = np.size(self.dist)
         dist = _frozen(self.dist, (n_dist,) if n_dist in (4, 5) else (5,), "dist")
         if n_dist == 4:
@@ -285,9 +286,9 @@ class Camera:
         distorted = radius * (1 + k1 * radius ** 2 + k2 * radius ** 4 + k3 * radius ** 6)
         turning = np.flatnonzero(np.diff(distorted) <= 0)
         if len(turning) and distorted[turning[0]] < reach:
-            return (f"{name}'s lens distortion (k1 {k1:g}, k2 {k2:g}, k3 {k3:g}) turns back {distorted[turning[0]]:.2f} "
-                    f"focal lengths from the centre, inside the image (which reaches {reach:.2f}): its rays cannot be "
-                    "recovered there",), ()
+            return (f"{name}'s lens distortion (k1 {k1:g}, k2 {k2:g}, k3 {k3:g}) turns back "
+                    f"{distorted[turning[0]]:.2f} focal lengths from the centre, inside the image (which reaches "
+                    f"{reach:.2f}): its rays cannot be recovered there",), ()
         doubts = []
         across = 2 * np.degrees(np.arctan(radius[np.searchsorted(distorted, max(cx, width - cx) / fx)]))
         if not 3.0 <= across <= 170.0:

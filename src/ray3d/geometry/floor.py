@@ -76,7 +76,8 @@ class FloorRegion(Area):
             raise InputError(f"{where}: height, gradient and anchor must be finite numbers", arguments=("floor",))
         if np.hypot(*self.gradient) > 1.0:
             raise InputError(f"{where}: slope {np.degrees(np.arctan(np.hypot(*self.gradient))):.0f} deg is steeper "
-                             "than 45 deg; declare stairs as flat steps or as the ramp through the middles of their treads",
+                             "than 45 deg; declare stairs as flat steps or as the ramp through the middles of their "
+                             "treads",
                              arguments=("floor",))
         object.__setattr__(self, "polygon", polygon)
 

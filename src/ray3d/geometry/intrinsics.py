@@ -13,7 +13,8 @@ from ray3d.errors import InputError
 def focal_from_hfov(width_px: float, hfov_deg: float) -> float:
     """Focal length in pixels of an image ``width_px`` wide spanning ``hfov_deg`` horizontally."""
     if not 0 < hfov_deg < 180:
-        raise InputError(f"horizontal field of view must be in (0, 180) degrees, got {hfov_deg}", arguments=("hfov_deg",))
+        raise InputError(f"horizontal field of view must be in (0, 180) degrees, got {hfov_deg}",
+                         arguments=("hfov_deg",))
     return width_px / 2 / np.tan(np.radians(hfov_deg) / 2)
 
 

@@ -194,8 +194,8 @@ def read_calibration_toml(path: str | Path, name: str | None = None) -> Camera:
                          "tangential distortion")
     K = _matrix(section.get("matrix"), path, f"[{wanted[0]}] matrix", (9,)).reshape(3, 3)
     R, _ = cv2.Rodrigues(_matrix(section.get("rotation"), path, f"[{wanted[0]}] rotation (Rodrigues)", (3,)))
-    size = parse_image_size(_matrix(section.get("size"), path, f"[{wanted[0]}] size", (2,)).round().astype(int).tolist(),
-                            f"{where} size")
+    size = parse_image_size(
+        _matrix(section.get("size"), path, f"[{wanted[0]}] size", (2,)).round().astype(int).tolist(), f"{where} size")
     try:
         return Camera.from_intrinsics(K[0, 0], K[1, 1], K[0, 2], K[1, 2], section.get("distortions", [0.0] * 4), R,
                                       section.get("translation"), size, name=str(section.get("name", wanted[0])))
@@ -276,8 +276,8 @@ def read_floor(path: str | Path) -> Floor:
     """The floor regions a JSON file declares under ``"floor_regions"`` (a camera file of ours may carry them
     beside the camera, or a file may hold them alone): a list of ``{"name", "polygon": [[x, y], ...],
     "height_m"}`` (a flat region: a stage, a platform, a step) or ``{"name", "polygon", "vertex_heights_m": [...]}``
-    (a plane through its vertices: a ramp, a flight of stairs as the plane through the middles of its treads), world metres. Where
-    regions overlap the first listed decides; outside every region the floor is z = 0."""
+    (a plane through its vertices: a ramp, a flight of stairs as the plane through the middles of its treads), world
+    metres. Where regions overlap the first listed decides; outside every region the floor is z = 0."""
     path = Path(path)
     document = read_json(path)
     check_camera_document(document, path)

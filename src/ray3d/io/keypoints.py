@@ -82,7 +82,8 @@ def _layout_for(path: Path, pixels: np.ndarray, layout: str | None) -> str:
     joints = pixels.shape[1]
     if layout is not None:
         if layout_skeleton(layout).num_joints != joints:
-            raise InputError(f"{path}: layout {layout} has {LAYOUTS[layout].num_joints} joints but the file has {joints}")
+            raise InputError(f"{path}: layout {layout} has {LAYOUTS[layout].num_joints} joints but the file has "
+                             f"{joints}")
         return layout
     if joints == 17:  # COCO-17 and H36M-17 both have 17 joints: tell them apart by where the joints are
         found = identify_17_joint_layout(pixels)
@@ -131,7 +132,8 @@ def _split_scores(path: Path, rows: np.ndarray, joints: int | None = None) -> tu
     """Flat or nested (x, y[, score]) rows -> ((N, J, 2), (N, J) or None)."""
     if rows.ndim == 2:  # flat lists: x1 y1 s1 x2 y2 s2 ...
         if joints is None or rows.shape[1] != 3 * joints:
-            raise InputError(f"{path}: keypoint lists of {rows.shape[1]} numbers; expected {joints} joints x (x, y, score)")
+            raise InputError(f"{path}: keypoint lists of {rows.shape[1]} numbers; expected {joints} joints x "
+                             "(x, y, score)")
         rows = rows.reshape(len(rows), joints, 3)
     if rows.ndim != 3 or rows.shape[-1] not in (2, 3):
         raise InputError(f"{path}: each keypoint needs (x, y) or (x, y, score), got shape {rows.shape}")

@@ -53,11 +53,11 @@ class Job:
     shipped model for the input's layout when None) in ``precision``; ``lift`` says how (its floor: the
     ``floor_file``'s regions, else each camera file's own, else z = 0); keypoints are read with ``layout``, ``fps``
     and ``read_options`` (a VideoPose3D npz's subject, action, camera_index); videos by ``detector``
-    (``video.DEFAULT_DETECTOR`` when None) with ``video`` options; each input's world written as ``world_format``, a video's ``overlay`` drawn, outputs
-    replaced only with ``overwrite``; several inputs are several cameras of one scene, their clocks found from
-    the people with ``find_offsets``; with a ``site`` file, the people's report on its zones and lines (time
-    buckets of ``every_s`` seconds from ``start_time``, a ``datetime``). With ``remember_floor``, what each
-    camera's people show of its floor is kept beside its camera file and weighed in by the next job
+    (``video.DEFAULT_DETECTOR`` when None) with ``video`` options; each input's world written as ``world_format``, a
+    video's ``overlay`` drawn, outputs replaced only with ``overwrite``; several inputs are several cameras of one
+    scene, their clocks found from the people with ``find_offsets``; with a ``site`` file, the people's report on its
+    zones and lines (time buckets of ``every_s`` seconds from ``start_time``, a ``datetime``). With ``remember_floor``,
+    what each camera's people show of its floor is kept beside its camera file and weighed in by the next job
     (``io.floor_memory``)."""
 
     inputs: tuple  # paths; a live job's may be device numbers or stream URLs

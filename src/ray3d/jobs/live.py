@@ -51,7 +51,8 @@ def start_record(job: Job, store, command: str, site=None, start_time=None):
     document = None
     if site is not None:
         document = {"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
-                    "lines": [{"name": line.name, "start": line.start.tolist(), "end": line.end.tolist()} for line in site.lines]}
+                    "lines": [{"name": line.name, "start": line.start.tolist(), "end": line.end.tolist()}
+                              for line in site.lines]}
     sources = [str(source) for source in job.inputs]
     return RunRecorder(store, command, sources, [Path(s).is_file() for s in sources], document,
                        start_time.timestamp() if start_time is not None else None)

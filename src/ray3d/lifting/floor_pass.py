@@ -45,7 +45,8 @@ def lift_views(lifter, views: list[CameraTracks], chunk: int,
     refine = views[0].options.refine
     configs = [refine_config(lifter.document, refine, view.prepared) for view in views]
     for view, config in zip(views, configs):
-        view.found = {track: None if e is None else floor_evidence(e, config.keypoint_ankle_height_m, config.read_size_m)
+        view.found = {track: None if e is None else floor_evidence(e, config.keypoint_ankle_height_m,
+                                                                   config.read_size_m)
                       for track, e in view.found.items()}
     if not refine or not any(view.lifted() for view in views):
         return [unrefined(view, config) for view, config in zip(views, configs)], [None] * len(views)

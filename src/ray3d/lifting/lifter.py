@@ -180,8 +180,8 @@ class Lifter:
         try:
             conversion_matrix(skeleton.name, inputs.name)
         except InputError:
-            raise InputError(f"keypoints: model {self.name} reads {inputs.name} joints, which {skeleton.name} keypoints "
-                             "do not have; lift them with a model of H36M-17 input such as ray3d",
+            raise InputError(f"keypoints: model {self.name} reads {inputs.name} joints, which {skeleton.name} "
+                             "keypoints do not have; lift them with a model of H36M-17 input such as ray3d",
                              arguments=("checkpoint",)) from None
         return inputs
 

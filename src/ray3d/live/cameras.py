@@ -132,8 +132,8 @@ class CameraPeople:
         """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it;
         ``id_prefix``: written before each of its track ids (a run's number); ``floor``: the run's floor pool
         (``Finisher``); ``carried``: the people in view when the run before was cut off, whose ids its first
-        tracks may take up (``FloorTracker``). The lifter's small-batch path is made here, before the first frame is taken (it pauses
-        0.2 s; the stream may be running)."""
+        tracks may take up (``FloorTracker``). The lifter's small-batch path is made here, before the first frame is
+        taken (it pauses 0.2 s; the stream may be running)."""
         lifter.prepare_small_batches()
         self._following = dict(camera=camera, detector=detector, lifter=lifter, fps=fps, floor=lift_options.floor,
                                max_gap_s=max_gap_s, deadline_frames=keep)

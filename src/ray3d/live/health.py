@@ -1,9 +1,9 @@
 """Whether a live run keeps up with its streams (``Keeping``): per camera, the share of its frames dropped over the
 last ``window_s`` seconds of stream time, and the people its detector left for the next frame to keep its deadline;
 a stretch in which the share is above ``BEHIND_SHARE``, or more than ``POSTPONED_PER_FRAME`` people a frame were
-left (in either case more than one frame or person: a single one is a hiccup), is one whose counts are uncertain (people crossing a line or entering a zone between two processed frames, or
-not looked at in them, may be missed). Each stretch is
-said on stderr as it begins and as it ends, shown on the page (``state()``), published on MQTT and recorded in the
+left (in either case more than one frame or person: a single one is a hiccup), is one whose counts are uncertain (people
+crossing a line or entering a zone between two processed frames, or not looked at in them, may be missed). Each stretch
+is said on stderr as it begins and as it ends, shown on the page (``state()``), published on MQTT and recorded in the
 store (``RunRecorder.behind``: its start, end and share dropped), whose report shades it.
 
 The tracker, the lifting's smoothing and the site's rules already see the real time between the frames processed:

@@ -7,8 +7,8 @@ the service's availability on ``<prefix>/status`` (``online``; the broker says `
 dies), and every zone and line announced to Home Assistant's MQTT discovery (``homeassistant/sensor/...`` and
 ``homeassistant/event/...``), so that they appear there as sensors and as events to automate on, without
 configuration; and whether the run keeps up with its streams (``<prefix>/health/state``, ``.../dropped_percent``,
-``<prefix>/health``: ``health_sensors``). A zone's or line's name becomes a topic level by ``topic_name`` (``line A (middle)`` ->
-``line_A_middle``).
+``<prefix>/health``: ``health_sensors``). A zone's or line's name becomes a topic level by ``topic_name``
+(``line A (middle)`` -> ``line_A_middle``).
 
 A broker that is down is retried in the background by the client (1 s doubling to 30 s) and never slows the
 stream: at most ``queue_size`` messages wait (paho's own bounded queue); beyond, they are counted as dropped and

@@ -23,7 +23,8 @@ class Webhook:
     def __init__(self, url: str, queue_size: int = 1000, attempts: int = 3, timeout_s: float = 2.0,
                  backoff_s: float = 0.25, report: Callable[[str], None] = lambda line: print(line, file=sys.stderr),
                  token: str | None = None):
-        self.url, self.attempts, self.timeout_s, self.backoff_s, self.report = url, attempts, timeout_s, backoff_s, report
+        self.url, self.attempts, self.timeout_s, self.backoff_s, self.report = (url, attempts, timeout_s,
+                                                                                 backoff_s, report)
         self.headers = {"Content-Type": "application/json", **({"Authorization": f"Bearer {token}"} if token else {})}
         self.delivered = self.failed = self.dropped = 0
         self._queue: queue.Queue = queue.Queue(maxsize=queue_size)

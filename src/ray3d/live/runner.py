@@ -4,9 +4,9 @@ Each frame taken from the source (the newest; those that came while the last was
 counted) goes through detection, tracking and causal lifting (``LivePeople``), the site's events
 (``ray3d.site.SiteMonitor``), the event log, the webhook and the page. A person who leaves is lifted again
 offline, on a thread of its own, as ``ray3d video`` lifts them, and appended to the world file
-(``append_world_csv``): the file holds every finished person and can be read at any moment. When the stream ends, stalls or is stopped, everybody still in view is
-finished the same way and every output is closed (a live job then fuses several cameras' world files and writes
-the site's report: ``ray3d.jobs.live``)."""
+(``append_world_csv``): the file holds every finished person and can be read at any moment. When the stream ends, stalls
+or is stopped, everybody still in view is finished the same way and every output is closed (a live job then fuses
+several cameras' world files and writes the site's report: ``ray3d.jobs.live``)."""
 
 from __future__ import annotations
 

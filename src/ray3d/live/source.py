@@ -1,8 +1,8 @@
 """Frames as they arrive: a video file played at its own rate, a camera device or a network stream (anything
-OpenCV / FFmpeg opens: RTSP, HTTP), read on a thread of their own into a buffer that holds only the newest ``keep`` frames (2 by default). A frame
-pushed out by newer ones before it was taken is dropped on purpose and counted, so whoever takes frames is never
-behind the stream by more than ``keep`` frames, however slow they are; the second frame absorbs a short burst of
-slow frames (a crowded moment) without a drop."""
+OpenCV / FFmpeg opens: RTSP, HTTP), read on a thread of their own into a buffer that holds only the newest ``keep``
+frames (2 by default). A frame pushed out by newer ones before it was taken is dropped on purpose and counted, so
+whoever takes frames is never behind the stream by more than ``keep`` frames, however slow they are; the second frame
+absorbs a short burst of slow frames (a crowded moment) without a drop."""
 
 from __future__ import annotations
 
@@ -124,8 +124,8 @@ class FrameSource:
     def open(cls, source: str | Path, fps: float | None = None, paced: bool | None = None,
              stall_s: float = 5.0, keep: int = 2, first_index: int = 0) -> FrameSource:
         """A video file (played at its own rate unless ``paced`` is False: then every frame as fast as it is
-        taken), a camera device number or a stream URL; ``fps`` where the source does not say its rate. ``first_index``: the number of its first frame (a
-        file is read from that frame on: a stream taken up again where it was left)."""
+        taken), a camera device number or a stream URL; ``fps`` where the source does not say its rate. ``first_index``:
+        the number of its first frame (a file is read from that frame on: a stream taken up again where it was left)."""
         source = str(source)
         is_file = Path(source).is_file()
         capture, first, reported = _opened(source, first_index if is_file else 0, None if is_file else stall_s + 1.0)

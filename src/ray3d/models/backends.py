@@ -66,7 +66,8 @@ class TorchScriptLiftingModel(_Backend):
     one (per-group layers: throughput); each call runs the trace for its batch size. ``batches=(2,)`` traces
     the small-batch path only (for a caller that sends it nothing else)."""
 
-    def __init__(self, model: LiftingNetwork, image_width: float = 1000.0, batches: tuple[int, ...] = (2, BATCH_PER_GROUP)):
+    def __init__(self, model: LiftingNetwork, image_width: float = 1000.0,
+                 batches: tuple[int, ...] = (2, BATCH_PER_GROUP)):
         super().__init__(model, image_width)
         network = _TensorInputs(inference_network(model.cpu()), image_width).eval()
         with torch.no_grad(), warnings.catch_warnings():

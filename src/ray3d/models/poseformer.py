@@ -1,8 +1,8 @@
 """A PoseFormer-style backbone (Zheng et al., ICCV 2021), written from the paper's description: a spatial
 transformer over the joints of each frame (each joint's 2D input embedded, plus a learned joint-position
 embedding), then a temporal transformer over the frames (each frame the concatenation of its joints' spatial
-features, plus a learned frame-position embedding), then a learned weighted mean over the frames. No dropout inside the transformers, as in the paper
-(it also costs more than the attention on a CPU); the heads after it keep theirs."""
+features, plus a learned frame-position embedding), then a learned weighted mean over the frames. No dropout inside the
+transformers, as in the paper (it also costs more than the attention on a CPU); the heads after it keep theirs."""
 
 from __future__ import annotations
 

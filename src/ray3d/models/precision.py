@@ -98,7 +98,8 @@ def input_layer_names(network: nn.Module, example_batches) -> list[str]:
     encodings, the camera's parameters) rather than another layer's output: under bf16 autocast every linear
     layer's output is bfloat16, so these are the layers whose input is still float32, found by running
     ``network`` on ``example_batches`` (both its paths: stacked and per group)."""
-    layers = {name: module for name, module in network.named_modules() if isinstance(module, (nn.Linear, StackedLinear))}
+    layers = {name: module for name, module in network.named_modules()
+              if isinstance(module, (nn.Linear, StackedLinear))}
     reading_float32: set[str] = set()
 
     def hook(name):

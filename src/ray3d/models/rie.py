@@ -60,7 +60,8 @@ class RIEBackbone(nn.Module):
         """The joints of ``group`` as an index tensor (on the module's device)."""
         return getattr(self, f"_joints_{group}")
 
-    def forward(self, x: torch.Tensor, extra: torch.Tensor | None = None) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
+    def forward(self, x: torch.Tensor,
+                extra: torch.Tensor | None = None) -> tuple[dict[str, torch.Tensor], torch.Tensor]:
         """``extra``: optional (B, F, E) per-frame features given to every group and the global branch."""
         batch, frames = x.shape[:2]
         encoded = rie_encodings(x, self.causal)

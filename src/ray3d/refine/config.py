@@ -18,7 +18,8 @@ PINNED_SD = 1e-6  # the prior of a term held at its value
 # The root, the mean of two hips smoothed in time, errs across its ray by about a third of one keypoint: 0.0104 of
 # the size chain on the detector-emulated split (`ray3d-real`, savgol) against a keypoint error of 0.03.
 ROOT_KEYPOINT_SHARE = 0.35
-UNCERTAINTY_FIELDS = ("depth_sd", "depth_bias_sd", "floor_offset_sd_m", "residual_distance_sd")  # what a model measures of itself
+UNCERTAINTY_FIELDS = ("depth_sd", "depth_bias_sd", "floor_offset_sd_m",
+                      "residual_distance_sd")  # what a model measures of itself
 # The cues a frame's distance is read from, in the order of ``Refinement.cue_shares``.
 CUES = ("network", "floor", "head", "size")
 

@@ -155,9 +155,9 @@ class TrackProblem:
 
     def cue_shares(self, x: np.ndarray) -> np.ndarray:
         """(T, 4) each frame's information on its distance (log s_t) from the network, the floor, the head's
-        height and the body's size (``CUES``), robustly weighted at ``x``, as shares: which cues carried the frame's position. The
-        network's and the size's are counted with what a track shares (the network's error, the person's size
-        against the prior), which many frames do not average away."""
+        height and the body's size (``CUES``), robustly weighted at ``x``, as shares: which cues carried the frame's
+        position. The network's and the size's are counted with what a track shares (the network's error, the person's
+        size against the prior), which many frames do not average away."""
         config, count = self.config, self.count
         weight = self._robust_weight(self.residuals(x))
         rows = len(self.target)

@@ -35,10 +35,12 @@ _TEMPLATE = """<!doctype html>
  <button id="play">pause</button>
  <input id="slider" type="range" min="0" value="0" style="width: 30%">
  <span id="label"></span>
- <label>view <select id="viewmode"><option>orbit</option><option>top</option><option>side</option><option>camera</option></select></label>
+ <label>view <select id="viewmode"><option>orbit</option><option>top</option>\
+<option>side</option><option>camera</option></select></label>
  <label>follow <select id="follow"><option value="">everybody</option></select></label>
  <span id="legend"></span>
- <span style="color: #777">drag to orbit, wheel to zoom; metres, z up; grey: filled in, not detected; disc on the floor: 1 sd of the position</span>
+ <span style="color: #777">drag to orbit, wheel to zoom; metres, z up; grey: filled in, not detected; \
+disc on the floor: 1 sd of the position</span>
 </div>
 <canvas id="view"></canvas>
 <script>
@@ -49,13 +51,15 @@ const follow = document.getElementById("follow"), viewmode = document.getElement
 const names = Object.keys(DATA.sequences), first = DATA.first, frames = DATA.last - DATA.first + 1;
 slider.max = frames - 1;
 let frame = 0, playing = true, yaw = -0.6, elevation = 0.35, zoom = 1.0, centre = DATA.centre.slice();
-names.forEach(n => { const o = document.createElement("option"); o.value = n; o.textContent = n; follow.appendChild(o); });
+names.forEach(n => { const o = document.createElement("option"); o.value = n; o.textContent = n; \
+follow.appendChild(o); });
 document.getElementById("legend").innerHTML = names.map((n, i) =>
   `<span class="key" style="background:${DATA.colours[i]}"></span>${n}`).join(" &nbsp; ");
 function resize() {  // the whole window below the bar (which grows with the legend)
   canvas.width = Math.max(320, window.innerWidth);
   canvas.height = Math.max(240, window.innerHeight - document.getElementById("bar").offsetHeight - 6); draw(); }
-function pose(seq, absolute) { const row = absolute - seq.start; return row >= 0 && row < seq.joints.length ? row : -1; }
+function pose(seq, absolute) { const row = absolute - seq.start; \
+return row >= 0 && row < seq.joints.length ? row : -1; }
 function metre() { return zoom * canvas.height / (2.2 * DATA.extent); }  // pixels per metre (not the camera view)
 function imageFit() {  // the camera's image inside the canvas: scale and offset
   const c = DATA.camera, s = zoom * Math.min(canvas.width / c.width, canvas.height / c.height);
@@ -88,13 +92,16 @@ function cameraMarker() {  // the camera on the canvas, or an arrow on the edge 
   ctx.fillStyle = "#000"; ctx.font = "12px sans-serif";
   if (p[0] > m && p[0] < w - m && p[1] > m && p[1] < h - m) { ctx.fillRect(p[0] - 4, p[1] - 4, 8, 8);
     ctx.fillText("camera", p[0] + 7, p[1] + 4); return; }
-  const dx = p[0] - w / 2, dy = p[1] - h / 2, k = Math.min((w / 2 - m) / Math.abs(dx || 1e-9), (h / 2 - m) / Math.abs(dy || 1e-9));
+  const dx = p[0] - w / 2, dy = p[1] - h / 2, k = Math.min((w / 2 - m) / Math.abs(dx || 1e-9), \
+(h / 2 - m) / Math.abs(dy || 1e-9));
   const e = [w / 2 + dx * k, h / 2 + dy * k], a = Math.atan2(dy, dx);
   ctx.beginPath(); ctx.moveTo(e[0] + 10 * Math.cos(a), e[1] + 10 * Math.sin(a));
   ctx.lineTo(e[0] + 8 * Math.cos(a + 2.5), e[1] + 8 * Math.sin(a + 2.5));
   ctx.lineTo(e[0] + 8 * Math.cos(a - 2.5), e[1] + 8 * Math.sin(a - 2.5)); ctx.fill();
-  const text = "camera " + Math.hypot(DATA.camera.centre[0] - centre[0], DATA.camera.centre[1] - centre[1]).toFixed(0) + " m";
-  ctx.fillText(text, Math.min(w - 90, Math.max(4, e[0] - 30 * Math.cos(a) - 20)), Math.min(h - 6, Math.max(14, e[1] - 22 * Math.sin(a))));
+  const text = "camera " + Math.hypot(DATA.camera.centre[0] - centre[0], \
+DATA.camera.centre[1] - centre[1]).toFixed(0) + " m";
+  ctx.fillText(text, Math.min(w - 90, Math.max(4, e[0] - 30 * Math.cos(a) - 20)), \
+Math.min(h - 6, Math.max(14, e[1] - 22 * Math.sin(a))));
 }
 function scaleBar() {
   if (viewmode.value === "camera") return;
@@ -130,7 +137,8 @@ function floorPlan(absolute) {
 }
 function uncertainty(pelvis, sd, colour) {  // [along the ray from above, across, ray direction x, y] on the floor
   const [a, b, ux, uy] = sd, points = [];
-  for (let k = 0; k < 24; k++) { const t = k * Math.PI / 12, q = project([pelvis[0] + a * Math.cos(t) * ux - b * Math.sin(t) * uy,
+  for (let k = 0; k < 24; k++) { const t = k * Math.PI / 12, \
+q = project([pelvis[0] + a * Math.cos(t) * ux - b * Math.sin(t) * uy,
     pelvis[1] + a * Math.cos(t) * uy + b * Math.sin(t) * ux, 0]); if (!q) return; points.push(q); }
   ctx.beginPath(); points.forEach((q, k) => k ? ctx.lineTo(q[0], q[1]) : ctx.moveTo(q[0], q[1])); ctx.closePath();
   ctx.globalAlpha = 0.2; ctx.fillStyle = colour; ctx.fill(); ctx.globalAlpha = 0.8; ctx.strokeStyle = colour;
@@ -158,12 +166,14 @@ function draw() {
   ctx.fillStyle = "#555"; ctx.font = "12px sans-serif";
   [["x, 1 m", [c[0] + 1.05, c[1], 0]], ["y", [c[0], c[1] + 1.05, 0]], ["z", [c[0], c[1], 1.05]]].forEach(([t, p]) => {
     const q = project(p); if (q) ctx.fillText(t, q[0], q[1]); });
-  if (!through) DATA.camera_lines.concat(...DATA.more_cameras.map(c => c.lines)).forEach(s => line(s[0], s[1], "#999999", 1));
+  if (!through) DATA.camera_lines.concat(...DATA.more_cameras.map(c => c.lines)).forEach(s => \
+line(s[0], s[1], "#999999", 1));
   names.forEach((name, i) => {
     const seq = DATA.sequences[name], row = pose(seq, absolute);
     if (row < 0) return;
     for (let t = 1; t <= row; t++)
-      line([seq.joints[t - 1][0][0], seq.joints[t - 1][0][1], 0], [seq.joints[t][0][0], seq.joints[t][0][1], 0], DATA.colours[i], 1);
+      line([seq.joints[t - 1][0][0], seq.joints[t - 1][0][1], 0], [seq.joints[t][0][0], seq.joints[t][0][1], 0], \
+DATA.colours[i], 1);
     const p = seq.joints[row], filled = seq.filled[row], colour = filled ? "#aaaaaa" : DATA.colours[i];
     if (seq.sd) uncertainty(p[0], seq.sd[row], DATA.colours[i]);
     DATA.parents.forEach((q, j) => { if (q >= 0) line(p[j], p[q], colour, filled ? 1 : (DATA.sides[j] ? 3 : 2)); });
@@ -174,7 +184,8 @@ function draw() {
   label.textContent = `frame ${absolute} (${frame + 1} / ${frames}), ${(absolute / DATA.fps).toFixed(2)} s`;
   slider.value = frame;
 }
-document.getElementById("play").onclick = e => { playing = !playing; e.target.textContent = playing ? "pause" : "play"; };
+document.getElementById("play").onclick = e => { playing = !playing; \
+e.target.textContent = playing ? "pause" : "play"; };
 slider.oninput = () => { frame = +slider.value; draw(); };
 // Following one person zooms in on them (about 8 m across); everybody again shows the whole scene.
 follow.onchange = () => { if (!follow.value) centre = DATA.centre.slice();
@@ -198,7 +209,8 @@ const asked = (location.hash.match(/view=([a-z]+)/) || [])[1];
 if (Object.keys(PRESETS).includes(asked) && (asked !== "camera" || DATA.camera)) viewmode.value = asked;
 [yaw, elevation] = viewmode.value === "camera" ? [yaw, elevation] : PRESETS[viewmode.value];
 // #frame=N opens paused at that frame (of the input: as world files count them); #follow=TRACK follows one person.
-const askedFrame = (location.hash.match(/frame=(\\d+)/) || [])[1], askedTrack = (location.hash.match(/follow=([^&]+)/) || [])[1];
+const askedFrame = (location.hash.match(/frame=(\\d+)/) || [])[1], \
+askedTrack = (location.hash.match(/follow=([^&]+)/) || [])[1];
 if (askedFrame !== undefined) { frame = Math.max(0, Math.min(frames - 1, +askedFrame - first)); playing = false;
   document.getElementById("play").textContent = "play"; }
 if (askedTrack !== undefined && names.includes(decodeURIComponent(askedTrack))) {
@@ -234,7 +246,8 @@ def write_viewer(path: str | Path, sequences: dict[str, np.ndarray | LiftResult]
     centre = np.median(stacked, axis=0)
     camera_lines = [line.round(4).tolist() for line in frustum_lines(camera)] if camera is not None else []
     others = [{"name": other.name or f"camera {k + 2}", "centre": np.asarray(other.center).round(4).tolist(),
-               "lines": [line.round(4).tolist() for line in frustum_lines(other)]} for k, other in enumerate(more_cameras)]
+               "lines": [line.round(4).tolist() for line in frustum_lines(other)]}
+              for k, other in enumerate(more_cameras)]
     plan = np.concatenate([stacked[:, :2]] + [np.asarray(c.center[:2])[None] for c in
                                               ([camera] if camera is not None else []) + list(more_cameras)])
     data = {

@@ -46,8 +46,9 @@ def _save(fig, path: str | Path, overwrite: bool) -> Path:
 
 def plot_floor_plan(site, rows: list[dict], heat, corner: tuple[float, float], cell_m: float, path: str | Path,
                     overwrite: bool = False) -> Path:
-    """The floor plan (metres, seen from above) over the site's picture of the floor if it has one: time spent per square (``ray3d.site.heat_map``), everybody's
-    path, the site's zones and its directed lines (an arrow points from a line's left to its right: "forward")."""
+    """The floor plan (metres, seen from above) over the site's picture of the floor if it has one: time spent per
+    square (``ray3d.site.heat_map``), everybody's path, the site's zones and its directed lines (an arrow points from a
+    line's left to its right: "forward")."""
     fig, axis = plt.subplots(figsize=(7.5, 6.5), dpi=110)
     if site.floor_plan is not None:
         axis.imshow(site.floor_plan.image, extent=site.floor_plan.extent(), zorder=0)
@@ -107,7 +108,8 @@ def plot_by_time(rows: list[dict], site, gaps: list[tuple[float, float]], path: 
     fig, (counts, people) = plt.subplots(2, 1, figsize=(10.5, 5.5), dpi=110, sharex=True)
     series = {"entries": [sum(row.get(f"{z.name}: entries", 0) for z in site.zones) for row in rows],
               "exits": [sum(row.get(f"{z.name}: exits", 0) for z in site.zones) for row in rows],
-              "crossings": [sum(row.get(f"{line.name}: forward", 0) + row.get(f"{line.name}: back", 0) for line in site.lines)
+              "crossings": [sum(row.get(f"{line.name}: forward", 0) + row.get(f"{line.name}: back", 0)
+                                for line in site.lines)
                             for row in rows]}
     shown = [(name, values) for name, values in series.items() if any(values)] or [("entries", series["entries"])]
     for k, (name, values) in enumerate(shown):

@@ -21,14 +21,16 @@ _STYLE = """<!doctype html>
  td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
 """  # the head both pages share
 
-_TEMPLATE = _STYLE + """ #timeline { width: 100%; height: 160px; background: #fff; border: 1px solid #ddd; display: block; }
+_TEMPLATE = _STYLE + """ #timeline { width: 100%; height: 160px; background: #fff; \
+border: 1px solid #ddd; display: block; }
  .note { color: #555; }
 </style></head>
 <body>
 <h1>__TITLE__</h1>
 <p class="note">__NOTE__</p>
 <h2>Floor plan and occupancy</h2>
-<img id="plan" alt="floor plan" src="data:image/png;base64,__PLAN__"><img id="occupancy" alt="occupancy" src="data:image/png;base64,__OCCUPANCY__">
+<img id="plan" alt="floor plan" src="data:image/png;base64,__PLAN__">\
+<img id="occupancy" alt="occupancy" src="data:image/png;base64,__OCCUPANCY__">
 <h2>Places</h2>
 __PLACES__
 __BY_TIME__
