@@ -29,11 +29,7 @@ from ray3d.video.detectors import PeopleDetector
 from ray3d.video.movenet import MoveNetPeople
 
 ANNOTATION = Path(__file__).parent / "annotations" / "vtest_people.json"
-FINDERS = {"none": lambda: None,
-           "movenet-256": lambda: MoveNetPeople(2, 256), "movenet-384": lambda: MoveNetPeople(2, 384),
-           "movenet-512": lambda: MoveNetPeople(2, 512), "movenet-768": lambda: MoveNetPeople(2, 768),
-           "movenet-384-2x1": lambda: MoveNetPeople(2, 384, (2, 1)),
-           "movenet-384-2x2": lambda: MoveNetPeople(2, 384, (2, 2))}
+FINDER_NAMES = "none, or movenet-SIZE[-COLUMNSxROWS] (its input in pixels, the frame cut into tiles): movenet-384-2x1"
 MATCH = 0.5
 HEIGHTS = ((0, 80), (80, 120), (120, 10_000))  # pixels
 
@@ -73,6 +69,17 @@ def found(people: list[dict], detections: list, loose: bool = False) -> np.ndarr
     return hit
 
 
+def finder_named(name: str) -> MoveNetPeople | None:
+    """The finder a name stands for (``FINDER_NAMES``)."""
+    if name == "none":
+        return None
+    parts = name.split("-")
+    if len(parts) not in (2, 3) or parts[0] != "movenet" or not parts[1].isdigit():
+        raise SystemExit(f"--finders: {name!r} is not {FINDER_NAMES}")
+    columns, rows = (int(n) for n in parts[2].split("x")) if len(parts) == 3 else (1, 1)
+    return MoveNetPeople(2, int(parts[1]), (columns, rows))
+
+
 def run(video: str, camera_path: str, finder: str, annotation: dict, every: int = 1) -> dict:
     camera = read_camera(camera_path)
     capture, frames = cv2.VideoCapture(video), []
@@ -81,7 +88,7 @@ def run(video: str, camera_path: str, finder: str, annotation: dict, every: int 
         if not ok:
             break
         frames.append(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
-    detector = PeopleDetector(camera, finder=FINDERS[finder](), full_frame_every=every)
+    detector = PeopleDetector(camera, finder=finder_named(finder), full_frame_every=every)
     detector.prepare([frames[i] for i in np.linspace(0, len(frames) - 1, 25).astype(int)])
     wanted = {f["frame"]: f["people"] for f in annotation["frames"]}
     tally: dict[str, list[int]] = {}
@@ -106,7 +113,7 @@ def main() -> None:
     parser.add_argument("--camera", required=True)
     parser.add_argument("--annotation", default=str(ANNOTATION))
     parser.add_argument("--finders", nargs="+", default=["none", "movenet-384", "movenet-384-2x1"],
-                        choices=list(FINDERS))
+                        help=FINDER_NAMES)
     parser.add_argument("--finder-every", type=int, default=1, help="the finder on every n-th frame only")
     parser.add_argument("--out", help="write the rows as JSON here")
     args = parser.parse_args()

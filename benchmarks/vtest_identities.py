@@ -36,10 +36,11 @@ from ray3d.io.camera_files import read_camera
 from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import BLAZEPOSE33
 from ray3d.video import make_detector, read_frames, read_video_info
+from ray3d.video.boxes import box_overlap
 from ray3d.video.detectors import Detection
 from ray3d.video.frames import camera_for_video, spread_frames
-from ray3d.video.pipeline import CONFIRM_FRAMES, follow_people
-from ray3d.video.tracking import FloorTracker
+from ray3d.video.pipeline import follow_people
+from ray3d.video.tracking import CONFIRM_FRAMES, FloorTracker
 
 
 def detect(video: Path, camera_path: Path, out: Path) -> None:
@@ -176,8 +177,10 @@ def _mot_rows(frame: int, identity: int, box, kind: int = 1) -> str:
 
 
 def write_truth(by_frame: dict[int, list[Detection]], annotation: Path, path: Path) -> None:
-    """The annotation as MOT ground truth: each annotated box a pedestrian with its person's number; every other
-    detection a distractor (class 8: a tracker's box on it is neither right nor wrong)."""
+    """The annotation as MOT ground truth: each annotated box a pedestrian with its person's number; every
+    detection that overlaps no annotated box at IoU >= 0.5 a distractor (class 8: a tracker's box on it is neither
+    right nor wrong). By overlap, not equality: the annotation's boxes are one detector's, and another detector's
+    box on an annotated person must count for them, not be discarded as a distractor."""
     people: dict[str, int] = {}
     annotated: dict[int, list[tuple[int, np.ndarray]]] = {}
     with open(annotation, newline="") as stream:
@@ -190,7 +193,7 @@ def write_truth(by_frame: dict[int, list[Detection]], annotation: Path, path: Pa
         boxes = annotated.get(frame, [])
         lines += [_mot_rows(frame, number, box) for number, box in boxes]
         for detection in detections:
-            if not any(np.abs(detection.box - box).max() < 0.1 for _, box in boxes):
+            if not boxes or box_overlap(detection.box[None], np.stack([box for _, box in boxes])).max() < 0.5:
                 distractor += 1
                 lines.append(_mot_rows(frame, distractor, detection.box, kind=8))
     path.write_text("".join(lines))

@@ -232,6 +232,27 @@ def test_a_centred_stream_without_waiting_answers_at_once_close_to_offline_and_b
         lifter.stream(camera, fps=10.0)
 
 
+def test_frames_skipped_in_a_stream_are_read_at_their_true_times(camera):
+    """Every other frame pushed two frames apart answers as the whole stream does where the skipped frames lie
+    halfway (the model reads its rate's frames interpolated in time either way)."""
+    lifter = _untrained("ray3d-causal")
+    pixels = camera.project(_walk(21))
+    halfway = pixels.copy()
+    halfway[1::2] = (pixels[:-1:2] + pixels[2::2]) / 2
+    every = lifter.stream(camera, fps=10.0)
+    whole = [every.push(p) for p in halfway]
+    skipping = lifter.stream(camera, fps=10.0)
+    taken = [skipping.push(p, frames_since_last=1 if k == 0 else 2) for k, p in enumerate(pixels[::2])]
+    np.testing.assert_allclose(np.stack(taken), np.stack(whole[::2]), atol=1e-5)
+    # Read as if the frames were next to each other, the person would walk twice as fast: not the same answer.
+    hurried = lifter.stream(camera, fps=10.0)
+    assert np.abs(np.stack([hurried.push(p) for p in pixels[::2]]) - np.stack(whole[::2])).max() > 1e-4
+    with pytest.raises(InputError, match="frames_since_last"):
+        skipping.add(pixels[0], frames_since_last=0)
+    with pytest.raises(InputError, match="every frame"):
+        _untrained("ray3d").stream(camera).add(pixels[0], frames_since_last=2)
+
+
 def test_a_causal_model_never_looks_ahead(camera):
     lifter = _untrained("ray3d-causal")
     pixels = camera.project(_walk(40))

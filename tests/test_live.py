@@ -111,6 +111,37 @@ def test_a_slow_reader_gets_the_newest_frame_and_the_rest_are_dropped_and_counte
     assert taken == sorted(taken) and len(set(taken)) == len(taken)
 
 
+def test_a_source_asked_for_every_third_frame_keeps_those_and_counts_the_rest_as_skipped_not_dropped():
+    source = FrameSource(_frames(30), 100.0, "test", waits=True, stride=3)
+    taken = []
+    while (frame := source.next()) is not None:
+        taken.append(frame.index)
+        if frame.index == 15:
+            source.stride = 5  # asked for fewer on the way
+    assert taken == [0, 3, 6, 9, 12, 15, 20, 25] or taken == [0, 3, 6, 9, 12, 15, 18, 20, 25]  # 18: read already
+    assert source.read == 30 and source.dropped == 0 and source.skipped == 30 - len(taken)
+
+
+def test_under_load_a_camera_takes_every_kth_frame_and_every_frame_again_once_the_work_fits():
+    from ray3d.live.people import MOST_FRAMES_APART, PACE_WARM_UP, Pacing
+
+    pacing = Pacing(10.0)
+    assert [pacing.observe(1.0) for _ in range(PACE_WARM_UP)] == [1] * PACE_WARM_UP  # the networks' first calls
+    busy = [pacing.observe(0.25) for _ in range(40)]  # each taken frame's work: 2.5 frame intervals
+    assert busy == [3] * 40
+    fits = [pacing.observe(0.05) for _ in range(60)]  # half an interval again
+    assert fits == sorted(fits, reverse=True) and fits[-1] == 1 and 2 in fits  # one step at a time
+    assert Pacing(10.0).observe(0.25) == 1
+    near = Pacing(10.0)
+    for work in [0.05] * PACE_WARM_UP + [0.12] * 30 + [0.09] * 100:  # over the interval, then at 0.9 of it
+        near.observe(work)
+    assert near.stride == 2  # back to every frame only with a margin: no flapping at the edge
+    swamped = Pacing(10.0)
+    for _ in range(PACE_WARM_UP + 5):
+        swamped.observe(5.0)
+    assert swamped.stride == MOST_FRAMES_APART
+
+
 def test_a_file_plays_at_its_own_rate_and_then_ends():
     source = FrameSource(_frames(6), 20.0, "test", paced=True)
     start = time.monotonic()
@@ -239,6 +270,37 @@ def test_the_detector_is_given_the_time_until_the_frame_is_due_and_a_person_unse
     assert len(unseen) == 1
     track = next(t for t in live.in_view() if t.id == unseen[0].track)
     assert 8 not in track.frames and {7, 9} <= set(track.frames)  # the world track has only what was seen
+
+
+def test_a_camera_too_slow_for_every_frame_takes_them_evenly_and_follows_everybody_in_one_track(tmp_path):
+    from ray3d.lifting.lifter import Lifter
+    from ray3d.live.people import LivePeople
+
+    class _Slow(_ScriptedDetector):
+        def __call__(self, frame, time_left_s=None):
+            time.sleep(0.25)  # 2.5 frame intervals a frame, and the rest: a busy machine
+            return super().__call__(frame, time_left_s)
+
+    people = _scene(50)
+    detector = _Slow(people)
+    lifter = Lifter.load()
+    lifter.prepare_small_batches()
+    source = FrameSource(_frames(len(people), people=people), FPS, "test", paced=True)
+    live = LivePeople(CAMERA, detector, lifter, FPS, deadline_frames=source.deadline_frames)
+    ended, dropped_once_paced = [], None
+    while (frame := source.next()) is not None:
+        ended += live.update(frame)[1]
+        source.stride = live.stride
+        if live.stride >= 3 and dropped_once_paced is None:
+            dropped_once_paced = source.dropped
+    live.close()
+    apart = np.diff(detector.calls[-6:])
+    assert live.stride >= 3 and apart.min() >= 3 and np.ptp(apart) <= 1  # every third frame or so, evenly
+    # Once the pace was found frames are skipped, not lost (one may be, as the pace changes).
+    assert source.dropped - dropped_once_paced <= 1 and source.skipped > 20
+    assert source.read == len(detector.calls) + source.dropped + source.skipped == len(people)
+    tracks = live.in_view() + ended
+    assert len(tracks) == 2 and all(len(t.frames) >= len(detector.calls) - 2 for t in tracks)  # one track each
 
 
 def test_a_live_run_writes_every_event_and_its_world_file_holds_the_offline_answer(tmp_path):
@@ -837,3 +899,16 @@ def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_droppe
     assert len(postponing.stretches) == 1 and postponing.stretches[0].from_s == pytest.approx(20.0)
     assert postponing.stretches[0].dropped == 0 and postponing.stretches[0].postponed > 300
     assert "people a frame left for the next" in said[2] and "people left for the next frame" in said[3]
+    # Frames taken evenly, every k-th, are not lost: said as the pace changes, shown in the state, no stretch.
+    paced, lines = Keeping(["door"], [10.0], report=said.append), len(said)
+    for frame in range(0, 300, 1):
+        stride = 2 if 100 <= frame < 200 else 1
+        if frame % stride == 0:
+            paced.observe(0, frame / 10, frame + 1, 0, 0, stride=stride)
+        if frame == 150:
+            assert paced.state()["frames_apart"] == {"door": 2}
+    paced.finish()
+    assert paced.stretches == [] and paced.state()["frames_apart"] == {"door": 1}
+    assert said[lines:] == ["camera door: the machine cannot follow every frame: 1 frame in 2 taken from 10.0 s "
+                            "(5.0 frames/s), everybody still followed",
+                            "camera door: every frame taken again from 20.0 s"]

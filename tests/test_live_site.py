@@ -679,7 +679,8 @@ def _paced_live(out: Path, people: np.ndarray, detector, site: Site, mqtt=None, 
 
 def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_store_and_its_report(tmp_path,
                                                                                                      capsys):
-    """Issue 68, item 1: a detector three times slower than the stream over frames 15-35 drops most of them; the
+    """Issue 68, item 1: a detector six times slower than the stream over frames 15-35 drops many of them, even
+    taking one frame in four (as many as a camera skips to keep up, ``live.people.MOST_FRAMES_APART``); the
     stretch is said on stderr as it begins and ends, shown in /state, published on MQTT (announced to Home
     Assistant) and recorded in the store, whose report marks it uncertain. The tracker and the site's rules are
     given each processed frame's own number (the real interval between them)."""
@@ -715,7 +716,7 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
         listening.subscribe([("site/health/#", 1), ("homeassistant/sensor/site/health/config", 1)])
         listening.loop_start()
         time.sleep(0.5)
-        summary = _paced_live(tmp_path / "live", people, _SlowFor(detector, 15, 35, 0.3), site,
+        summary = _paced_live(tmp_path / "live", people, _SlowFor(detector, 15, 35, 0.6), site,
                               mqtt=MqttPublisher(f"mqtt://127.0.0.1:{port}/site", site), started=started,
                               page=True, port=0, behind_window_s=1.0)
         done.set()
@@ -735,7 +736,7 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
                      err)
     # The slow stretch; a busy machine may add a short hiccup of its own (two or three frames), said the same way.
     stretch = next(s for s in summary.behind if 1.0 < s.from_s < 2.5)
-    assert 3.0 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
+    assert 2.5 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
     assert all(s.dropped <= 3 for s in summary.behind if s is not stretch)
     # the page's state: a warning while it lasted, the stretch kept after
     states = [s for s in states if "health" in s]  # those before the first frame have none

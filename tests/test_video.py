@@ -262,6 +262,27 @@ def test_a_person_keeps_their_colours_while_somebody_may_be_hidden_behind_them()
     assert colour_distance(red.colour, clothes_colour(dressed(16, False), torso, legs)) < 0.1
 
 
+def test_given_every_eighth_frame_a_person_missed_twice_in_a_row_keeps_their_track():
+    """A live camera under load takes every k-th frame: at every 8th, two misses in a row span 16 frames (0.8 s at
+    20 frames/s, over ``max_gap_s``'s 10), yet the person is kept as at the full rate once the tracker is told
+    ``frames_apart``; a third miss in a row ends them, as a long gap in time does at the full rate."""
+    person = _walker((7.0, -2.0), (0.0, 1.2), 80)
+    pixels = CAMERA.project(person)
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+
+    def tracks_of(frames_apart: int, missed: set[int], told: bool = True) -> set:
+        tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.5)
+        tracker.frames_apart = frames_apart if told else 1
+        for t in range(0, 80, frames_apart):
+            tracker.update(t, [] if t in missed else [Detection(pixels[t], np.ones(17), 0.9)], frame)
+        return {t.id for t in tracker.tracks()}
+
+    assert len(tracks_of(8, {32, 40})) == 1
+    assert len(tracks_of(8, {32, 40}, told=False)) == 2
+    assert len(tracks_of(8, {32, 40, 48})) == 2
+    assert len(tracks_of(1, set(range(24, 36)))) == 2  # at the full rate 0.6 s unseen is over max_gap_s
+
+
 def test_tracker_needs_several_hits_before_a_track_exists():
     tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3)
     frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
@@ -327,7 +348,7 @@ def test_the_detector_leaves_people_for_the_next_frame_only_when_time_is_short(m
     people = np.array([[80.0 + 120 * k, 240.0, 60.0 + 10 * k, 0.0] for k in range(5)])  # larger to the right
     looked_at.append([])
     detector._previous = look(None, people)
-    detector._crop_s = 0.1  # as measured (the time before the crops, a few ms, leaves room for three)
+    detector.crop_s = 0.1  # as measured (the time before the crops, a few ms, leaves room for three)
     frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
     for _ in range(6):
         looked_at.append([])

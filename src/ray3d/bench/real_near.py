@@ -95,9 +95,12 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
                              for f, p in his.values()])
     row["frames_detected"] = int(len(np.unique(frames)))
     row["median_2d_error_px"] = float(np.nanmedian(errors))
-    longest = max(his, key=lambda t: len(his[t][0]))
-    lifted = lifter.lift_tracks({longest: people.tracks[longest]}, camera, people.layout, people.fps,
-                                **LiftOptions().lift_arguments())[longest]
+    # His own track: the one whose pelvis keeps nearest his (a close-up man's box holds others' too, and a second
+    # track on him can be the longer), the longer of two as near.
+    his_track = min(his, key=lambda t: (round(float(np.nanmedian(np.linalg.norm(
+        his[t][1][:, 0] - truth_pixels[his[t][0]][:, 0], axis=-1))), -1), -len(his[t][0])))
+    lifted = lifter.lift_tracks({his_track: people.tracks[his_track]}, camera, people.layout, people.fps,
+                                **LiftOptions().lift_arguments())[his_track]
     row.update(_errors(lifted, truth))
     in_sds = metrics.root_error_in_sds(lifted.joints, truth[lifted.frames], lifted.position_sd, camera)
     row["within_1sd"], row["within_2sd"] = float(np.mean(in_sds[:, 0] <= 1)), float(np.mean(in_sds[:, 0] <= 2))
@@ -107,7 +110,7 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
     if plane:
         row["floor_z_found_m"], row["floor_z_sd_m"] = plane["floor_z_m"], plane["sd_m"]
         row["floor_decision"], row["floor_chance_off"] = plane["decision"], plane["chance_off"]
-    frames_seen, pixels_seen = his[longest]
+    frames_seen, pixels_seen = his[his_track]
     guess = floor_guess(pixels_seen, camera)
     true_pelvis = truth[frames_seen, 0]
     reached = np.isfinite(guess).all(-1)
@@ -116,7 +119,7 @@ def measure_view(video: Path, camera: Camera, truth: np.ndarray, detector: str,
     if row["guess_floor_error_m"]:
         row["pelvis_over_guess"] = row["pelvis_floor_error_m"] / row["guess_floor_error_m"]
     row["model"] = lifter.name
-    return row, World({video.stem: lifted}, camera, lifter.name), (({video.stem: people.tracks[longest]}, camera),
+    return row, World({video.stem: lifted}, camera, lifter.name), (({video.stem: people.tracks[his_track]}, camera),
                                                                    people.layout, people.fps)
 
 

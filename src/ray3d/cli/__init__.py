@@ -24,7 +24,7 @@ FLAGS = {"overwrite": "--force", "resume": "--resume", "out": "--out", "layout":
          "floor_offset": "--floor-offset", "camera_step": "--camera-step", "floor_z": "--floor-z",
          "population_scale": "--population-scale",
          "site": "--site", "every_s": "--every", "start_time": "--start-time", "store": "--store", "mqtt": "--mqtt",
-         "lens_height_m": "--lens-height"}
+         "lens_height_m": "--lens-height", "config": "--config"}
 # Where a command calls a library argument by another flag than FLAGS' (``cameras`` is ``ray3d fuse``'s WORLDS).
 COMMAND_FLAGS = {"evaluate": {"model": "--checkpoint", "cameras": "--cameras", "given_cameras": "--cameras",
                               "joints": "--joints", "refine": "--refine", "noise_px": "--noise-px",
@@ -40,6 +40,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
+        if args.command == "live" and args.config is not None:  # a deployment in one file
+            from ray3d.cli.live_config import with_config
+            from ray3d.cli.parser import subcommand_parser
+
+            args = with_config(parser, subcommand_parser(parser, args.command), argv, args.config)
         return args.handler(args)
     except InputError as err:
         print(f"ray3d {args.command}: error: {err.message_for({**FLAGS, **COMMAND_FLAGS.get(args.command, {})})}",

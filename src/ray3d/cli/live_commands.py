@@ -28,12 +28,18 @@ def live(args: argparse.Namespace) -> int:
     import numpy as np
 
     from ray3d.cli.arguments import job_from_args, parse_offsets
+    from ray3d.errors import InputError
     from ray3d.jobs.live import open_live, run_live_job, start_record
     from ray3d.live.mqtt import MqttPublisher
     from ray3d.live.runner import LiveOptions, stop_on_signals
     from ray3d.site.files import read_site
     from ray3d.site.places import Site
 
+    if not args.source:
+        raise InputError("give a stream (a file, a device number or a URL), or cameras in a --config file",
+                         ("source",))
+    if args.out is None:
+        raise InputError("give the folder for the outputs (out)", ("out",))
     plan = read_site(args.site) if args.site else None
     job = job_from_args(args, args.source, "sources", "source")
     if plan is not None:  # a site drawn in pixels would count nobody, for ever
@@ -42,12 +48,8 @@ def live(args: argparse.Namespace) -> int:
         print_site_doubts(args.site, plan, known_cameras(job))
     offsets = parse_offsets(args.offsets)
     if args.start_time is not None and args.every is None:
-        from ray3d.errors import InputError
-
         raise InputError("--start-time: it places the time buckets of --every; give --every too")
     if args.until is not None and not args.until > 0:
-        from ray3d.errors import InputError
-
         raise InputError(f"--until: {args.until:g} s from now: that moment has passed")
     # The store first: a second service on it is refused before it says anything on the broker.
     recorder = start_record(job, args.store or args.out / "site.db", " ".join(sys.argv), plan, args.start_time)
@@ -124,13 +126,16 @@ def add_parser(commands) -> None:
     parser = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
                                             "a growing world file, a page on localhost "
                                             "(pip install 'ray3d[video,live]')")
-    parser.add_argument("source", nargs="+", help="a video file (played at its own rate), a camera device number, or a "
+    parser.add_argument("source", nargs="*", help="a video file (played at its own rate), a camera device number, or a "
                                                 "stream URL OpenCV opens (rtsp://, http://); several: one per "
                                                 "calibrated camera, their people followed as one world")
+    parser.add_argument("--config", type=Path, help="a whole deployment in one YAML or JSON file: its keys are these "
+                        "flags' names (stall-timeout: 5) and cameras (each a source, its camera file and offset); "
+                        "checked against assets/live-config.schema.json; flags given here win (docs/live.md)")
     add_camera_arguments(parser, image_size_note=" (default: the stream's)", several=True)
     parser.add_argument("--offsets", help="several sources: seconds each one's clock is ahead of the first's, comma "
                                         "separated (the first 0; default all 0: sources in step)")
-    parser.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, world.csv (several "
+    parser.add_argument("--out", type=Path, help="folder for events.jsonl, world.csv (several "
                                                               "sources: camera<k>_<name>/world.csv, then world.json) "
                                                               "and site/")
     parser.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")

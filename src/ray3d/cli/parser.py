@@ -7,18 +7,22 @@ import argparse
 
 import ray3d
 from ray3d.cli import (
+    batch_commands,
     bench_commands,
-    commands,
+    calibrate_commands,
     data_commands,
-    fusion_commands,
+    demo_commands,
+    lift_commands,
     live_commands,
     model_commands,
     site_commands,
     video_commands,
+    viz_commands,
 )
 
-COMMAND_MODULES = (commands, data_commands, model_commands, fusion_commands, video_commands, live_commands,
-                   site_commands, bench_commands)
+# In the order ``ray3d --help`` lists them.
+COMMAND_MODULES = (demo_commands, batch_commands, viz_commands, calibrate_commands, data_commands, model_commands,
+                   lift_commands, video_commands, live_commands, site_commands, bench_commands)
 
 
 class OneLineErrors(argparse.ArgumentParser):
@@ -38,3 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
     for module in COMMAND_MODULES:
         module.add_parser(subcommands)
     return parser
+
+
+def subcommand_parser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
+    """The parser of the subcommand ``name`` of ``build_parser()``'s ``parser``."""
+    subcommands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return subcommands.choices[name]

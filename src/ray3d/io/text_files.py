@@ -24,6 +24,23 @@ def read_json(path: str | Path) -> Any:
         raise InputError(f"{path}: JSON nested too deeply for any file ray3d reads") from None
 
 
+def read_json_or_yaml(path: str | Path) -> Any:
+    """A file's contents: YAML for .yaml / .yml (parsed safely: plain data only), else JSON."""
+    path = Path(path)
+    if path.suffix.lower() not in (".yaml", ".yml"):
+        return read_json(path)
+    import yaml
+
+    try:
+        return yaml.safe_load(path.read_text())
+    except OSError as err:
+        raise InputError(f"{path}: cannot read ({err.strerror})") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file") from None
+    except yaml.YAMLError as err:
+        raise InputError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
+
+
 def read_csv_rows(path: str | Path) -> list[dict[str, str]]:
     """The rows of a CSV file with a header row, each {column: text} (a UTF-8 byte-order mark is ignored)."""
     path = Path(path)

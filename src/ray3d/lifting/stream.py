@@ -47,26 +47,34 @@ class LiftStream:
         self._scores: np.ndarray | None = None   # (F, J) confidences
         self._last_seen = np.full((self.inputs.num_joints, 2), np.nan)
         self._model_frames = 0  # model-rate frames made so far
+        self._time = 0          # the last frame pushed, in input frames after the first
         self.pushed = 0       # frames pushed so far
         self.answered = 0     # frames answered so far
 
-    def push(self, keypoints, confidences=None) -> np.ndarray | None:
+    def push(self, keypoints, confidences=None, frames_since_last: int = 1) -> np.ndarray | None:
         """One frame's pixels (J, 2) in the stream's layout -> world joints (17, 3) of frame ``answered``
         (the frame just pushed for a causal model, or without waiting), or None while a centred model waits
-        for future frames."""
-        self.add(keypoints, confidences)
+        for future frames; ``frames_since_last`` as ``add``'s."""
+        self.add(keypoints, confidences, frames_since_last)
         return lift_streams([self])[0] if self.ready() else None
 
-    def add(self, keypoints, confidences=None) -> None:
-        """Take one frame's pixels (J, 2) without answering (``lift_streams`` answers several streams at once)."""
+    def add(self, keypoints, confidences=None, frames_since_last: int = 1) -> None:
+        """Take one frame's pixels (J, 2) without answering (``lift_streams`` answers several streams at once);
+        ``frames_since_last``: input frames since the one pushed before (more than 1 where frames were skipped or
+        the person was not seen: the model still reads them at their true times)."""
+        if frames_since_last < 1 or (frames_since_last != 1 and self.delay):
+            raise InputError(f"frames_since_last: {frames_since_last}; frames come in order, and a stream waiting for "
+                             "the future takes every frame", arguments=("frames_since_last",))
         pixels, scores = self._prepare(keypoints, confidences)
         if self._pixels is None:
             self._append(pixels[None], scores[None])
-            self._model_frames = 1
+            self._model_frames, self._time = 1, 0
         else:
             # The model-rate frames after the last one made, up to this frame's time, interpolated in time.
-            until = int(np.floor(self.pushed * self.step + 1e-6)) + 1
-            shares = (np.arange(self._model_frames, until) - (self.pushed - 1) * self.step) / self.step
+            before = self._time * self.step
+            self._time += int(frames_since_last)
+            until = int(np.floor(self._time * self.step + 1e-6)) + 1
+            shares = (np.arange(self._model_frames, until) - before) / (self._time * self.step - before)
             if len(shares):
                 self._append(self._pixels[-1] + shares[:, None, None] * (pixels - self._pixels[-1]),
                              self._scores[-1] + shares[:, None] * (scores - self._scores[-1]))

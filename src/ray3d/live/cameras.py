@@ -40,8 +40,9 @@ class Finished:
 class FrameResult:
     """One processed frame of one camera: its ``index``, when it ``arrived`` (this process's monotonic clock),
     the people in it, the tracks let go with it (``ended``), the tracks lifted offline since the last result
-    (``done``), from a camera in another process its frames read, dropped and people postponed so far, and the
-    ``gap`` its stream left just before it, where it was reopened (``LiveFrame.gap``: frame numbers)."""
+    (``done``), from a camera in another process its frames read, dropped and people postponed so far, the
+    ``gap`` its stream left just before it, where it was reopened (``LiveFrame.gap``: frame numbers), and every how
+    many frames of its stream the camera takes from now on (``stride``: its source is told)."""
 
     index: int
     arrived: float
@@ -50,6 +51,7 @@ class FrameResult:
     done: list[Finished]
     counts: tuple[int, int, int] | None = None
     gap: tuple[int, int] | None = None
+    stride: int = 1
 
 
 class Finisher:
@@ -152,7 +154,7 @@ class CameraPeople:
         for track in finished:
             self.finisher.put(track)
         return FrameResult(frame.index, frame.arrived, persons, [t.id for t in cut + finished],
-                           self.finisher.take(), gap=frame.gap)
+                           self.finisher.take(), gap=frame.gap, stride=self.people.stride)
 
     def _after_gap(self) -> list:
         """The stream was down: everybody followed before it is let go (nobody is followed, or counted, across a
@@ -199,7 +201,9 @@ class LocalCameras:
         if taken is None:
             return None
         view, frame = taken
-        return view, self.views[view].process(frame)
+        result = self.views[view].process(frame)
+        self.group.sources[view].stride = result.stride
+        return view, result
 
     def finish(self) -> list[tuple[list[tuple[str, int]], list[Finished]]]:
         return [view.finish() for view in self.views]

@@ -58,6 +58,7 @@ class CameraWorker:
         if frame is None:
             return "ended", f"{self.source.name}: the stream ended"
         result = self.people.process(frame)
+        self.source.stride = result.stride
         result.arrived = time.monotonic() - frame.arrived
         result.counts = (self.source.read, self.source.dropped, self.people.postponed())
         return result

@@ -65,8 +65,16 @@ class Keeping:
         self._open: list[tuple[Stretch, tuple] | None] = [None for _ in self.names]  # with the counts at its start
         self._last_drop: list[tuple | None] = [None for _ in self.names]  # the last loss's (time_s, read, dropped, ...)
         self.stretches: list[Stretch] = []  # every stretch, ended or not, in the order they began
+        self.strides = [1 for _ in self.names]  # every how many frames each camera takes now
 
-    def observe(self, view: int, time_s: float, read: int, dropped: int, postponed: int = 0) -> None:
+    def observe(self, view: int, time_s: float, read: int, dropped: int, postponed: int = 0, stride: int = 1) -> None:
+        if stride != self.strides[view]:
+            rate = self.fps[view] / stride
+            self.report(f"camera {self.names[view]}: " + (
+                f"the machine cannot follow every frame: 1 frame in {stride} taken from {time_s:.1f} s "
+                f"({rate:.1f} frames/s), everybody still followed" if stride > 1 else
+                f"every frame taken again from {time_s:.1f} s"))
+            self.strides[view] = stride
         samples = self._samples[view]
         sample = (float(time_s), int(read), int(dropped), int(postponed))
         if samples and (dropped > samples[-1][2] or postponed > samples[-1][3]):
@@ -126,7 +134,8 @@ class Keeping:
 
     def state(self) -> dict:
         """For the page and MQTT: whether any camera falls behind now, each camera's share dropped over the last
-        window (%), the stretches now and before."""
+        window (%), every how many frames each takes now, the stretches now and before."""
         return {"falling_behind": self.behind, "window_s": self.window_s,
                 "dropped_percent": {name: round(100 * share, 1) for name, share in zip(self.names, self._now)},
+                "frames_apart": dict(zip(self.names, self.strides)),
                 "stretches": [stretch.as_dict() for stretch in self.stretches]}

@@ -352,7 +352,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     break
                 view, result = taken
                 keeping.observe(view, result.index / cameras.fps[view] - views.offsets_s[view],
-                                *_read_and_dropped(cameras, view, result))
+                                *_read_and_dropped(cameras, view, result), stride=result.stride)
                 if mqtt is not None:
                     mqtt.health(keeping.state())
                 settled, persons, leaving = views.take(view, result)

@@ -2,7 +2,8 @@
 OpenCV / FFmpeg opens: RTSP, HTTP), read on a thread of their own into a buffer that holds only the newest ``keep``
 frames (2 by default). A frame pushed out by newer ones before it was taken is dropped on purpose and counted, so
 whoever takes frames is never behind the stream by more than ``keep`` frames, however slow they are; the second frame
-absorbs a short burst of slow frames (a crowded moment) without a drop."""
+absorbs a short burst of slow frames (a crowded moment) without a drop. Whoever cannot keep up for longer asks for
+every k-th frame only (``stride``): the others are skipped evenly rather than dropped where they pile up."""
 
 from __future__ import annotations
 
@@ -101,16 +102,18 @@ class FrameSource:
     plays the frames at ``fps`` (a file at its own rate); a camera or a stream paces itself. ``read`` counts the
     frames read, ``dropped`` those pushed out by newer ones before they were taken; a frame taken within
     ``keep`` frame periods of its arrival pushes none out. ``waits``: the reader waits for room instead (a file
-    read as fast as it is processed: every frame taken, none dropped)."""
+    read as fast as it is processed: every frame taken, none dropped). ``stride``: only the frames whose number it
+    divides are kept (set by whoever takes them, at any time); the others are read and counted as ``skipped``."""
 
     def __init__(self, frames: Iterator[np.ndarray], fps: float, name: str, paced: bool = False,
                  stall_s: float = 5.0, image_size: tuple[int, int] | None = None, keep: int = 2,
-                 first_index: int = 0, waits: bool = False):
+                 first_index: int = 0, waits: bool = False, stride: int = 1):
         if not fps > 0:
             raise InputError(f"{name}: the stream reports no frame rate; give it", ("fps",))
         self.fps, self.name, self.stall_s, self.image_size = float(fps), name, float(stall_s), image_size
         self.keep, self.first_index = max(1, int(keep)), int(first_index)
-        self.read = self.dropped = 0
+        self.read = self.dropped = self.skipped = 0
+        self.stride = max(1, int(stride))
         self._frames, self._paced, self._waits = frames, paced, waits
         self._waiting: collections.deque = collections.deque(maxlen=self.keep)
         self._ended = self._closed = False
@@ -144,6 +147,10 @@ class FrameSource:
             for index, image in enumerate(self._frames, start=self.first_index):
                 if self._paced:
                     time.sleep(max(0.0, start + (index - self.first_index) / self.fps - time.monotonic()))
+                if index % self.stride:
+                    self.read += 1
+                    self.skipped += 1
+                    continue
                 with self._changed:
                     if self._waits:
                         self._changed.wait_for(lambda: self._closed or len(self._waiting) < self._waiting.maxlen)

@@ -15,7 +15,7 @@ from ray3d.errors import InputError, reads_file
 from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.floor import checked_polygon
 from ray3d.io.atomic import atomic_path
-from ray3d.io.text_files import read_json
+from ray3d.io.text_files import read_json_or_yaml
 from ray3d.site.checks import crossing_sides
 from ray3d.site.places import CountingLine, FloorPlan, Site, Zone
 
@@ -38,18 +38,6 @@ def _limit(entry: dict, key: str, kind: type, where: str):
             or (kind is int and value != int(value)):
         raise InputError(f"{where}: expected a positive {'whole number' if kind is int else 'number'}, got {value!r}")
     return kind(value)
-
-
-def _document(path: Path):
-    """A site file's contents: YAML for .yaml / .yml (parsed safely: plain data only), else JSON."""
-    if path.suffix.lower() not in (".yaml", ".yml"):
-        return read_json(path)
-    import yaml
-
-    try:
-        return yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise InputError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
 
 
 def _floor_plan(entry, site_path: Path) -> FloorPlan:
@@ -85,7 +73,7 @@ def read_site(path: str | Path) -> Site:
     names must be unique within zones and within lines, and a zone's sides may not cross (its corners listed in
     order around it). Whether its places lie where the cameras and people are: ``site.checks.site_doubts``."""
     path = Path(path)
-    document = _document(path)
+    document = read_json_or_yaml(path)
     if not isinstance(document, dict) or not (set(document) & {"zones", "lines"}):
         raise InputError(f"{path}: expected an object with zones and / or lines")
     unknown = set(document) - {"zones", "lines", "floor_plan"}

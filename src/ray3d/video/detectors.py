@@ -105,7 +105,7 @@ class PeopleDetector:
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
         self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
-        self._crop_s = 0.015                    # the landmark network's time per crop, as measured
+        self.crop_s = 0.015                    # the landmark network's time per crop, as measured
         self._empty: deque = deque(maxlen=EMPTY_MEMORY)  # regions where crops found nobody, by look
         self.postponed = 0                      # people left for the next frame so far (with ``time_left_s``)
 
@@ -142,6 +142,13 @@ class PeopleDetector:
             looked[self._left_for_later(regions, len(known), len(new), fresh,
                                         time_left_s - (time.perf_counter() - started))] = False
         found = self._look(frame, regions[looked], vouched[looked])
+        if self._finder is not None and not looks_whole and time_left_s is None and self._lost(known, looked, found):
+            # Somebody followed was not found again where they were (close up, swaying, turning): offline, where
+            # no deadline is kept, the finder looks now rather than at its turn.
+            seen_whole = self._finder.found(frame)
+            whole = person_regions(*seen_whole[:2])
+            again = whole[~_near(whole, as_regions([self._region_around(d) for d in found]))]
+            found += self._look(frame, again, np.ones(len(again), bool))
         left_out = [d for d, look in zip(followed, looked) if not look]
         self.postponed += len(left_out)
         if found:
@@ -152,6 +159,14 @@ class PeopleDetector:
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
         return self._previous
+
+    def _lost(self, known: np.ndarray, looked: np.ndarray, found: list[Detection]) -> bool:
+        """Whether a person of the last frame looked for at ``known`` (their regions, the first of ``looked``) was
+        not found there."""
+        if not len(known):
+            return False
+        again = as_regions([self._region_around(d) for d in found])
+        return bool((looked[:len(known)] & ~_near(known, again)).any())
 
     def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
                         seconds: float) -> np.ndarray:
@@ -164,7 +179,7 @@ class PeopleDetector:
         recently_empty = np.concatenate(list(self._empty)) if self._empty else np.zeros((0, 4))
         doubtful = known + new + np.flatnonzero(_near(fresh, recently_empty))
         optional = np.concatenate([previous[np.argsort(-regions[previous, 2], kind="stable")], doubtful])
-        room = max(0, int(seconds / self._crop_s) - (len(regions) - len(optional)))
+        room = max(0, int(seconds / self.crop_s) - (len(regions) - len(optional)))
         return optional[room:]
 
     def _look(self, frame: np.ndarray, regions: np.ndarray, vouched: np.ndarray | None = None) -> list[Detection]:
@@ -173,8 +188,8 @@ class PeopleDetector:
         started = time.perf_counter()
         pixels, confidences, scores, following = self._landmarks(frame, regions)
         if len(regions):  # the time per crop, followed slowly: one busy moment (a new batch size) does not decide it
-            per_crop = min((time.perf_counter() - started) / len(regions), 2 * self._crop_s)
-            self._crop_s += 0.1 * (per_crop - self._crop_s)
+            per_crop = min((time.perf_counter() - started) / len(regions), 2 * self.crop_s)
+            self.crop_s += 0.1 * (per_crop - self.crop_s)
         self._empty.append(as_regions(regions)[scores < self.min_score])
         vouched = np.zeros(len(regions), bool) if vouched is None else vouched
         found = [(Detection(p, c, float(s), f if self._finder is not None else None), v)
@@ -297,9 +312,18 @@ class MediaPipeDetector:
         self._pose.close()
 
 
-def combined_detector(camera: Camera, threads: int = 2, **options) -> PeopleDetector:
-    """``PeopleDetector`` with MoveNet as its full-frame finder."""
-    return PeopleDetector(camera, threads=threads, finder=MoveNetPeople(threads), **options)
+# The full-frame finder every second frame offline (the people it found followed between, and at once where one was
+# lost): on vtest.avi's annotated people (benchmarks/person_finder.py, 2026-12-07) 52 of 60 at 12.5 frames/s,
+# against 51 every frame at 9.1; its identities 0.944 IDF1 against 0.832 (benchmarks/vtest_identities.py). Cut into
+# two tiles it found 56, but made half-people of a man close up (real-near's cam02) and kept identities worse (0.899).
+OFFLINE_FULL_FRAME_EVERY = 2
+
+
+def combined_detector(camera: Camera, threads: int = 2, full_frame_every: int = OFFLINE_FULL_FRAME_EVERY,
+                      **options) -> PeopleDetector:
+    """``PeopleDetector`` with MoveNet as its full-frame finder, run every ``full_frame_every``-th frame."""
+    return PeopleDetector(camera, threads=threads, finder=MoveNetPeople(threads), full_frame_every=full_frame_every,
+                          **options)
 
 
 DETECTORS = {"combined": combined_detector, "people": PeopleDetector, "mediapipe": MediaPipeDetector}

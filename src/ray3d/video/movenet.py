@@ -160,7 +160,8 @@ class MoveNetPeople:
         shape = image.shape[:2]
         if shape != self._shape:  # the input's size is the model's to choose per call; resized only when it changes
             self._runner.resize_tensor_input(self._input, [1, *shape, 3])
-            self._runner.allocate_tensors()
+            with native_chatter_dropped():  # where LiteRT makes its delegate and says so
+                self._runner.allocate_tensors()
             self._shape = shape
         self._runner.set_tensor(self._input, np.ascontiguousarray(image[None]))
         self._runner.invoke()

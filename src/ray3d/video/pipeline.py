@@ -28,11 +28,10 @@ from ray3d.video.detectors import PoseDetector
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
 from ray3d.video.identities import Rejoin, rejoin_tracks
 from ray3d.video.overlay import write_overlay
-from ray3d.video.tracking import FloorTracker, Track
+from ray3d.video.tracking import CONFIRM_FRAMES, FloorTracker, Track
 from ray3d.viz.html_viewer import write_viewer
 
 SHORT_CLIP_SHARE = 0.5   # a track as long as this share of the clip is kept, however short the clip
-CONFIRM_FRAMES = 3       # detections in a row before a person counts (one-off false detections never do)
 
 @dataclasses.dataclass
 class TrackedPeople:

@@ -34,6 +34,9 @@ _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared stan
 # the point between their ankles by more than a stride. (Not for a person missed: at a crossing the one in front
 # would take the place of the one hidden.)
 _SAME_BOX = 0.5
+CONFIRM_FRAMES = 3  # detections in a row before a person counts (one-off false detections never do)
+# Frames given in a row a followed person may be missed in and keep their track, however far apart the frames given.
+MISSES_KEPT = 2
 # A person in view when a run was cut off is taken up by a track confirmed in the next run's first CLAIM_S
 # seconds within CLAIM_GATE_M of their last place, plus a brisk walk since it.
 CLAIM_S = 3.0
@@ -135,11 +138,15 @@ class FloorTracker:
             them could have walked to takes up their id (the nearest), the others are numbered as usual.
     """
 
-    def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5, confirm_hits: int = 3,
+    def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5,
+                 confirm_hits: int = CONFIRM_FRAMES,
                  acceleration: float = 2.0, id_prefix: str = "", carried=()):
         self.camera, self.layout, self.confirm_hits, self.acceleration = camera, layout, confirm_hits, acceleration
         self.person_height = PersonScale(camera)
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
+        # Every how many frames it is given (a live camera under load takes every k-th): a person may be missed in
+        # MISSES_KEPT frames given in a row whatever time that spans, as at the full rate.
+        self.frames_apart = 1
         self._active: list[_Person] = []
         self._tracks: list[Track] = []
         self._confirmed = 0  # tracks confirmed so far (their ids), including those handed over by ``finished``
@@ -209,7 +216,7 @@ class FloorTracker:
         survivors = []
         for person in self._active:
             confirmed = person.track is not None
-            if person.missed <= (self.max_gap if confirmed else 0):
+            if person.missed <= (max(self.max_gap, MISSES_KEPT * self.frames_apart) if confirmed else 0):
                 survivors.append(person)
         for i in usable:
             if i not in matched_detections:

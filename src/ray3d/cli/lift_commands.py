@@ -1,5 +1,5 @@
-"""Several cameras, one world (``ray3d.fusion``): ``ray3d fuse`` on world files, and ``ray3d lift`` with several
-keypoint files, one per camera; ``ray3d video`` with several videos prints through ``print_fusion`` too."""
+"""``ray3d lift``: keypoint files and their cameras -> world 3D (one file, or several, one per camera, fused into one
+world), and ``ray3d fuse``: several cameras' world files -> one world (``ray3d.fusion``)."""
 
 from __future__ import annotations
 
@@ -26,58 +26,37 @@ def fuse(args: argparse.Namespace) -> int:
 
 
 def lift(args: argparse.Namespace) -> int:
-    """``ray3d lift``: one keypoint file as always, several (one per camera) fused."""
-
-
-    if len(args.keypoints) > 1 or len(args.camera or []) > 1:
-        return lift_several(args)
-    return lift_one(argparse.Namespace(**{**vars(args), "keypoints": args.keypoints[0],
-                                               "camera": (args.camera or [None])[0]}))
-
-
-def lift_one(args: argparse.Namespace) -> int:
-    """``ray3d lift`` of one keypoint file and its camera."""
+    """``ray3d lift``: each keypoint file through its camera (``--camera`` once each, in order); several, one per
+    camera, fused into one world in --out."""
     from ray3d.console import showing_progress
     from ray3d.jobs import run_job
 
-    check_output(args.out, (args.camera,))
-    done = run_job(job_from_args(args, [args.keypoints], "keypoint files", "file"), args.out,
-                   progress=showing_progress())
-    print_notes(done.notes)
-    lifted = done.inputs[0]
-    keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
-    if keypoints.fps is None:
-        print(f"note: {args.keypoints} states no frame rate: assumed the models' 60 fps (pass --fps if it is "
-              "another; speeds and smoothing depend on it)", file=sys.stderr)
-    print_keypoint_notes(args.keypoints, keypoints)
-    frames = sum(len(r.joints) for r in world.tracks.values())
-    filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
-    written = ", ".join(str(p) for p in lifted.files.values())
-    print(f"lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) with "
-          f"{world.model} through camera {camera.name or args.camera} -> {written} (metres, {args.frame} frame)")
-    if filled:
-        print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
-    for track, why in world.unliftable.items():
-        print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
-    print_refinements(world.tracks, camera)
-    return 0
-
-
-def lift_several(args: argparse.Namespace) -> int:
-    """``ray3d lift`` with several keypoint files, one per camera (``--camera`` once each, in order): each lifted
-    as one camera's, then one fused world in --out (.json)."""
-    from ray3d.console import showing_progress
-    from ray3d.jobs import run_job
-
+    check_output(args.out, (*args.keypoints, *(args.camera or [])))
     job = job_from_args(args, args.keypoints, "keypoint files", "file")
     done = run_job(job, args.out, progress=showing_progress())
     print_notes(done.notes)
     for path, lifted, choice in zip(job.inputs, done.inputs, job.cameras):
-        print_keypoint_notes(path, lifted.keypoints)
-        print(f"{path}: {len(lifted.world.tracks)} track(s) through camera {lifted.camera.name or choice.file}")
-    print_ankle_plane(done.inputs[0].world.tracks)
-    print_fusion(done.fusion, [str(path) for path in args.keypoints])
-    print(f"{len(done.world.tracks)} people from {len(job.inputs)} cameras -> {args.out}")
+        keypoints, world, camera = lifted.keypoints, lifted.world, lifted.camera
+        if keypoints.fps is None and args.fps is None:
+            print(f"note: {path} states no frame rate: assumed the models' 60 fps (pass --fps if it is another; "
+                  "speeds and smoothing depend on it)", file=sys.stderr)
+        print_keypoint_notes(path, keypoints)
+        frames = sum(len(r.joints) for r in world.tracks.values())
+        filled = sum(int(r.interpolated.sum()) for r in world.tracks.values())
+        written = ", ".join(str(p) for p in lifted.files.values())
+        print(f"{path}: lifted {len(world.tracks)} track(s), {frames} frames ({keypoints.layout}, {keypoints.source}) "
+              f"with {world.model} through camera {camera.name or choice.file}" +
+              (f" -> {written} (metres, {args.frame} frame)" if written else ""))
+        if filled:
+            print(f"note: {filled} missing input joint(s) were interpolated in time (listed in the output)")
+        for track, why in world.unliftable.items():
+            print(f"warning: track {track} was not lifted: {why}", file=sys.stderr)
+        if done.fusion is None:
+            print_refinements(world.tracks, camera)
+    if done.fusion is not None:
+        print_ankle_plane(done.inputs[0].world.tracks)
+        print_fusion(done.fusion, [str(path) for path in args.keypoints])
+        print(f"{len(done.world.tracks)} people from {len(job.inputs)} cameras -> {args.out}")
     return 0
 
 

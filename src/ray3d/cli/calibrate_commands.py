@@ -1,5 +1,5 @@
-"""The handlers of the ``ray3d`` subcommands: each turns its arguments into one library call and prints what
-came back. Library modules are imported inside the handlers so that ``ray3d --help`` stays fast."""
+"""``ray3d calibrate``: a camera from floor points or from a person walking, or where a calibrated camera's
+floor lies (``ray3d.calibrate``)."""
 
 from __future__ import annotations
 
@@ -10,13 +10,6 @@ from pathlib import Path
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
-
-
-def demo(args: argparse.Namespace) -> int:
-    from ray3d.demo import format_report, run_demo
-
-    print(format_report(run_demo(args.out, args.checkpoint, frames=args.frames)))
-    return 0
 
 
 def _image_size(args: argparse.Namespace) -> tuple[int, int]:
@@ -123,116 +116,10 @@ def _two_views(args: argparse.Namespace, camera) -> tuple[dict, str, float | Non
     return views, files[0].layout, next(iter(rates), None)
 
 
-def batch(args: argparse.Namespace) -> int:
-    from ray3d.batch import run
-
-    report = run(args.manifest, args.out, args.address, args.workers, args.retries, args.cpus_per_task,
-                 args.gpus_per_task)
-    counts = {status: sum(r.status == status for r in report.reports) for status in ("done", "skipped", "failed")}
-    print(f"{len(report.reports)} inputs: {counts['done']} done, {counts['skipped']} skipped (up to date), "
-          f"{counts['failed']} failed -> {args.out} (summary: {report.summary})")
-    for failure in report.failed:
-        print(f"  failed: {failure.name} ({failure.input}): {failure.error}", file=sys.stderr)
-    if report.failed:
-        print(f"error: {len(report.failed)} of {len(report.reports)} inputs failed", file=sys.stderr)
-        return 1
-    return 0
-
-
-def viz(args: argparse.Namespace) -> int:
-    from ray3d.console import progress_bar
-    from ray3d.io.camera_files import read_camera
-    from ray3d.io.world import read_world
-    from ray3d.temporal import check_frame_rate
-    from ray3d.viz.animation import check_animation_path, frame_span, render_frames, save_animation
-    from ray3d.viz.html_viewer import write_viewer
-
-    if not args.html and not args.animation:
-        raise InputError("viz: nothing to write: pass --html and/or --animation")
-    for target in (args.html, args.animation):
-        if target is not None:
-            check_output(target, (*args.world, args.camera, args.keypoints))
-    if args.animation is not None:
-        check_animation_path(args.animation)
-    worlds = [read_world(path).in_frame("world") for path in args.world]  # a camera-frame file too
-    sequences = {}
-    for path, world in zip(args.world, worlds):
-        chosen = [args.track] if args.track is not None else list(world.tracks)
-        for track in chosen:  # every track of every file; a file's stem names it when there are several files
-            result = world.track(track)
-            sequences[track if len(worlds) == 1 else f"{path.stem}:{track}"] = result
-    fps = check_frame_rate(worlds[0].fps if args.fps is None else args.fps, "viz")
-    camera = read_camera(args.camera) if args.camera else worlds[0].camera
-    if args.html:
-        write_viewer(args.html, sequences, fps, camera, overwrite=args.force,
-                     more_cameras=() if args.camera else worlds[0].cameras[1:])
-        print(f"wrote {args.html} ({len(sequences)} tracks, {fps:g} frames/s)")
-    if args.animation:
-        if args.stride < 1:
-            raise InputError(f"viz: stride must be 1 or more, got {args.stride}", arguments=("stride",))
-        inputs = None
-        if args.keypoints is not None:
-            from ray3d.io.keypoints import read_keypoints
-
-            keypoints = read_keypoints(args.keypoints)
-            inputs = {name: keypoints.h36m_pixels(name.split(":")[-1], result.frames)
-                      for name, result in sequences.items()}
-        first, last = frame_span(sequences)
-        images = progress_bar(render_frames(sequences, camera, inputs, stride=args.stride, fps=fps), desc="rendering",
-                              unit="frame", total=(last - first) // args.stride + 1, leave=False)
-        save_animation(images, args.animation, fps / args.stride, overwrite=args.force)
-        print(f"wrote {args.animation}")
-        if args.keypoints is not None:
-            print_keypoint_notes(args.keypoints, keypoints)
-    return 0
-
-
 def add_parser(commands) -> None:
-    """``ray3d demo``, ``batch``, ``viz`` and ``calibrate``'s flags, each bound to its handler here."""
-
+    """``ray3d calibrate``'s flags, bound to ``calibrate``."""
     from ray3d.body import ADULT_STATURE_M
     from ray3d.cli.arguments import add_force, add_lens_arguments
-
-    demo_parser = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
-                                            "the baselines, write an HTML viewer and a GIF")
-    demo_parser.add_argument("--out", type=Path, default=Path("ray3d-demo"), help="output folder (default ray3d-demo)")
-    demo_parser.add_argument("--checkpoint", default="ray3d", help="model to demonstrate (default: the shipped Ray3D)")
-    demo_parser.add_argument("--frames", type=int, help="use only the first N frames")
-    demo_parser.set_defaults(handler=demo)
-
-    batch_parser = commands.add_parser("batch",
-                                       help="every video and keypoint file of a manifest, each one task on a Ray "
-                                            "cluster or a local Ray (pip install 'ray3d[cluster]')")
-    batch_parser.add_argument("manifest", type=Path, help="CSV or JSON: input, camera (or camera_height, pitch, hfov), "
-                                                   "options (docs/batch.md)")
-    batch_parser.add_argument("--out", required=True, type=Path, help="output folder: NAME/ per input and summary.csv")
-    batch_parser.add_argument("--address", help="an existing Ray cluster: auto, or ray://HOST:10001 (default: start a "
-                                         "local Ray for this job)")
-    batch_parser.add_argument("--workers", type=int, help="local Ray: its CPUs (default all); on a cluster: most tasks "
-                                                   "at once (default no limit)")
-    batch_parser.add_argument("--retries", type=int, default=2,
-                       help="retries of a task that crashed or raised (default 2; a bad input is not retried)")
-    batch_parser.add_argument("--cpus-per-task", type=float, default=1,
-                              help="CPUs (torch threads) per task (default 1)")
-    batch_parser.add_argument("--gpus-per-task", type=float, default=0, help="GPUs per task (default 0)")
-    batch_parser.set_defaults(handler=batch)
-
-    viz_parser = commands.add_parser("viz",
-                                     help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
-                                          "ray3d video): every track, with its id and path on the floor")
-    viz_parser.add_argument("world", nargs="+", type=Path,
-                     help="world files (.json/.csv/.npz): several people, or one per method to compare")
-    viz_parser.add_argument("--camera", help="the camera drawn and projected through (default: the first world file's)")
-    viz_parser.add_argument("--html", type=Path, help="write the interactive viewer here")
-    viz_parser.add_argument("--animation", type=Path,
-                            help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
-    viz_parser.add_argument("--track", help="show only this track (default: every track)")
-    viz_parser.add_argument("--keypoints", type=Path,
-                     help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
-    viz_parser.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
-    viz_parser.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
-    add_force(viz_parser, "replace existing outputs")
-    viz_parser.set_defaults(handler=viz)
 
     calibrate_parser = commands.add_parser("calibrate",
                                            help="a camera from floor points with known positions, or from a "
