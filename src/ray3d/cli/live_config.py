@@ -118,13 +118,13 @@ def read_live_config(path: str | Path, parser: argparse.ArgumentParser) -> dict:
     mistakes = _mistakes(document, config_schema(parser))
     if mistakes:
         raise InputError("\n".join(f"{path}: {line}" for line in mistakes), ("config",))
-    folder, values = path.parent, {}
+    folder, values, flags = path.parent, {}, _keyed(parser)
     for key, value in document.items():
         if key == "cameras":
             continue
         if key in PATH_KEYS or key in NAME_OR_PATH_KEYS and (folder / str(value)).exists():
             value = _beside(folder, str(value))
-        action = _keyed(parser)[key]
+        action = flags[key]
         try:
             values[action.dest] = action.type(str(value)) if action.type and not isinstance(value, bool) else value
         except (ValueError, TypeError, argparse.ArgumentTypeError) as err:

@@ -105,7 +105,7 @@ class PeopleDetector:
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
         self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
-        self.crop_s = 0.015                    # the landmark network's time per crop, as measured
+        self.crop_s = 0.015                     # the landmark network's time per crop, as measured
         self._empty: deque = deque(maxlen=EMPTY_MEMORY)  # regions where crops found nobody, by look
         self.postponed = 0                      # people left for the next frame so far (with ``time_left_s``)
 
@@ -142,13 +142,15 @@ class PeopleDetector:
             looked[self._left_for_later(regions, len(known), len(new), fresh,
                                         time_left_s - (time.perf_counter() - started))] = False
         found = self._look(frame, regions[looked], vouched[looked])
-        if self._finder is not None and not looks_whole and time_left_s is None and self._lost(known, looked, found):
+        if self._finder is not None and not looks_whole and time_left_s is None and len(known):
             # Somebody followed was not found again where they were (close up, swaying, turning): offline, where
             # no deadline is kept, the finder looks now rather than at its turn.
-            seen_whole = self._finder.found(frame)
-            whole = person_regions(*seen_whole[:2])
-            again = whole[~_near(whole, as_regions([self._region_around(d) for d in found]))]
-            found += self._look(frame, again, np.ones(len(again), bool))
+            found_at = as_regions([self._region_around(d) for d in found])
+            if (looked[:len(known)] & ~_near(known, found_at)).any():
+                seen_whole = self._finder.found(frame)
+                whole = person_regions(*seen_whole[:2])
+                again = whole[~_near(whole, found_at)]
+                found += self._look(frame, again, np.ones(len(again), bool))
         left_out = [d for d, look in zip(followed, looked) if not look]
         self.postponed += len(left_out)
         if found:
@@ -159,14 +161,6 @@ class PeopleDetector:
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
         return self._previous
-
-    def _lost(self, known: np.ndarray, looked: np.ndarray, found: list[Detection]) -> bool:
-        """Whether a person of the last frame looked for at ``known`` (their regions, the first of ``looked``) was
-        not found there."""
-        if not len(known):
-            return False
-        again = as_regions([self._region_around(d) for d in found])
-        return bool((looked[:len(known)] & ~_near(known, again)).any())
 
     def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
                         seconds: float) -> np.ndarray:
