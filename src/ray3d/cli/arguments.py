@@ -4,6 +4,7 @@ library takes."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ray3d.models.precision import PRECISIONS
 from ray3d.temporal import OUTPUT_SMOOTHING
@@ -12,6 +13,22 @@ from ray3d.temporal import OUTPUT_SMOOTHING
 def add_data_dir(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data-dir", help="folder with cmu_h36m17.npz / hdm05_h36m17.npz (default: $RAY3D_DATA_DIR "
                         "or ../shared/data/mocap)")
+
+
+def add_out(parser: argparse.ArgumentParser, what: str, required: bool = True) -> None:
+    parser.add_argument("--out", required=required, type=Path, help=what)
+
+
+def add_people_arguments(parser: argparse.ArgumentParser, short_tracks: str) -> None:
+    """How people are found and followed in frames (``ray3d video``, ``ray3d live``); ``short_tracks``: what
+    becomes of a track shorter than --min-track."""
+    from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
+
+    parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    parser.add_argument("--max-gap", type=float, default=0.5,
+                        help="seconds a person may go undetected and keep their track (default 0.5)")
+    parser.add_argument("--min-track", type=float, default=1.0,
+                        help=f"tracks shorter than this (seconds) {short_tracks} (default 1)")
 
 
 def add_force(parser: argparse.ArgumentParser, what: str) -> None:

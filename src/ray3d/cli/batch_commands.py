@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from ray3d.cli.arguments import add_out
+
 
 def batch(args: argparse.Namespace) -> int:
     from ray3d.batch import run
@@ -30,7 +32,7 @@ def add_parser(commands) -> None:
                                             "cluster or a local Ray (pip install 'ray3d[cluster]')")
     batch_parser.add_argument("manifest", type=Path, help="CSV or JSON: input, camera (or camera_height, pitch, hfov), "
                                                    "options (docs/batch.md)")
-    batch_parser.add_argument("--out", required=True, type=Path, help="output folder: NAME/ per input and summary.csv")
+    add_out(batch_parser, "output folder: NAME/ per input and summary.csv")
     batch_parser.add_argument("--address", help="an existing Ray cluster: auto, or ray://HOST:10001 (default: start a "
                                          "local Ray for this job)")
     batch_parser.add_argument("--workers", type=int, help="local Ray: its CPUs (default all); on a cluster: most tasks "

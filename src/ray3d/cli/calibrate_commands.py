@@ -119,7 +119,7 @@ def _two_views(args: argparse.Namespace, camera) -> tuple[dict, str, float | Non
 def add_parser(commands) -> None:
     """``ray3d calibrate``'s flags, bound to ``calibrate``."""
     from ray3d.body import ADULT_STATURE_M
-    from ray3d.cli.arguments import add_force, add_lens_arguments
+    from ray3d.cli.arguments import add_force, add_lens_arguments, add_out
 
     calibrate_parser = commands.add_parser("calibrate",
                                            help="a camera from floor points with known positions, or from a "
@@ -148,6 +148,6 @@ def add_parser(commands) -> None:
     calibrate_parser.add_argument("--fps", type=float, help="with --keypoints: their frame rate (default: the files')")
     calibrate_parser.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
     add_lens_arguments(calibrate_parser, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
-    calibrate_parser.add_argument("--out", required=True, type=Path, help="camera JSON to write")
+    add_out(calibrate_parser, "camera JSON to write")
     add_force(calibrate_parser, "replace --out if it exists")
     calibrate_parser.set_defaults(handler=calibrate)

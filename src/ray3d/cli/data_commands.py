@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.arguments import add_force
+from ray3d.cli.arguments import add_force, add_out
 
 
 def data_info(args: argparse.Namespace) -> int:
@@ -83,7 +83,7 @@ def samples_speed(args: argparse.Namespace) -> int:
 
 
 def _import_common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", required=True, type=Path, help="output motion npz (the shipped format)")
+    add_out(parser, "output motion npz (the shipped format)")
     parser.add_argument("--fps", type=float, default=60.0, help="output frame rate (default 60)")
     parser.add_argument("--drop-frames", type=int, default=0, metavar="N",
                         help="leading native frames to discard, e.g. a synthetic T-pose")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import job_from_args, parse_offsets
+from ray3d.cli.arguments import add_out, job_from_args, parse_offsets
 from ray3d.cli.printing import print_ankle_plane, print_fusion, print_keypoint_notes, print_notes, print_refinements
 from ray3d.io.atomic import check_output
 
@@ -74,9 +74,8 @@ def add_parser(commands) -> None:
     lift_parser.add_argument("--find-offsets", action="store_true",
                              help="several keypoint files: find how far apart their clocks are from the people both "
                                   "cameras see")
-    lift_parser.add_argument("--out", required=True, type=Path,
-                      help="output .json, .csv or .npz (read back by ray3d viz), .trc (OpenSim / Pose2Sim markers) or "
-                           ".bvh (a skeleton with joint rotations: Blender, Maya; one file per track)")
+    add_out(lift_parser, "output .json, .csv or .npz (read back by ray3d viz), .trc (OpenSim / Pose2Sim markers) or "
+                         ".bvh (a skeleton with joint rotations: Blender, Maya; one file per track)")
     lift_parser.add_argument("--layout",
                              help="joint layout of the keypoints (h36m17, coco17, halpe26, blazepose33, body25, ...)")
     lift_parser.add_argument("--fps", type=float, help="frame rate of the keypoints (default: from the file, else 60)")
@@ -92,7 +91,7 @@ def add_parser(commands) -> None:
                                            "one world, one track per person, joints fused where cameras overlap")
     fuse_parser.add_argument("worlds", nargs="+", type=Path, help="world files (.json/.csv/.npz), one per camera; the "
                                                            "first sets the clock and frame numbers")
-    fuse_parser.add_argument("--out", required=True, type=Path, help="the fused world file (.json)")
+    add_out(fuse_parser, "the fused world file (.json)")
     fuse_parser.add_argument("--offsets", help="seconds each camera's clock is ahead of the first's, comma separated "
                                         "(the first 0; default all 0)")
     fuse_parser.add_argument("--find-offsets", action="store_true",

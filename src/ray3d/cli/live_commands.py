@@ -119,9 +119,14 @@ def add_parser(commands) -> None:
     """``ray3d live``'s flags, bound to ``live``."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import add_camera_arguments, add_lifting_arguments, add_time_buckets, until
+    from ray3d.cli.arguments import (
+        add_camera_arguments,
+        add_lifting_arguments,
+        add_people_arguments,
+        add_time_buckets,
+        until,
+    )
     from ray3d.live.people import LIVE_SMOOTHING
-    from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     parser = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
                                             "a growing world file, a page on localhost "
@@ -139,16 +144,12 @@ def add_parser(commands) -> None:
                                                               "sources: camera<k>_<name>/world.csv, then world.json) "
                                                               "and site/")
     parser.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
-    parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    add_people_arguments(parser, "stay out of the world file")
     parser.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")
     parser.add_argument("--unpaced", action="store_true",
                         help="read a file as fast as it is processed, every frame, not at its rate")
     parser.add_argument("--stall-timeout", type=float, default=5.0,
                       help="seconds without a frame before the stream counts as stalled (default 5; exit code 3)")
-    parser.add_argument("--max-gap", type=float, default=0.5,
-                      help="seconds a person may go undetected and keep their track (default 0.5)")
-    parser.add_argument("--min-track", type=float, default=1.0,
-                      help="tracks shorter than this (seconds) stay out of the world file (default 1)")
     parser.add_argument("--no-page", action="store_true", help="serve no page")
     parser.add_argument("--host", default="127.0.0.1", help="address the page listens on (default 127.0.0.1; any "
                       "other needs --token)")

@@ -112,14 +112,14 @@ def add_parser(commands) -> None:
     """``ray3d train``, ``evaluate``, ``models`` and ``export``'s flags, each bound to its handler here."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import add_data_dir, add_force, add_precision
+    from ray3d.cli.arguments import add_data_dir, add_force, add_out, add_precision
     from ray3d.data.virtual_cameras import SET_NAMES
 
     train_parser = commands.add_parser("train", help="train a model on the training performers with random cameras")
     train_parser.add_argument("--config", type=Path, help="training config JSON (see configs/); default: Ray3D lite")
     train_parser.add_argument("--preset",
                               help="model preset replacing the config's model (ray3d, videopose3d, rie, ...)")
-    train_parser.add_argument("--out", required=True, type=Path, help="run folder: best.*, last.*, config.json")
+    add_out(train_parser, "run folder: best.*, last.*, config.json")
     train_parser.add_argument("--resume", action="store_true", help="continue the run in --out from its last epoch")
     train_parser.add_argument("--epochs", type=int)
     train_parser.add_argument("--batches-per-epoch", type=int)
@@ -164,8 +164,7 @@ def add_parser(commands) -> None:
                                            help="a trained checkpoint -> inference weights (.safetensors + .json)")
     exporting_parser.add_argument("--checkpoint", default="ray3d",
                                   help="a shipped model name or e.g. runs/NAME/best.safetensors")
-    exporting_parser.add_argument("--out", required=True, type=Path,
-                                  help="target .safetensors (its .json is written beside)")
+    add_out(exporting_parser, "target .safetensors (its .json is written beside)")
     exporting_parser.add_argument("--onnx", action="store_true",
                                   help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
     exporting_parser.add_argument("--image-width", type=float, default=1000.0,

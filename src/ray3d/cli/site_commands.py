@@ -71,7 +71,7 @@ def store_report(args: argparse.Namespace, read_site) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d site``'s flags, bound to ``site``."""
-    from ray3d.cli.arguments import add_force, add_time_buckets, wall_clock
+    from ray3d.cli.arguments import add_force, add_out, add_time_buckets, wall_clock
 
     parser = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
                                             "(lines crossed, zones entered and left) and per-track and per-place "
@@ -88,8 +88,8 @@ def add_parser(commands) -> None:
                       "default the record's last)")
     parser.add_argument("--site", required=True, type=Path,
                       help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
-    parser.add_argument("--out", required=True, type=Path, help="folder for events.jsonl, events.csv, tracks.csv, "
-                                                             "places.csv")
+    add_out(parser, "folder for events.jsonl, events.csv, tracks.csv, "
+                    "places.csv")
     add_time_buckets(parser)
     add_force(parser, "replace existing tables")
     parser.set_defaults(handler=site)

@@ -59,9 +59,15 @@ def add_parser(commands) -> None:
     """``ray3d video``'s flags, each bound to its handler here."""
     from pathlib import Path
 
-    from ray3d.cli.arguments import add_camera_arguments, add_force, add_lifting_arguments, add_time_buckets
+    from ray3d.cli.arguments import (
+        add_camera_arguments,
+        add_force,
+        add_lifting_arguments,
+        add_out,
+        add_people_arguments,
+        add_time_buckets,
+    )
     from ray3d.io.world import WRITTEN_FORMATS
-    from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     video_parser = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
                                               "viewer and overlay video (pip install 'ray3d[video]'); several "
@@ -72,15 +78,10 @@ def add_parser(commands) -> None:
     add_camera_arguments(video_parser, image_size_note=" (default: the video's)", several=True)
     video_parser.add_argument("--find-offsets", action="store_true", help="several videos: find how far apart they "
                                                                    "started from the people both see")
-    video_parser.add_argument("--out", required=True, type=Path,
-                              help="folder for world.*, keypoints.json, viewer.html, overlay.mp4")
-    video_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    add_out(video_parser, "folder for world.*, keypoints.json, viewer.html, overlay.mp4")
+    add_people_arguments(video_parser, "are dropped")
     video_parser.add_argument("--start", type=int, default=0, help="first frame to process (default 0)")
     video_parser.add_argument("--frames", type=int, help="how many frames to process (default: to the end)")
-    video_parser.add_argument("--max-gap", type=float, default=0.5,
-                       help="seconds a person may go undetected and keep their track (default 0.5)")
-    video_parser.add_argument("--min-track", type=float, default=1.0,
-                              help="drop tracks shorter than this, seconds (default 1)")
     video_parser.add_argument("--rejoin", type=float, default=3.0,
                        help="take a person up again after a gap of up to this many seconds where their walk led, in "
                             "the same clothes: one identity (default 3; 0: never)")

@@ -10,16 +10,23 @@ from typing import Any
 from ray3d.errors import InputError
 
 
-def read_json(path: str | Path) -> Any:
+def read_text(path: str | Path) -> str:
+    """A user's text file's contents; a file that cannot be read, or is not text, refused in one line."""
     path = Path(path)
     try:
-        return json.loads(path.read_text())
+        return path.read_text()
     except OSError as err:
         raise InputError(f"{path}: cannot read ({err.strerror})") from None
-    except json.JSONDecodeError as err:
-        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file") from None
+
+
+def read_json(path: str | Path) -> Any:
+    text = read_text(path)
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as err:
+        raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
     except RecursionError:
         raise InputError(f"{path}: JSON nested too deeply for any file ray3d reads") from None
 
@@ -31,12 +38,9 @@ def read_json_or_yaml(path: str | Path) -> Any:
         return read_json(path)
     import yaml
 
+    text = read_text(path)
     try:
-        return yaml.safe_load(path.read_text())
-    except OSError as err:
-        raise InputError(f"{path}: cannot read ({err.strerror})") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file") from None
+        return yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise InputError(f"{path}: not valid YAML ({str(err).splitlines()[0]})") from None
 

@@ -78,25 +78,22 @@ def sensors(site: Site, prefix: str) -> list[tuple[str, dict]]:
     """The site's zones and lines as Home Assistant MQTT sensors: (discovery topic, config payload) each. A zone
     gives its occupancy (people now), its entries and its exits; a line its crossings each way."""
     node, common = topic_name(prefix), _common(prefix)
-    found = []
-    for zone in site.zones:
-        for what, unit, state_class, icon in (("occupancy", "people", "measurement", "mdi:account-group"),
-                                              ("entries", "entries", "total_increasing", "mdi:login"),
-                                              ("exits", "exits", "total_increasing", "mdi:logout")):
-            object_id = f"{topic_name(zone.name)}_{what}"
-            found.append((f"{DISCOVERY_PREFIX}/sensor/{node}/{object_id}/config",
-                          {"name": f"{zone.name} {what}", "unique_id": f"ray3d_{node}_{object_id}",
-                           "state_topic": f"{prefix}/zone/{topic_name(zone.name)}/{what}",
-                           "unit_of_measurement": unit, "state_class": state_class, "icon": icon, **common}))
-    for line in site.lines:
-        for direction in ("forward", "back"):
-            object_id = f"{topic_name(line.name)}_{direction}"
-            found.append((f"{DISCOVERY_PREFIX}/sensor/{node}/{object_id}/config",
-                          {"name": f"{line.name} crossings {direction}", "unique_id": f"ray3d_{node}_{object_id}",
-                           "state_topic": f"{prefix}/line/{topic_name(line.name)}/{direction}",
-                           "unit_of_measurement": "crossings", "state_class": "total_increasing",
-                           "icon": "mdi:transit-transfer", **common}))
-    return found
+
+    def sensor(place: str, kind: str, what: str, name: str, unit: str, state_class: str, icon: str):
+        object_id = f"{topic_name(place)}_{what}"
+        return (f"{DISCOVERY_PREFIX}/sensor/{node}/{object_id}/config",
+                {"name": name, "unique_id": f"ray3d_{node}_{object_id}",
+                 "state_topic": f"{prefix}/{kind}/{topic_name(place)}/{what}", "unit_of_measurement": unit,
+                 "state_class": state_class, "icon": icon, **common})
+
+    found = [sensor(zone.name, "zone", what, f"{zone.name} {what}", unit, state_class, icon)
+             for zone in site.zones
+             for what, unit, state_class, icon in (("occupancy", "people", "measurement", "mdi:account-group"),
+                                                   ("entries", "entries", "total_increasing", "mdi:login"),
+                                                   ("exits", "exits", "total_increasing", "mdi:logout"))]
+    return found + [sensor(line.name, "line", direction, f"{line.name} crossings {direction}", "crossings",
+                           "total_increasing", "mdi:transit-transfer")
+                    for line in site.lines for direction in ("forward", "back")]
 
 
 # A zone's events -> their ``event_type`` on the zone's Home Assistant event entity.

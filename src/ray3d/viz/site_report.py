@@ -12,23 +12,23 @@ from pathlib import Path
 
 from ray3d.io.atomic import write_text
 
-_STYLE = """<!doctype html>
+_HEAD = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>__TITLE__</title>
 <style>
  body { font-family: sans-serif; margin: 16px; background: #fafafa; }
  img { max-width: 48%; border: 1px solid #ddd; background: #fff; margin-right: 1%; vertical-align: top; }
  table { border-collapse: collapse; margin: 8px 0 16px; font-size: 13px; }
  td, th { border: 1px solid #ccc; padding: 3px 8px; text-align: left; }
-"""  # the head both pages share
-
-_TEMPLATE = _STYLE + """ #timeline { width: 100%; height: 160px; background: #fff; \
-border: 1px solid #ddd; display: block; }
  .note { color: #555; }
+ __MORE_STYLE__
 </style></head>
 <body>
 <h1>__TITLE__</h1>
 <p class="note">__NOTE__</p>
-<h2>Floor plan and occupancy</h2>
+"""  # the head and title both pages share
+
+_TEMPLATE = _HEAD.replace("__MORE_STYLE__", "#timeline { width: 100%; height: 160px; background: #fff; "
+                           "border: 1px solid #ddd; display: block; }") + """<h2>Floor plan and occupancy</h2>
 <img id="plan" alt="floor plan" src="data:image/png;base64,__PLAN__">\
 <img id="occupancy" alt="occupancy" src="data:image/png;base64,__OCCUPANCY__">
 <h2>Places</h2>
@@ -98,13 +98,8 @@ def write_site_report(path: str | Path, events: list[dict], places: list[dict], 
     return write_text(path, page, overwrite)
 
 
-_RECORD_TEMPLATE = _STYLE + """ td.n { text-align: right; font-variant-numeric: tabular-nums; }
- .note { color: #555; }
-</style></head>
-<body>
-<h1>__TITLE__</h1>
-<p class="note">__NOTE__</p>
-<h2>Places</h2>
+_RECORD_TEMPLATE = _HEAD.replace("__MORE_STYLE__", "td.n { text-align: right; font-variant-numeric: "
+                                 "tabular-nums; }") + """<h2>Places</h2>
 __PLACES__
 <h2>Events by kind</h2>
 __KINDS__
