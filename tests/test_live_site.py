@@ -214,6 +214,43 @@ def test_a_run_ends_on_purpose_with_until_and_its_outputs_complete(tmp_path):
     assert len(record.events) == len(_lines(tmp_path / "live" / "events.jsonl")) > 0
 
 
+def test_a_live_job_that_fails_closes_what_it_opened(tmp_path):
+    """``live_job`` owns the clean-up: streams that cannot be opened leave no run in the store (an SQLite store
+    holding nothing else is removed) and no thread of the store's or MQTT's; a run refused once its streams are
+    open (its event log exists: nothing is written over) is noted in the store as not started, its stream
+    closed."""
+    from services import free_port
+
+    from ray3d import InputError
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import live_job, local_inputs
+    from ray3d.live.runner import LiveOptions
+
+    job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
+
+    def unopened(job, recorder):
+        raise InputError("scene: cannot be opened", ("source",))
+
+    before = set(threading.enumerate())
+    with pytest.raises(InputError, match="scene: cannot be opened"):
+        live_job(job, tmp_path / "live", LiveOptions(page=False), unopened, store=tmp_path / "live" / "site.db",
+                 mqtt=f"mqtt://127.0.0.1:{free_port()}/site")
+    assert not (tmp_path / "live" / "site.db").exists()
+    assert set(threading.enumerate()) <= before  # the store's committer and MQTT's loop stopped
+
+    out, people = tmp_path / "again", _scene(10)
+    out.mkdir()
+    (out / "events.jsonl").write_text("")
+    source = FrameSource(_frames(len(people), people=people), FPS, "scene", waits=True)
+    with pytest.raises(InputError, match="events.jsonl: exists"):
+        live_job(job, out, LiveOptions(page=False), lambda job, recorder: local_inputs(
+            job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)], recorder.id_prefix),
+                 store=out / "site.db")
+    assert [run["ending"] for run in read_record(out / "site.db").runs] == ["not started"]
+    assert source.next() is None  # closed
+    assert (out / "events.jsonl").read_text() == ""
+
+
 def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_home_assistant_discovery(tmp_path):
     import jsonschema
     import paho.mqtt.client as mqtt
