@@ -48,86 +48,6 @@ class LiveInputs:
         return isinstance(self.followed, RayCameras)
 
 
-@dataclasses.dataclass
-class LiveRun:
-    """How a live job went: its ``summary`` (``live.runner.LiveSummary``: why it ended, the frames, the latency,
-    the events, every file written), the store's ``recorder`` (``store.RunRecorder``: the run's number and the rows
-    written; None without a store), the ``mqtt`` publisher (its counts; None without) and the ``signal`` that
-    stopped it (None: none)."""
-
-    summary: LiveSummary
-    recorder: RunRecorder | None = None
-    mqtt: MqttPublisher | None = None
-    signal: int | None = None
-
-
-def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions(),
-             streams: Callable[..., LiveInputs] | None = None, site: Site | None = None, store=None,
-             mqtt: str | None = None, offsets_s: list[float] | None = None, command: str = "ray3d live",
-             stop: threading.Event | None = None, started: Callable[[str], None] = lambda url: None,
-             said: Callable[[str], None] = lambda line: None, signals: bool = False) -> LiveRun:
-    """``job``'s streams followed into ``out_dir`` until they end, stall, break off, ``options.until_s`` comes or
-    ``stop`` is set (with ``signals``, SIGINT and SIGTERM set it: ``live.runner.stop_on_signals``); then the tail:
-    several cameras' world files fused into ``out_dir``/world.json, the site's report in ``out_dir``/site (a run
-    continuing a store's record: in ``out_dir``/run<N>/, nothing written before is replaced).
-
-    ``streams(job, recorder=...)`` opens them (default ``open_live`` as it is; bind its options with
-    ``functools.partial``). ``site``: a ``site.places.Site`` (default the job's site file's). ``store``: the site's
-    store the run is recorded in (a file, SQLite, or a ``postgresql://`` URL, ``start_record``: a file input is
-    taken up where its record ends, track ids carry the run's number, the report is of this run's people; None: no
-    record); it is begun first, so a second service on it is refused before anything is said on ``mqtt`` (a
-    ``mqtt://HOST[:PORT]/PREFIX`` URL: events and occupancy published, ``live.mqtt.MqttPublisher``).
-    ``offsets_s``: each camera's clock ahead of the first's. ``command``: the run as the store notes it.
-    ``started(url)``: the page listens; ``said(line)``: what the run says as it begins (the store's run, people a
-    run cut off left in view, the cameras on Ray, the page). Whatever ends the run, every output is complete and
-    the store, MQTT, the streams and a Ray it started are closed."""
-    out_dir = Path(out_dir)
-    site = job.site_plan() if site is None else site
-    recorder = start_record(job, store, command, site, options.start_time) if store is not None else None
-    publisher = inputs = summary = None
-    try:
-        publisher = MqttPublisher(mqtt, site or Site()) if mqtt else None
-        inputs = (streams or open_live)(job, recorder=recorder)
-        for line in _said_at_the_start(inputs, recorder, len(job.inputs)):
-            said(line)
-        stop = stop or threading.Event()
-        caught = stop_on_signals(stop, inputs.followed) if signals else []
-
-        def page(url: str) -> None:
-            said(f"live page: {url}")
-            started(url)
-
-        summary = _followed_to_the_end(inputs, out_dir, site, options, stop, page, offsets_s, recorder, publisher)
-    finally:
-        if summary is None:  # it failed before its streams or while they were followed
-            if recorder is not None and inputs is None:  # a run that never opened its streams is taken out
-                recorder.discard()
-            elif recorder is not None:  # one that did has its end noted (closing again does nothing)
-                recorder.close("not started")
-            if publisher is not None:
-                publisher.close(wait_s=0.0)  # closing it again (once followed) does nothing
-    return LiveRun(summary, recorder, publisher, caught[0] if caught else None)
-
-
-def _said_at_the_start(inputs: LiveInputs, recorder: RunRecorder | None, cameras: int) -> list[str]:
-    """What a run says once its streams are open: its run of the store and the files it takes up, the people and
-    visits a run cut off left open (ended now), the cameras on Ray."""
-    lines = []
-    if recorder is not None:
-        taken_up = [f"{r.source} at frame {r.first_index}" for r in recorder.resumes if r.first_index]
-        lines.append(f"store {recorder.shown}: run {recorder.run}"
-                     + (f", taking up {', '.join(taken_up)}" if taken_up else ""))
-        if recorder.closed:
-            tracks = sum(e["event"] == TRACK_ENDED.name for e in recorder.closed)
-            lines.append(f"store {recorder.shown}: a run was cut off (killed): the {tracks} people it left in view "
-                         f"and {len(recorder.closed) - tracks} zone visits of theirs ended at its last commit (\"the "
-                         "service stopped\")")
-    if inputs.on_ray:
-        lines.append(f"on Ray ({inputs.address}): {cameras} camera actor(s), each reading and decoding its stream, "
-                     "finding and lifting its people")
-    return lines
-
-
 def local_inputs(job: Job, group, cameras: list, detectors: list, id_prefix: str = "", carried=()) -> LiveInputs:
     """Streams already open (a ``SourceGroup``), with a camera and a detector each, followed in this process by the
     job's lifter (``id_prefix`` before every track id: a store's run number; ``carried``: the people in view when
@@ -202,6 +122,86 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
     detectors = [detector for _, _, detector in opened]
     return local_inputs(job, SourceGroup([source for source, _, _ in opened]), [camera for _, camera, _ in opened],
                         detectors, prefix, carried)
+
+
+@dataclasses.dataclass
+class LiveRun:
+    """How a live job went: its ``summary`` (``live.runner.LiveSummary``: why it ended, the frames, the latency,
+    the events, every file written), the store's ``recorder`` (``store.RunRecorder``: the run's number and the rows
+    written; None without a store), the ``mqtt`` publisher (its counts; None without) and the ``signal`` that
+    stopped it (None: none)."""
+
+    summary: LiveSummary
+    recorder: RunRecorder | None = None
+    mqtt: MqttPublisher | None = None
+    signal: int | None = None
+
+
+def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions(),
+             streams: Callable[..., LiveInputs] = open_live, site: Site | None = None, store=None,
+             mqtt: str | None = None, offsets_s: list[float] | None = None, command: str = "ray3d live",
+             stop: threading.Event | None = None, started: Callable[[str], None] = lambda url: None,
+             said: Callable[[str], None] = lambda line: None, signals: bool = False) -> LiveRun:
+    """``job``'s streams followed into ``out_dir`` until they end, stall, break off, ``options.until_s`` comes or
+    ``stop`` is set (with ``signals``, SIGINT and SIGTERM set it: ``live.runner.stop_on_signals``); then the tail:
+    several cameras' world files fused into ``out_dir``/world.json, the site's report in ``out_dir``/site (a run
+    continuing a store's record: in ``out_dir``/run<N>/, nothing written before is replaced).
+
+    ``streams(job, recorder=...)`` opens them (``open_live``; bind its options with
+    ``functools.partial``). ``site``: a ``site.places.Site`` (default the job's site file's). ``store``: the site's
+    store the run is recorded in (a file, SQLite, or a ``postgresql://`` URL, ``start_record``: a file input is
+    taken up where its record ends, track ids carry the run's number, the report is of this run's people; None: no
+    record); it is begun first, so a second service on it is refused before anything is said on ``mqtt`` (a
+    ``mqtt://HOST[:PORT]/PREFIX`` URL: events and occupancy published, ``live.mqtt.MqttPublisher``).
+    ``offsets_s``: each camera's clock ahead of the first's. ``command``: the run as the store notes it.
+    ``started(url)``: the page listens; ``said(line)``: what the run says as it begins (the store's run, people a
+    run cut off left in view, the cameras on Ray, the page). Whatever ends the run, every output is complete and
+    the store, MQTT, the streams and a Ray it started are closed."""
+    out_dir = Path(out_dir)
+    site = job.site_plan() if site is None else site
+    recorder = start_record(job, store, command, site, options.start_time) if store is not None else None
+    publisher = inputs = summary = None
+    try:
+        publisher = MqttPublisher(mqtt, site or Site()) if mqtt else None
+        inputs = streams(job, recorder=recorder)
+        for line in _said_at_the_start(inputs, recorder, len(job.inputs)):
+            said(line)
+        stop = stop or threading.Event()
+        caught = stop_on_signals(stop, inputs.followed) if signals else []
+
+        def page(url: str) -> None:
+            said(f"live page: {url}")
+            started(url)
+
+        summary = _followed_to_the_end(inputs, out_dir, site, options, stop, page, offsets_s, recorder, publisher)
+    finally:
+        if summary is None:  # it failed before its streams or while they were followed
+            if recorder is not None and inputs is None:  # a run that never opened its streams is taken out
+                recorder.discard()
+            elif recorder is not None:  # one that did has its end noted (closing again does nothing)
+                recorder.close("not started")
+            if publisher is not None:
+                publisher.close(wait_s=0.0)  # closing it again (once followed) does nothing
+    return LiveRun(summary, recorder, publisher, caught[0] if caught else None)
+
+
+def _said_at_the_start(inputs: LiveInputs, recorder: RunRecorder | None, cameras: int) -> list[str]:
+    """What a run says once its streams are open: its run of the store and the files it takes up, the people and
+    visits a run cut off left open (ended now), the cameras on Ray."""
+    lines = []
+    if recorder is not None:
+        taken_up = [f"{r.source} at frame {r.first_index}" for r in recorder.resumes if r.first_index]
+        lines.append(f"store {recorder.shown}: run {recorder.run}"
+                     + (f", taking up {', '.join(taken_up)}" if taken_up else ""))
+        if recorder.closed:
+            tracks = sum(e["event"] == TRACK_ENDED.name for e in recorder.closed)
+            lines.append(f"store {recorder.shown}: a run was cut off (killed): the {tracks} people it left in view "
+                         f"and {len(recorder.closed) - tracks} zone visits of theirs ended at its last commit (\"the "
+                         "service stopped\")")
+    if inputs.on_ray:
+        lines.append(f"on Ray ({inputs.address}): {cameras} camera actor(s), each reading and decoding its stream, "
+                     "finding and lifting its people")
+    return lines
 
 
 def _followed_to_the_end(inputs: LiveInputs, out_dir: Path, site: Site | None, options: LiveOptions,
