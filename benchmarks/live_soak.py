@@ -21,11 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from ray3d.io.camera_files import read_camera
-from ray3d.lifting.lifter import Lifter
-from ray3d.live.runner import LiveOptions, run_live
-from ray3d.live.source import FrameSource, _opened
+from ray3d.jobs import CameraChoice, Job
+from ray3d.jobs.live import live_job, local_inputs
+from ray3d.live.runner import LiveOptions
+from ray3d.live.source import FrameSource, SourceGroup, _opened
 from ray3d.site.files import read_site
-from ray3d.store import RunRecorder, read_record
+from ray3d.store import read_record
 from ray3d.video import make_detector
 
 
@@ -85,10 +86,12 @@ def main() -> None:
         threading.Thread(target=_read_feed, args=(url, stop, snapshots), daemon=True).start()
 
     threading.Thread(target=sample, daemon=True).start()
-    recorder = RunRecorder(args.out / "site.db", "live_soak", [source.name], [False])
-    summary = run_live(source, camera, args.out, detector, Lifter.load(layout=detector.layout),
-                       site=read_site(args.site) if args.site else None,
-                       options=LiveOptions(port=0), started=started, recorder=recorder)
+    run = live_job(Job((source.name,), (CameraChoice(args.camera),)), args.out, LiveOptions(port=0),
+                   lambda job, recorder: local_inputs(job, SourceGroup([source]), [camera], [detector],
+                                                      recorder.id_prefix),
+                   site=read_site(args.site) if args.site else None, store=args.out / "site.db", command="live_soak",
+                   started=started)
+    summary, recorder = run.summary, run.recorder
     stop.set()
     written = len((args.out / "events.jsonl").read_text().splitlines())
     stored = len(read_record(args.out / "site.db").events)

@@ -1,6 +1,6 @@
 """``ray3d live`` on a video played at its own rate, against the offline ``ray3d video`` of the same video.
 
-Plays the video in real time through ``run_live`` (the page served, a client reading its feed as a browser
+Plays the video in real time through ``jobs.live.live_job`` (the page served, a client reading its feed as a browser
 would), then reports: frames dropped, latency from a frame's arrival to its people published (the runner's own
 clock) and to their arrival at the page's feed (the client's), the people the detector left for the next frame
 to keep up, the people found, feet on the floor (in all of each track's frames, and in the frames its feet were
@@ -25,9 +25,10 @@ import numpy as np
 
 from ray3d.io.camera_files import read_camera
 from ray3d.io.world import read_world
-from ray3d.lifting.lifter import Lifter
-from ray3d.live.runner import LiveOptions, run_live
-from ray3d.live.source import FrameSource
+from ray3d.jobs import CameraChoice, Job
+from ray3d.jobs.live import live_job, local_inputs
+from ray3d.live.runner import LiveOptions
+from ray3d.live.source import FrameSource, SourceGroup
 from ray3d.site.files import read_site
 from ray3d.video import make_detector
 
@@ -102,9 +103,9 @@ def main() -> None:
         threading.Thread(target=_feed_latencies, args=(url, arrivals, page_latency, stop_feed), daemon=True).start()
 
     begun = time.monotonic()
-    summary = run_live(source, camera, args.out, detector, Lifter.load(layout=detector.layout),
-                       site=read_site(args.site) if args.site else None,
-                       options=LiveOptions(port=0), started=started)
+    summary = live_job(Job((args.video,), (CameraChoice(args.camera),)), args.out, LiveOptions(port=0),
+                       lambda job, recorder: local_inputs(job, SourceGroup([source]), [camera], [detector]),
+                       site=read_site(args.site) if args.site else None, started=started).summary
     stop_feed.set()
     wall = time.monotonic() - begun
     live, offline = read_world(summary.files["world"]), read_world(args.offline)

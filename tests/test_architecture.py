@@ -214,7 +214,8 @@ def _callers(name: str) -> set[str]:
 
 @pytest.mark.parametrize("assembler, own_room", [("make_detector", "ray3d.video"), ("camera_for_video", "ray3d.video"),
                                                  ("lift_video", "ray3d.video"), ("lift_file", "ray3d.lifting"),
-                                                 ("fuse_worlds", "ray3d.fusion"), ("run_live", "ray3d.live")])
+                                                 ("fuse_worlds", "ray3d.fusion"), ("follow", "ray3d.live"),
+                                                 ("LocalCameras", "ray3d.live")])
 def test_only_the_jobs_wing_assembles_a_job_or_fuses_worlds(assembler, own_room):
     """A video job (its camera, detector and lifter), a keypoint job, a live job and the fusion of worlds are put
     together in ``ray3d.jobs`` only: a second assembler is refused."""

@@ -179,7 +179,7 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, d
     """A live job over the scene's frames (each carrying its number), played at ``fps`` (a fast replay), the
     people found by ``detector`` (default: where the camera sees them)."""
     from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import local_inputs, run_live_job
+    from ray3d.jobs.live import live_job, local_inputs
     from ray3d.live.runner import LiveOptions
 
     job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
@@ -188,8 +188,27 @@ def _run(tmp_path, people: np.ndarray, site: Site = Site(), fps: float = 20.0, d
     detector = detector or _ScriptedDetector(people)
     source = FrameSource(_frames(len(people), people=people), fps, "scene", paced=True)
     live_options = LiveOptions(**{"page": False, **options})
-    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector])
-    return run_live_job(job, inputs, tmp_path / "live", site, live_options), detector
+    run = live_job(job, tmp_path / "live", live_options, site=site,
+                   streams=lambda job, recorder: local_inputs(job, SourceGroup([source]), [CAMERA], [detector]))
+    return run.summary, detector
+
+
+def _one_camera(people: np.ndarray, fps: float, name: str = "scene", stall_timeout_s: float = 5.0, **frames):
+    """A live job of one camera over the scene's frames (``frames``: how ``_frames`` makes them) played at ``fps``
+    (no frame for ``stall_timeout_s``: stalled), its model loaded already: the job, the frames' source and how the job
+    opens it (``live_job``'s ``streams``), the people found where the camera sees them."""
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import local_inputs
+
+    job = Job((name,), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
+    job.lifter("h36m17")  # before the stream starts: frames that come while it loads would be dropped
+    source = FrameSource(_frames(len(people), people=people, **frames), fps, name, paced=True,
+                         stall_s=stall_timeout_s)
+
+    def opened(job, recorder):
+        return local_inputs(job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)])
+
+    return job, source, opened
 
 
 def test_the_final_world_is_the_offline_answer_and_the_live_answer_is_close_to_it(tmp_path):
@@ -342,15 +361,15 @@ def test_several_cameras_follow_each_person_once_and_fuse_their_world_files(tmp_
     """Two cameras facing each other see the same two people: the events and the page are of two people (each
     crossing counted once), each camera writes its own world file, and the fused world has two tracks, each
     seen by both cameras, near the truth."""
-    from ray3d.jobs.live import run_live_job
+    from ray3d.jobs.live import live_job
     from ray3d.live.runner import LiveOptions
 
     people = _scene()
     # Every frame processed (as from files read as fast as they are processed): what is tested is who is who
     # across the cameras, not keeping up, which a loaded machine may not (then a person's frames are dropped).
     job, inputs, _ = _two_cameras_facing(people)
-    summary = run_live_job(job, inputs, tmp_path / "live", Site((ROOM,), (DOOR,)),
-                           LiveOptions(page=False))
+    summary = live_job(job, tmp_path / "live", LiveOptions(page=False), lambda job, recorder: inputs,
+                       site=Site((ROOM,), (DOOR,))).summary
     assert summary.ending == "ended" and summary.processed == summary.read == 2 * len(people)
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     started = {e["track"] for e in events if e["event"] == "track started"}
@@ -609,21 +628,21 @@ SIGNAL_SCRIPT = """
 import sys, threading, numpy as np
 sys.path.insert(0, {tests!r})
 from test_live import _scene, _ScriptedDetector, _frames, CAMERA
+from ray3d.jobs import CameraChoice, Job
+from ray3d.jobs.live import live_job, local_inputs
 from ray3d.lifting.options import VideoOptions
-from ray3d.live.runner import LiveOptions, run_live, stop_on_signals
-from ray3d.live.source import FrameSource
-from ray3d.lifting.lifter import Lifter
-lifter = Lifter.load()
+from ray3d.live.runner import LiveOptions
+from ray3d.live.source import FrameSource, SourceGroup
 people = _scene(400)
 source = FrameSource(_frames(400, people=people), 10.0, "scene", paced=True)
-stop = threading.Event()
-caught = stop_on_signals(stop, source)
-print("started", flush=True)
-summary = run_live(source, CAMERA, {out!r}, _ScriptedDetector(people), lifter, \
-options=LiveOptions(page=False), stop=stop,
-                   video_options=VideoOptions(min_track_s=0.5))
-print(summary.ending, summary.processed, flush=True)
-sys.exit(128 + caught[0] if caught else 0)
+job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
+def opened(job, recorder):
+    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)])
+    print("started", flush=True)  # the model loaded; the signals are caught from the next moment on
+    return inputs
+run = live_job(job, {out!r}, LiveOptions(page=False), opened, signals=True)
+print(run.summary.ending, run.summary.processed, flush=True)
+sys.exit(128 + run.signal if run.signal else 0)
 """
 
 
@@ -654,11 +673,11 @@ def test_a_signal_ends_the_stream_with_every_output_complete(tmp_path, number):
 def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_headless_chromium(tmp_path):
     import urllib.request
 
-    from ray3d.lifting.lifter import Lifter
-    from ray3d.live.runner import LiveOptions, run_live
+    from ray3d.jobs.live import live_job
+    from ray3d.live.runner import LiveOptions
 
     people = _scene(600)  # a minute: the stream runs until the screenshots are taken, then it is stopped
-    source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=True)
+    job, source, opened = _one_camera(people, FPS)
     listening, stop = threading.Event(), threading.Event()
     urls = []
 
@@ -666,11 +685,9 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
         urls.append(url)
         listening.set()
 
-    runner = threading.Thread(target=run_live, args=(source, CAMERA, tmp_path / "live", _ScriptedDetector(people),
-                                                     Lifter.load()),
-                              kwargs={"site": Site((ROOM,), (DOOR,)), "started": started, "stop": stop,
-                                      "options": LiveOptions(port=0, every_s=2.0),
-                                                         "video_options": VideoOptions(min_track_s=0.5)})
+    runner = threading.Thread(target=live_job, args=(job, tmp_path / "live", LiveOptions(port=0, every_s=2.0),
+                                                     opened),
+                              kwargs={"site": Site((ROOM,), (DOOR,)), "started": started, "stop": stop})
     runner.start()
     assert listening.wait(30)
     for _ in range(100):  # people on the page's feed (the stream has begun)
@@ -710,15 +727,12 @@ def test_the_page_shows_people_moving_and_the_counts_of_the_event_stream_in_head
 
 
 def test_a_stream_that_stalls_ends_the_run_with_its_outputs_complete(tmp_path):
-    from ray3d.lifting.lifter import Lifter
-    from ray3d.live.runner import LiveOptions, run_live
+    from ray3d.jobs.live import live_job
+    from ray3d.live.runner import LiveOptions
 
     people = _scene(60)
-    lifter = Lifter.load()
-    source = FrameSource(_frames(60, people=people, stall_after=40, stall_s=3.0), 20.0, "camera 3", paced=True,
-                         stall_s=0.5)
-    summary = run_live(source, CAMERA, tmp_path / "live", _ScriptedDetector(people), lifter,
-                       options=LiveOptions(page=False), video_options=VideoOptions(min_track_s=0.5))
+    job, _, opened = _one_camera(people, 20.0, "camera 3", stall_timeout_s=0.5, stall_after=40, stall_s=3.0)
+    summary = live_job(job, tmp_path / "live", LiveOptions(page=False), opened).summary
     assert summary.ending == "stalled" and summary.why == "camera 3: no frame for 0.5 s: the stream stalled"
     events = [json.loads(line) for line in (tmp_path / "live" / "events.jsonl").read_text().splitlines()]
     assert sum(e["event"] == "track ended" for e in events) == 2

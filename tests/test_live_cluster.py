@@ -4,6 +4,7 @@ and after written; SIGTERM during a Ray run ends it with every output complete a
 
 from __future__ import annotations
 
+import functools
 import json
 import subprocess
 import sys
@@ -23,7 +24,7 @@ from test_live import _ScriptedDetector  # noqa: E402
 
 from ray3d.io.world import read_world  # noqa: E402
 from ray3d.jobs import CameraChoice, Job  # noqa: E402
-from ray3d.jobs.live import local_inputs, open_live, run_live_job  # noqa: E402
+from ray3d.jobs.live import live_job, local_inputs, open_live  # noqa: E402
 from ray3d.lifting.options import VideoOptions  # noqa: E402
 from ray3d.live.runner import LiveOptions  # noqa: E402
 from ray3d.live.source import FrameSource, SourceGroup  # noqa: E402
@@ -74,11 +75,13 @@ def test_each_camera_in_a_ray_actor_gives_the_world_of_the_run_in_this_process(t
     people, video = scene
     job = _job(video, people)
     source = FrameSource.open(video, paced=True)
-    local = run_live_job(job, local_inputs(job, SourceGroup([source]), [CAMERA],
-                                           [_ScriptedDetector(people)]), tmp_path / "local", options=OPTIONS)
-    inputs = open_live(job, paced=True, address="local", workers=2)
-    assert inputs.on_ray and inputs.ray is not None
-    on_ray = run_live_job(job, inputs, tmp_path / "ray", options=OPTIONS)
+    local = live_job(job, tmp_path / "local", OPTIONS, lambda job, recorder: local_inputs(
+        job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)])).summary
+    said: list[str] = []
+    on_ray = live_job(job, tmp_path / "ray", OPTIONS, functools.partial(open_live, paced=True, address="local",
+                                                                          workers=2), said=said.append).summary
+    assert said == ["on Ray (local): 1 camera actor(s), each reading and decoding its stream, finding and lifting its "
+                    "people"]
     assert not ray.is_initialized()  # the local Ray started for the run is stopped with it
     assert local.ending == on_ray.ending == "ended" and on_ray.processed + on_ray.dropped == on_ray.read == 60
     mine, theirs = read_world(local.files["world"]), read_world(on_ray.files["world"])
@@ -135,8 +138,9 @@ def test_a_camera_actor_killed_mid_stream_is_started_again_and_its_stream_goes_o
     inputs = open_live(job, paced=True, address="local", workers=2)
     followed = inputs.followed
     out: dict = {}
-    runner = threading.Thread(target=lambda: out.update(summary=run_live_job(
-        job, inputs, tmp_path / "live", test_live.Site((test_live.ROOM,), (test_live.DOOR,)), OPTIONS)))
+    runner = threading.Thread(target=lambda: out.update(summary=live_job(
+        job, tmp_path / "live", OPTIONS, lambda job, recorder: inputs,
+        site=test_live.Site((test_live.ROOM,), (test_live.DOOR,))).summary))
     runner.start()
     deadline = time.monotonic() + 60
     while followed.workers[0].last_index < 15 and time.monotonic() < deadline:
@@ -163,18 +167,17 @@ import ray.cloudpickle, test_live, test_live_cluster
 ray.cloudpickle.register_pickle_by_value(test_live)
 ray.cloudpickle.register_pickle_by_value(test_live_cluster)
 from pathlib import Path
-from ray3d.jobs.live import open_live, run_live_job
-from ray3d.live.runner import stop_on_signals
+from ray3d.jobs.live import live_job, open_live
 people = test_live._scene(400)
 video = test_live_cluster._video(Path({out!r}).parent / "long.avi", people)
 job = test_live_cluster._job(video, people)
-inputs = open_live(job, paced=True, address="local", workers=2)
-stop = threading.Event()
-caught = stop_on_signals(stop, inputs.followed)
-print("started", flush=True)
-summary = run_live_job(job, inputs, {out!r}, options=test_live_cluster.OPTIONS, stop=stop)
-print(summary.ending, summary.processed, flush=True)
-sys.exit(128 + caught[0] if caught else 0)
+def opened(job, recorder):
+    inputs = open_live(job, paced=True, address="local", workers=2, recorder=recorder)
+    print("started", flush=True)  # the signals are caught from the next moment on
+    return inputs
+run = live_job(job, {out!r}, test_live_cluster.OPTIONS, opened, signals=True)
+print(run.summary.ending, run.summary.processed, flush=True)
+sys.exit(128 + run.signal if run.signal else 0)
 """
 
 

@@ -23,7 +23,7 @@ from ray3d.io.world import read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup
 from ray3d.site import Site, Zone
-from ray3d.store import RunRecorder, read_record
+from ray3d.store import read_record
 
 FIXTURES = Path(__file__).parent / "fixtures"
 
@@ -32,26 +32,29 @@ def _live(out: Path, people: np.ndarray, views=(CAMERA,), site: Site = Site((ROO
           mqtt=None, start=None, frame_sleep_s: float = 0.0, file: Path | None = None, **options):
     """A live job over the scene as each camera of ``views`` sees it (every frame processed, faster than the
     clock unless each frame comes ``frame_sleep_s`` after the last: ``start``, a datetime, places its frame 0),
-    recorded to ``store`` (default OUT/site.db): its summary and its recorder. ``file``: the one camera's input is
-    this file (a run on a store that recorded it before takes it up where it was left)."""
+    recorded to ``store`` (default OUT/site.db), published on ``mqtt`` (a URL): its ``jobs.live.LiveRun``.
+    ``file``: the one camera's input is this file (a run on a store that recorded it before takes it up where it
+    was left)."""
     import itertools
 
     from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import local_inputs, run_live_job, start_record
+    from ray3d.jobs.live import live_job, local_inputs
     from ray3d.live.runner import LiveOptions
 
     names = (str(file),) if file else tuple(f"scene from {c.name} ({k + 1})" for k, c in enumerate(views))
     job = Job(names, tuple(CameraChoice(made=c) for c in views), video=VideoOptions(min_track_s=0.5))
-    recorder = start_record(job, store or out / "site.db", "test", site, start)
-    firsts = [resume.first_index for resume in recorder.resumes]
-    sources = [FrameSource(itertools.islice(_frames(len(people), frame_sleep_s, people=people, camera=c), first, None),
-                           FPS, name, waits=True, first_index=first)
-               for c, name, first in zip(views, names, firsts)]
-    inputs = local_inputs(job, SourceGroup(sources), list(views), [_ScriptedDetector(people, c) for c in views],
-                          recorder.id_prefix, recorder.carried)
-    summary = run_live_job(job, inputs, out, site, LiveOptions(page=False, **options), recorder=recorder,
-                           mqtt=mqtt)
-    return summary, recorder
+
+    def opened(job, recorder):  # each file taken up where the store's record of it ends
+        firsts = [resume.first_index for resume in recorder.resumes]
+        sources = [FrameSource(itertools.islice(_frames(len(people), frame_sleep_s, people=people, camera=c), first,
+                                                None), FPS, name, waits=True, first_index=first)
+                   for c, name, first in zip(views, names, firsts)]
+        return local_inputs(job, SourceGroup(sources), list(views), [_ScriptedDetector(people, c) for c in views],
+                            recorder.id_prefix, recorder.carried)
+
+    run = live_job(job, out, LiveOptions(page=False, start_time=start, **options), opened, site=site,
+                   store=store or out / "site.db", mqtt=mqtt, command="test")
+    return run
 
 
 def _counts(events: list[dict]) -> dict:
@@ -78,7 +81,7 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
     from ray3d.cli import main
 
     out, people = tmp_path / "live", _scene()
-    first, recorder = _live(out, people, start=datetime.datetime(2026, 12, 1, 9, 0, 0).astimezone())
+    recorder = _live(out, people, start=datetime.datetime(2026, 12, 1, 9, 0, 0).astimezone()).recorder
     events = _lines(out / "events.jsonl")
     record = read_record(out / "site.db")
     assert [{k: v for k, v in e.items() if k not in ("at", "run")} for e in record.events] == events
@@ -87,7 +90,7 @@ def test_a_run_started_again_appends_to_its_outputs_and_the_store_reports_over_b
     assert len(record.positions["at"]) >= 2 * 3  # each person once a second over 4 s
     world_before = (out / "world.csv").read_text()
 
-    second, again = _live(out, people, start=datetime.datetime(2026, 12, 1, 9, 1, 0).astimezone())  # appends
+    again = _live(out, people, start=datetime.datetime(2026, 12, 1, 9, 1, 0).astimezone()).recorder  # appends
     assert again.run == 2 and again.continues
     both = _lines(out / "events.jsonl")
     assert both[:len(events)] == events and {e["track"] for e in both[len(events):]} == {"2-0", "2-1"}
@@ -204,18 +207,55 @@ def test_two_cameras_live_events_are_those_of_the_report_on_the_world_file_they_
 
 def test_a_run_ends_on_purpose_with_until_and_its_outputs_complete(tmp_path):
     people = _scene(400)
-    summary, recorder = _live(tmp_path / "live", people, until_s=1.0)
+    summary = _live(tmp_path / "live", people, until_s=1.0).summary
     assert summary.ending == "until" and summary.processed < len(people)
     record = read_record(tmp_path / "live" / "site.db")
     assert record.runs[0]["ending"] == "until"
     assert len(record.events) == len(_lines(tmp_path / "live" / "events.jsonl")) > 0
 
 
+def test_a_live_job_that_fails_closes_what_it_opened(tmp_path):
+    """``live_job`` owns the clean-up: streams that cannot be opened leave no run in the store (an SQLite store
+    holding nothing else is removed) and no thread of the store's or MQTT's; a run refused once its streams are
+    open (its event log exists: nothing is written over) is noted in the store as not started, its stream
+    closed."""
+    from services import free_port
+
+    from ray3d import InputError
+    from ray3d.jobs import CameraChoice, Job
+    from ray3d.jobs.live import live_job, local_inputs
+    from ray3d.live.runner import LiveOptions
+
+    job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
+
+    def unopened(job, recorder):
+        raise InputError("scene: cannot be opened", ("source",))
+
+    before = set(threading.enumerate())
+    with pytest.raises(InputError, match="scene: cannot be opened"):
+        live_job(job, tmp_path / "live", LiveOptions(page=False), unopened, store=tmp_path / "live" / "site.db",
+                 mqtt=f"mqtt://127.0.0.1:{free_port()}/site")
+    assert not (tmp_path / "live" / "site.db").exists()
+    assert set(threading.enumerate()) <= before  # the store's committer and MQTT's loop stopped
+
+    out, people = tmp_path / "again", _scene(10)
+    out.mkdir()
+    (out / "events.jsonl").write_text("")
+    source = FrameSource(_frames(len(people), people=people), FPS, "scene", waits=True)
+    with pytest.raises(InputError, match="events.jsonl: exists"):
+        live_job(job, out, LiveOptions(page=False), lambda job, recorder: local_inputs(
+            job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)], recorder.id_prefix),
+                 store=out / "site.db")
+    assert [run["ending"] for run in read_record(out / "site.db").runs] == ["not started"]
+    assert source.next() is None  # closed
+    assert (out / "events.jsonl").read_text() == ""
+
+
 def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_home_assistant_discovery(tmp_path):
     import jsonschema
     import paho.mqtt.client as mqtt
 
-    from ray3d.live.mqtt import MqttPublisher, announcements
+    from ray3d.live.mqtt import announcements
 
     with mosquitto_broker() as port:
         received: list[tuple[str, bytes, bool]] = []
@@ -233,8 +273,7 @@ def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_ho
         listening = subscriber()
         time.sleep(0.5)
         site = Site((ROOM,), (DOOR,))
-        publisher = MqttPublisher(f"mqtt://127.0.0.1:{port}/site", site)
-        _live(tmp_path / "live", _scene(), site=site, mqtt=publisher)
+        publisher = _live(tmp_path / "live", _scene(), site=site, mqtt=f"mqtt://127.0.0.1:{port}/site").mqtt
         time.sleep(1.0)
         listening.loop_stop()
         listening.disconnect()
@@ -335,7 +374,7 @@ class _StandingPerson:
 @needs_rtsp
 def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_with_three_gaps(tmp_path, monkeypatch):
     from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import local_inputs, run_live_job
+    from ray3d.jobs.live import live_job, local_inputs
     from ray3d.live.reconnect import ReconnectingSource
     from ray3d.live.runner import LiveOptions
 
@@ -354,8 +393,6 @@ def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_wit
                 time.sleep(0.25)
         assert source is not None
         job = Job((stream.url,), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.3))
-        recorder = RunRecorder(tmp_path / "site.db", "test", [stream.url], [False])
-        inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [_StandingPerson()], recorder.id_prefix)
         stop = threading.Event()
 
         def interrupt() -> None:
@@ -377,8 +414,10 @@ def test_an_rtsp_stream_stopped_and_started_again_three_times_is_followed_on_wit
             source.close()
 
         threading.Thread(target=interrupt, daemon=True).start()
-        summary = run_live_job(job, inputs, tmp_path / "live", Site(), LiveOptions(page=False), stop=stop,
-                               recorder=recorder)
+        summary = live_job(job, tmp_path / "live", LiveOptions(page=False),
+                           lambda job, recorder: local_inputs(job, SourceGroup([source]), [CAMERA],
+                                                              [_StandingPerson()], recorder.id_prefix),
+                           site=Site(), store=tmp_path / "site.db", command="test", stop=stop).summary
     finally:
         stream.close()
     assert summary.ending == "stopped", summary.why
@@ -505,10 +544,8 @@ from pathlib import Path
 sys.path.insert(0, sys.argv[1])
 from test_live_site import MIDDLE, _live
 from test_live import DOOR, ROOM, _scene
-from ray3d.live.mqtt import MqttPublisher
 from ray3d.site import Site
-site = Site((ROOM, MIDDLE), (DOOR,))
-_live(Path(sys.argv[2]), _scene(), site=site, mqtt=MqttPublisher(sys.argv[3], site), frame_sleep_s=0.2)
+_live(Path(sys.argv[2]), _scene(), site=Site((ROOM, MIDDLE), (DOOR,)), mqtt=sys.argv[3], frame_sleep_s=0.2)
 """
 
 
@@ -555,7 +592,6 @@ def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts
     stopped", their visits left), in the store and events.jsonl; the counts on MQTT go on from the store's."""
     import paho.mqtt.client as mqtt
 
-    from ray3d.live.mqtt import MqttPublisher
 
     out, site = tmp_path / "live", Site((ROOM, MIDDLE), (DOOR,))
     with mosquitto_broker() as port:
@@ -569,7 +605,7 @@ def test_a_live_run_killed_outright_is_closed_by_its_restart_and_its_mqtt_counts
             {(e["track"], e["zone"]) for e in before.events if e["event"] == "zone left"}
         assert open_tracks == {"1-0", "1-1"} and ("middle" in {zone for _, zone in open_visits})
 
-        _, recorder = _live(out, _scene(), site=site, mqtt=MqttPublisher(url, site))  # the service restarted
+        recorder = _live(out, _scene(), site=site, mqtt=url).recorder  # the service restarted
         closed = recorder.closed
         assert {e["track"] for e in closed if e["event"] == "track ended"} == open_tracks
         assert {(e["track"], e["zone"]) for e in closed if e["event"] == "zone left"} == open_visits
@@ -611,7 +647,6 @@ def test_the_people_in_view_when_a_run_on_a_file_is_killed_keep_their_ids_and_ar
     store holds what an uninterrupted run holds (the same counts, tracks and people), no event twice."""
     import sqlite3
 
-    from ray3d.live.mqtt import MqttPublisher
 
     site, clip = Site((ROOM, MIDDLE), (DOOR,)), tmp_path / "clip.avi"
     clip.write_bytes(b"")  # a file input: taken up where it was left
@@ -625,7 +660,7 @@ def test_the_people_in_view_when_a_run_on_a_file_is_killed_keep_their_ids_and_ar
         open_tracks = {e["track"] for e in before.events if e["event"] == "track started"} - \
             {e["track"] for e in before.events if e["event"] == "track ended"}
         assert open_tracks == {"1-0", "1-1"}
-        _, recorder = _live(out, _scene(), site=site, mqtt=MqttPublisher(url, site), file=clip)
+        recorder = _live(out, _scene(), site=site, mqtt=url, file=clip).recorder
     assert recorder.closed == [] and {p.person for p in recorder.carried} == open_tracks
     assert recorder.resumes[0].first_index > 0  # taken up, not begun again
     record = read_record(out / "site.db")
@@ -665,16 +700,18 @@ def _paced_live(out: Path, people: np.ndarray, detector, site: Site, mqtt=None, 
     """A live job over the scene played at its rate (frames dropped when ``detector`` cannot keep up), recorded to
     OUT/site.db."""
     from ray3d.jobs import CameraChoice, Job
-    from ray3d.jobs.live import local_inputs, run_live_job, start_record
+    from ray3d.jobs.live import live_job, local_inputs
     from ray3d.live.runner import LiveOptions
 
     job = Job(("scene",), (CameraChoice(made=CAMERA),), video=VideoOptions(min_track_s=0.5))
     job.lifter("h36m17").prepare_small_batches()  # before the stream starts: frames meanwhile would be dropped
-    recorder = start_record(job, out / "site.db", "test", site)
-    source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=True)
-    inputs = local_inputs(job, SourceGroup([source]), [CAMERA], [detector], recorder.id_prefix)
-    return run_live_job(job, inputs, out, site, LiveOptions(**{"page": False, **options}), started=started,
-                        recorder=recorder, mqtt=mqtt)
+
+    def opened(job, recorder):
+        source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=True)
+        return local_inputs(job, SourceGroup([source]), [CAMERA], [detector], recorder.id_prefix)
+
+    return live_job(job, out, LiveOptions(**{"page": False, **options}), opened, site=site, store=out / "site.db",
+                    mqtt=mqtt, command="test", started=started).summary
 
 
 def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_store_and_its_report(tmp_path,
@@ -691,7 +728,6 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
     import jsonschema
     import paho.mqtt.client as mqtt
 
-    from ray3d.live.mqtt import MqttPublisher
     from ray3d.site.record import analyse_record
 
     people, site = _scene(70), Site((ROOM,), (DOOR,))
@@ -717,7 +753,7 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
         listening.loop_start()
         time.sleep(0.5)
         summary = _paced_live(tmp_path / "live", people, _SlowFor(detector, 15, 35, 0.6), site,
-                              mqtt=MqttPublisher(f"mqtt://127.0.0.1:{port}/site", site), started=started,
+                              mqtt=f"mqtt://127.0.0.1:{port}/site", started=started,
                               page=True, port=0, behind_window_s=1.0)
         done.set()
         time.sleep(1.0)

@@ -18,78 +18,50 @@ each case."""
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
-import threading
 
 EXIT_CODES = {"ended": 0, "until": 0, "stalled": 3, "broke off": 4}
 
 
 def live(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from ray3d.cli.arguments import job_from_args, parse_offsets
+    from ray3d.cli.printing import known_cameras, print_site_doubts
     from ray3d.errors import InputError
-    from ray3d.jobs.live import open_live, run_live_job, start_record
-    from ray3d.live.mqtt import MqttPublisher
-    from ray3d.live.runner import LiveOptions, stop_on_signals
-    from ray3d.site.files import read_site
-    from ray3d.site.places import Site
+    from ray3d.jobs.live import live_job, open_live
+    from ray3d.live.runner import LiveOptions
 
     if not args.source:
         raise InputError("give a stream (a file, a device number or a URL), or cameras in a --config file",
                          ("source",))
     if args.out is None:
         raise InputError("give the folder for the outputs (out)", ("out",))
-    plan = read_site(args.site) if args.site else None
     job = job_from_args(args, args.source, "sources", "source")
-    if plan is not None:  # a site drawn in pixels would count nobody, for ever
-        from ray3d.cli.printing import known_cameras, print_site_doubts
-
-        print_site_doubts(args.site, plan, known_cameras(job))
-    offsets = parse_offsets(args.offsets)
-    if args.start_time is not None and args.every is None:
-        raise InputError("--start-time: it places the time buckets of --every; give --every too")
+    if job.site is not None:  # a site drawn in pixels would count nobody, for ever
+        print_site_doubts(job.site, job.site_plan(), known_cameras(job))
     if args.until is not None and not args.until > 0:
         raise InputError(f"--until: {args.until:g} s from now: that moment has passed")
-    # The store first: a second service on it is refused before it says anything on the broker.
-    recorder = start_record(job, args.store or args.out / "site.db", " ".join(sys.argv), plan, args.start_time)
-    try:
-        mqtt = MqttPublisher(args.mqtt, plan or Site()) if args.mqtt else None
-    except BaseException:
-        recorder.discard()
-        raise
-    try:
-        inputs = open_live(job, False if args.unpaced else None, args.stall_timeout, args.address, args.workers,
-                           recorder=recorder, reconnect_max_s=args.reconnect_max or None)
-    except BaseException:
-        recorder.discard()
-        if mqtt is not None:
-            mqtt.close(wait_s=0.0)
-        raise
-    taken_up = [f"{r.source} at frame {r.first_index}" for r in recorder.resumes if r.first_index]
-    print(f"store {recorder.shown}: run {recorder.run}" + (f", taking up {', '.join(taken_up)}" if taken_up else ""),
-          file=sys.stderr, flush=True)
-    if recorder.closed:
-        from ray3d.site.events import TRACK_ENDED
-
-        tracks = sum(e["event"] == TRACK_ENDED.name for e in recorder.closed)
-        print(f"store {recorder.shown}: a run was cut off (killed): the {tracks} people it left in view and "
-              f"{len(recorder.closed) - tracks} zone visits of theirs ended at its last commit (\"the service "
-              "stopped\")", file=sys.stderr, flush=True)
-    if inputs.on_ray:
-        print(f"on Ray ({args.address}): {len(job.inputs)} camera actor(s), each reading and decoding its stream, "
-              "finding and lifting its people", file=sys.stderr, flush=True)
-    stop = threading.Event()
-    caught = stop_on_signals(stop, inputs.followed)
     options = LiveOptions(not args.no_page, args.host, args.port, args.token, args.webhook,
                           None if args.quiet else sys.stdout, every_s=args.every, start_time=args.start_time,
                           until_s=args.until)
-    try:
-        summary = run_live_job(job, inputs, args.out, plan, options, stop,
-                               started=lambda url: print(f"live page: {url}", file=sys.stderr, flush=True),
-                               offsets_s=offsets, recorder=recorder, mqtt=mqtt)
-    finally:
-        recorder.close("not started")  # where the run failed before its stream: its end noted
+    streams = functools.partial(open_live, paced=False if args.unpaced else None, stall_timeout_s=args.stall_timeout,
+                                address=args.address, workers=args.workers, reconnect_max_s=args.reconnect_max or None)
+    run = live_job(job, args.out, options, streams, store=args.store or args.out / "site.db", mqtt=args.mqtt,
+                   offsets_s=parse_offsets(args.offsets), command=" ".join(sys.argv), said=_said, signals=True)
+    _print_run(run, args.site)
+    return 128 + run.signal if run.signal else EXIT_CODES[run.summary.ending]
+
+
+def _said(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+def _print_run(run, site_file) -> None:
+    """How a live run went (``jobs.live.LiveRun``), on stderr: the frames, the latency, the events and the people;
+    the rows its store was given; where its site report is; MQTT's and the webhook's counts."""
+    import numpy as np
+
+    summary, recorder = run.summary, run.recorder
     latency = summary.latency_ms
     print(f"{summary.why}: {summary.processed} of {summary.read} frames processed ({summary.dropped} dropped, "
           f"{100 * summary.dropped / max(summary.read, 1):.1f} %; {summary.postponed} people left for the next "
@@ -104,15 +76,12 @@ def live(args: argparse.Namespace) -> int:
           file=sys.stderr)
     if "site" in summary.files:
         print(f"site report of run {recorder.run} only: {summary.files['site']}; over every run: ray3d site --store "
-              f"{recorder.shown} --site {args.site} --out REPORT", file=sys.stderr)
-    if mqtt is not None:
-        print(f"mqtt: {mqtt.published} events published, {mqtt.dropped} messages dropped", file=sys.stderr)
+              f"{recorder.shown} --site {site_file} --out REPORT", file=sys.stderr)
+    if run.mqtt is not None:
+        print(f"mqtt: {run.mqtt.published} events published, {run.mqtt.dropped} messages dropped", file=sys.stderr)
     if summary.webhook:
         print(f"webhook: {summary.webhook['delivered']} delivered, {summary.webhook['failed']} failed, "
               f"{summary.webhook['dropped']} dropped", file=sys.stderr)
-    if caught:
-        return 128 + caught[0]
-    return EXIT_CODES[summary.ending]
 
 
 def add_parser(commands) -> None:

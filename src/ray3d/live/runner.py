@@ -1,12 +1,14 @@
-"""``run_live``: a stream of frames in; people, events, the page and the world file out, as the frames arrive.
+"""``follow``: cameras following their streams in; people, events, the page and the world files out, as the frames
+arrive.
 
-Each frame taken from the source (the newest; those that came while the last was processed are dropped and
+Each frame taken from a source (the newest; those that came while the last was processed are dropped and
 counted) goes through detection, tracking and causal lifting (``LivePeople``), the site's events
 (``ray3d.site.SiteMonitor``), the event log, the webhook and the page. A person who leaves is lifted again
 offline, on a thread of its own, as ``ray3d video`` lifts them, and appended to the world file
-(``append_world_csv``): the file holds every finished person and can be read at any moment. When the stream ends, stalls
-or is stopped, everybody still in view is finished the same way and every output is closed (a live job then fuses
-several cameras' world files and writes the site's report: ``ray3d.jobs.live``)."""
+(``append_world_csv``): the file holds every finished person and can be read at any moment. When the stream ends,
+stalls or is stopped, everybody still in view is finished the same way and every output is closed (a live job,
+``ray3d.jobs.live.live_job``, opens the streams and then fuses several cameras' world files and writes the site's
+report)."""
 
 from __future__ import annotations
 
@@ -23,9 +25,6 @@ import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry.uncertainty import PersonNow
-from ray3d.lifting.lifter import Lifter
-from ray3d.lifting.options import LiftOptions, VideoOptions
-from ray3d.live.cameras import LocalCameras
 from ray3d.live.health import BEHIND_SHARE, WINDOW_S, Keeping
 from ray3d.live.outputs import Webhook
 from ray3d.live.server import LiveBoard, LiveServer
@@ -68,7 +67,8 @@ class LiveSummary:
     """How it went: why it ended (one of ``ENDINGS``, with the line saying so), the frames read, processed and
     dropped, the people the detector left for the next frame to keep up, each processed frame's latency
     (arrival to its people published, milliseconds), the events, the tracks written and those left out (with
-    why), the webhook's counts and the files written."""
+    why), the webhook's counts, the files written and, with several cameras, who each world person was
+    ({person: [(camera index, track), ...]}, as ``joined.jsonl`` records it: the join the tail fuses by)."""
 
     ending: str
     why: str
@@ -83,6 +83,7 @@ class LiveSummary:
     webhook: dict
     files: dict
     behind: list = dataclasses.field(default_factory=list)  # the stretches it fell behind in (``health.Stretch``)
+    joined: dict = dataclasses.field(default_factory=dict)
 
 
 def _snapshot(frame_index: int, fps: float, people: list[PersonNow], trails: dict, monitor: SiteMonitor,
@@ -130,7 +131,7 @@ def _one_thread_for_numerics():
 
 def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) -> list[int]:
     """SIGINT (Ctrl-C) and SIGTERM end the stream cleanly: ``stop`` is set and ``source`` closed, the outputs
-    are then completed by ``run_live``. Returns the list the signals caught are added to (for the exit code)."""
+    are then completed by ``follow``. Returns the list the signals caught are added to (for the exit code)."""
     import signal
 
     caught: list[int] = []
@@ -143,34 +144,6 @@ def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) ->
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, on_signal)
     return caught
-
-
-def _several(value) -> list:
-    return list(value) if isinstance(value, (list, tuple)) else [value]
-
-
-def run_live(source, camera, out_dir: str | Path, detector, lifter: Lifter,
-             site: Site | None = None, options: LiveOptions = LiveOptions(),
-             lift_options: LiftOptions = LiftOptions(), stop: threading.Event | None = None,
-             started=lambda url: None, offsets_s: list[float] | None = None,
-             video_options: VideoOptions = VideoOptions(), recorder=None) -> LiveSummary:
-    """Follow ``source`` until it ends, stalls, breaks off or ``stop`` is set; write ``out_dir``/events.jsonl
-    and world.csv. ``started(url)`` is called once the page listens.
-
-    Several cameras: ``source``, ``camera`` and ``detector`` are lists, one each per camera (``offsets_s``: how
-    far each camera's clock is ahead of the first's, 0 by default); each camera's people are written to
-    ``out_dir``/camera<k>_<name>/world.csv, the events and the page are of the world's people (``LiveFusion``);
-    ``ray3d.jobs.live.run_live_job`` fuses those files at the end. ``recorder``: the site's store
-    (``store.RunRecorder``; its run's number prefixes every track id)."""
-    sources = source.sources if isinstance(source, SourceGroup) else _several(source)
-    cameras, detectors = _several(camera), _several(detector)
-    if not len(sources) == len(cameras) == len(detectors):
-        raise InputError(f"cameras: {len(cameras)} cameras and {len(detectors)} detectors for {len(sources)} "
-                         "streams; give one each per stream", ("camera",))
-    group = source if isinstance(source, SourceGroup) else SourceGroup(sources)
-    followed = LocalCameras(group, cameras, detectors, lifter, lift_options, video_options.max_gap_s,
-                            video_options.min_track_s, recorder.id_prefix if recorder else "")
-    return follow(followed, out_dir, site, options, stop, started, offsets_s, recorder)
 
 
 class _Outputs:
@@ -297,7 +270,7 @@ def _refused(cameras, error: InputError):
 def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),
            stop: threading.Event | None = None, started=lambda url: None,
            offsets_s: list[float] | None = None, recorder=None, mqtt=None) -> LiveSummary:
-    """The loop of ``run_live`` over cameras already following their streams (``live.cameras.LocalCameras`` in
+    """The live loop over cameras already following their streams (``live.cameras.LocalCameras`` in
     this process, ``live.cluster.RayCameras`` on Ray): their people joined, the site's events, the event log,
     the webhook, MQTT (``mqtt``: a ``live.mqtt.MqttPublisher``), the page, each camera's world file and the
     site's store (``recorder``: a ``store.RunRecorder``; a run that continues a store's record appends to the
@@ -396,4 +369,4 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     files = {"events": events_path, "world": views.world_paths[0], "worlds": views.world_paths}
     return LiveSummary(ending, why, cameras.read, processed, cameras.dropped, cameras.postponed,
                        np.array(pace.latencies), outputs.count, views.written, views.left_out, webhook, files,
-                       keeping.stretches)
+                       keeping.stretches, views.joined)

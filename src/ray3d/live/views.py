@@ -1,7 +1,7 @@
 """What a live run's cameras give, brought together (``Views``): each camera's finished people appended to its
 world file and the store, and with several cameras their people joined into world people (``LiveFusion``) on the
-first camera's clock, who each of them was appended to ``joined.jsonl`` as they leave (the world file is fused by
-that join: ``read_joined``). What each camera's people showed of the run's one floor is written to the store as
+first camera's clock, who each of them was appended to ``joined.jsonl`` as they leave and kept (``joined``: the
+world file is fused by that join). What each camera's people showed of the run's one floor is written to the store as
 they are lifted, the ankles of people two cameras saw at once are crossed where the join decides who they were
 (``live.floor.JoinedAnkles``) and added to the run's floor pool, and the pool starts with what earlier runs of
 the store showed of these cameras' floor."""
@@ -44,6 +44,7 @@ class Views:
         self.fusion = LiveFusion(cameras.cameras, 1.0 / min(cameras.fps),
                                  id_prefix=recorder.id_prefix if recorder else "") if self.several else None
         self.written, self.left_out = 0, {}
+        self.joined: dict[str, list[tuple[int, str]]] = {}  # who each world person that left was
         self.label = " + ".join(str(name) for name in cameras.names)  # who saw the world's people
         # Several cameras: the frames not settled yet, {frame: {person: PersonNow}}, held until who everybody in
         # them is has been decided (``LiveFusion``: ``WAIT_S`` at most) and every camera's view of them is in.
@@ -129,10 +130,12 @@ class Views:
         return self._settle(np.inf), leaving
 
     def _ended(self, time_s: float, seen: bool = False) -> list:
-        """``LiveFusion.ended``, and who each of those people was appended to the join's file."""
+        """``LiveFusion.ended``, and who each of those people was kept and appended to the join's file."""
         gone = self.fusion.ended(time_s, seen)
         for _, members in self.fusion.joined:
             self._seen_twice(self.ankles.joined(members))
+        self.joined.update((person, [(int(view), str(track)) for view, track in members])
+                           for person, members in self.fusion.joined)
         if self.fusion.joined:
             with self.joined_path.open("a") as handle:
                 handle.writelines(json.dumps({"person": person, "tracks": [list(m) for m in members]}) + "\n"
@@ -192,19 +195,6 @@ class Views:
 
 
 JOINED_FILE = "joined.jsonl"
-
-
-def read_joined(path: Path) -> dict[str, list[tuple[int, str]]]:
-    """A live run's join (``Views``): {person: [(camera index, track), ...]}; a last line cut short by a kill is
-    left out."""
-    joined = {}
-    for line in path.read_text().splitlines() if path.exists() else ():
-        try:
-            entry = json.loads(line)
-        except ValueError:
-            continue
-        joined[entry["person"]] = [(int(view), str(track)) for view, track in entry["tracks"]]
-    return joined
 
 
 def _file_name(name: str) -> str:
