@@ -72,6 +72,14 @@ def _opencv_json(tmp, **matrix):
     return _write(tmp, "c.json", json.dumps(document))
 
 
+def _opencv_xml(tmp, rows="3", data=None):
+    """The test camera's matrix in OpenCV's XML storage, its rows and data as given (text, as the file holds it)."""
+    data = " ".join(f"{v:.16e}" for v in np.asarray(CAMERA.K).ravel()) if data is None else data
+    return _write(tmp, "c.xml", f'<?xml version="1.0"?>\n<opencv_storage><image_width>{CAMERA.image_size[0]}'
+                                f'</image_width><camera_matrix type_id="opencv-matrix"><rows>{rows}</rows><cols>3'
+                                f'</cols><dt>d</dt><data>{data}</data></camera_matrix></opencv_storage>\n')
+
+
 def _floor(tmp, rows, name="floor.csv"):
     path = _write(tmp, name, "x,y,u,v\n" + "".join(",".join(map(str, r)) + "\n" for r in rows))
     return ["calibrate", "--floor-points", str(path), "--hfov", "60", "--image-size", "1000x1000",
@@ -154,6 +162,12 @@ CASES = {
                                             "c.json: camera_matrix.data: expected a list of numbers, got 5"),
     "camera: OpenCV JSON data null": (lambda t: _lift(_npz(t), camera=_opencv_json(t, data=None)),
                                                 "c.json: camera_matrix.data: expected a list of numbers, got null"),
+    "camera: OpenCV XML rows empty": (lambda t: _lift(_npz(t), camera=_opencv_xml(t, rows="")),
+                                      "c.xml: camera_matrix.rows: expected a whole number 1-16, got null"),
+    "camera: OpenCV XML rows text": (lambda t: _lift(_npz(t), camera=_opencv_xml(t, rows="three")),
+                                     "c.xml: camera_matrix.rows: expected a whole number 1-16, got 'three'"),
+    "camera: OpenCV XML data text": (lambda t: _lift(_npz(t), camera=_opencv_xml(t, data="1 0 x 0 1 0 0 0 1")),
+                                     "c.xml: camera_matrix.data: not numeric"),
     "camera: a misspelt dist": (lambda t: _lift(_npz(t), camera=_write(t, "c.json", json.dumps(
         {("dsit" if k == "dist" else k): v for k, v in CAMERA.to_dict().items()}))),
                                "unknown key 'dsit' (did you mean 'dist'?)"),

@@ -1,5 +1,6 @@
 """Sites: the site file and its refusals, line crossings with their direction and time, zone visits and their
-dwell, and every event of a world's tracks in time order."""
+dwell (a track's time in a zone, the monitor's), who is in a zone (one rule), and every event of a world's tracks
+in time order."""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from hypothesis import strategies as st
 
 from ray3d import InputError, cameras
 from ray3d.io.world import LiftResult, World
-from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events, zone_visits
+from ray3d.site import CountingLine, Site, Zone, in_zones, line_crossings, site_events
+from ray3d.site.events import replay_site
 from ray3d.site.files import read_site
 
 DOOR = CountingLine("door", np.array([0.0, -1.0]), np.array([0.0, 1.0]))  # along +y: its left is -x
@@ -50,19 +52,88 @@ def test_reversing_time_swaps_every_direction(xs):
         {"forward": "back", "back": "forward"}[c["direction"]] for c in forward[::-1]]
 
 
+def _world_of(paths: dict, fps: float = 10.0) -> World:
+    """A world of tracks walking the (T, 2) floor ``paths`` ({track: points}), one frame each from frame 0."""
+    def result(points):
+        joints = np.zeros((len(points), 17, 3))
+        joints[:, :, :2] = np.asarray(points, dtype=np.float64)[:, None]
+        return LiftResult(joints, np.zeros((len(points), 17), bool), fps, np.arange(len(points)))
+
+    return World({track: result(points) for track, points in paths.items()}, cameras.h36m("S9", "54138969"), "test")
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.tuples(st.floats(1.1, 3.9), st.floats(-1.9, 1.9)), min_size=1, max_size=30))
-def test_a_track_that_never_leaves_a_zone_never_leaves_it(inside):
-    points = np.array(inside)
-    visits = zone_visits(np.arange(len(points)) / 10.0, points, ROOM)
-    assert len(visits) == 1 and visits[0]["entered_s"] is None and visits[0]["left_s"] is None
+def test_a_track_that_never_leaves_a_zone_never_enters_or_leaves_it_and_spends_its_whole_time_there(inside):
+    replay = replay_site(_world_of({"1": np.array(inside)}), Site((ROOM,), ()))
+    assert not [e for e in replay.events if e["event"] in ("zone entered", "zone left")]
+    assert replay.time_in_zones == {"1": {"room": pytest.approx((len(inside) - 1) / 10.0)}}
+    assert replay.occupancy["room"].tolist() == [1] * len(inside)
 
 
 def test_a_visit_has_its_entry_exit_and_dwell():
-    times, points = _walk(np.linspace(0, 5, 51))  # in the room for x in [1, 4]: from 1 s to 4 s
-    (visit,) = zone_visits(times, points, ROOM)
-    assert visit["entered_s"] == pytest.approx(1.0) and visit["left_s"] == pytest.approx(4.1)
-    assert visit["dwell_s"] == pytest.approx(3.1)  # from the first frame inside to the first outside
+    _, points = _walk(np.linspace(0, 5, 51))  # in the room for x in [1, 4]: from 1 s to 4 s
+    replay = replay_site(_world_of({"1": points}), Site((ROOM,), ()))
+    (entered,) = [e for e in replay.events if e["event"] == "zone entered"]
+    (left,) = [e for e in replay.events if e["event"] == "zone left"]
+    assert entered["time_s"] == pytest.approx(1.0) and left["time_s"] == pytest.approx(4.1)
+    assert left["dwell_s"] == pytest.approx(3.1)  # from the first frame inside to the first outside
+    assert replay.time_in_zones["1"]["room"] == pytest.approx(3.1)
+
+
+def test_a_tracks_time_in_a_zone_in_tracks_csv_is_the_monitors_dwell_with_the_visit_open_at_its_end(tmp_path):
+    """tracks.csv's time in a zone is the site monitor's (one rule, issue 69): the dwell of the visits that left
+    plus the visit under way when the track ended (the monitor's ``time_in_zones``, asked live before ``ended``),
+    which no "zone left" reports; a track that starts inside counts from its first frame."""
+    import csv
+
+    from ray3d.site import SiteMonitor
+    from ray3d.site.report import analyse_site
+
+    _, through_and_back = _walk(np.concatenate([np.linspace(0, 5, 51), np.linspace(5, 2.5, 26)[1:]]))
+    _, starts_inside = _walk(np.linspace(2, 6, 41))
+    paths = {"through, then back in and ended there": through_and_back, "starts inside": starts_inside,
+             "never in": through_and_back + [0.0, 5.0]}
+    world, site = _world_of(paths), Site((ROOM,), ())
+    events, _, _ = analyse_site(world, site, tmp_path / "report")
+    with (tmp_path / "report" / "tracks.csv").open() as handle:
+        tables = {row["track"]: float(row["time_in_room_s"]) for row in csv.DictReader(handle)}
+    live = SiteMonitor(site, 10.0)
+    for frame in range(max(len(points) for points in paths.values())):
+        live.update(frame, {track: world.tracks[track].joints[frame] for track, points in paths.items()
+                            if frame < len(points)})
+        for track in [t for t, points in paths.items() if len(points) == frame + 1]:
+            assert live.time_in_zones(track)["room"] == pytest.approx(tables[track], abs=5e-4)
+            live.ended(track)
+    for track, points in paths.items():  # from the events: the visits that left, and the one open at the end
+        mine = [e for e in events if e["track"] == track]
+        left = [e["dwell_s"] for e in mine if e["event"] == "zone left"]
+        entered = [e["time_s"] for e in mine if e["event"] == "zone entered"]
+        (ended,) = [e["time_s"] for e in mine if e["event"] == "track ended"]
+        # The visit under way at the end began at its last entry, or at the track's start (frame 0) if it had none.
+        still_in = ended - (entered[-1] if len(entered) > len(left) else 0.0) if ROOM.contains(points[-1]) else 0.0
+        assert tables[track] == pytest.approx(sum(left) + still_in, abs=1e-3), track
+    assert tables == pytest.approx({"through, then back in and ended there": 3.1 + 1.5, "starts inside": 2.1,
+                                    "never in": 0.0}, abs=1e-3)
+
+
+def test_who_is_in_a_zone_is_one_rule_for_the_monitor_and_the_stores_record():
+    """``in_zones`` decides who is in a zone: the monitor's occupants (and so its entries and exits) are those
+    whose latest place it puts inside, and the store's record counts the same from its positions (issue 69)."""
+    from ray3d.site import SiteMonitor
+
+    places = np.array([[2.0, 0.0], [0.0, 0.0], [3.9, 1.9], [4.1, 0.0]])
+    assert in_zones(Site((ROOM,), ()), places)["room"].tolist() == [True, False, True, False]
+    assert in_zones(Site((ROOM,), ()), np.zeros((0, 2)))["room"].tolist() == []
+    monitor = SiteMonitor(Site((ROOM,), ()), 10.0)
+    people = {str(k): np.zeros((17, 3)) + [*p, 0.0] for k, p in enumerate(places)}
+    monitor.update(0, people)
+    assert monitor.occupants == {"room": {"0", "2"}}
+    people["1"] = people["1"] + [2.0, 0.0, 0.0]  # walks in
+    monitor.update(1, people)
+    assert monitor.occupants == {"room": {"0", "1", "2"}}
+    monitor.ended("0")
+    assert monitor.occupants == {"room": {"1", "2"}}
 
 
 def test_every_event_of_a_world_in_time_order_with_its_evidence():

@@ -462,3 +462,32 @@ def test_a_version_2_store_gains_the_falling_behind_table_and_a_run_records_its_
     recorder.close("ended")
     assert read_record(store).behind == [{"camera": "cam", "from_at": 2_000_012.5, "to_at": 2_000_020.0,
                                           "dropped_share": 0.23, "run": recorder.run}]
+
+
+def test_the_records_occupancy_is_the_live_monitors_at_each_recorded_second(tmp_path):
+    """The store's report counts who is in a zone by the live monitor's rule (``site.in_zones``, issue 69): with
+    buckets of a second, each bucket's occupancy is what the run's ``SiteMonitor`` had in the zone at the frame
+    whose positions the store kept, those already inside when their track started too."""
+    from ray3d.site import SiteMonitor, Zone
+    from ray3d.site.places import Site
+    from ray3d.site.record import record_buckets
+
+    site = Site((Zone("room", np.array([[1.0, -2.0], [4.0, -2.0], [4.0, 2.0], [1.0, 2.0]])),))
+    monitor = SiteMonitor(site, 10.0)
+    recorder = RunRecorder(tmp_path / "site.db", "ray3d live clip.avi", ["clip.avi"], [False], origin=1_000_000.0)
+    walks = {"in and out": lambda t: (0.5 * t, 0.0), "starts inside, leaves": lambda t: (3.0 + 0.3 * t, 1.0),
+             "comes in late": lambda t: (5.0 - 0.4 * t, -1.0)}
+    at_each_second = []
+    for frame in range(100):
+        people = [_person(f"1-{name}", *walk(frame / 10)) for name, walk in walks.items()]
+        recorder.events(monitor.update(frame, {p.track: p.joints for p in people}))
+        recorder.positions(frame / 10, people, "cam")
+        recorder.progress("clip.avi", frame, frame / 10)
+        if frame % 10 == 0:
+            at_each_second.append(len(monitor.occupants["room"]))
+    recorder.close("ended")
+    buckets = record_buckets(read_record(tmp_path / "site.db"), site, 1.0)
+    recorded = [b for b in buckets if b["recorded %"] == 100]
+    assert len(recorded) >= 9 and len(set(at_each_second)) > 1  # people come and go
+    assert [b["room: peak occupancy"] for b in recorded] == at_each_second[:len(recorded)]
+    assert [b["room: mean occupancy"] for b in recorded] == at_each_second[:len(recorded)]

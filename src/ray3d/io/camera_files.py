@@ -130,16 +130,29 @@ _OpenCVYaml.add_constructor("tag:yaml.org,2002:opencv-matrix",
                             lambda loader, node: loader.construct_mapping(node, deep=True))
 
 
+def _xml_scalar(text: str | None) -> Any:
+    """An XML element's text as a whole number, else a number, else the text itself (None when empty): what is
+    not a number is then refused naming its field, as in the YAML and JSON forms."""
+    text = (text or "").strip()
+    for number in (int, float):
+        try:
+            return number(text)
+        except ValueError:
+            pass
+    return text or None
+
+
 def _opencv_xml_fields(text: str) -> dict[str, Any]:
     """The top-level fields of OpenCV's XML storage: a matrix (``type_id="opencv-matrix"``) as {rows, cols,
-    data}, anything else as its number."""
+    data}, anything else as its value."""
     fields: dict[str, Any] = {}
     for element in ElementTree.fromstring(text):
         if element.get("type_id") == "opencv-matrix":
-            fields[element.tag] = {"rows": int(element.findtext("rows", "")), "cols": int(element.findtext("cols", "")),
-                                   "data": [float(v) for v in element.findtext("data", "").split()]}
+            fields[element.tag] = {"rows": _xml_scalar(element.findtext("rows")),
+                                   "cols": _xml_scalar(element.findtext("cols")),
+                                   "data": [_xml_scalar(v) for v in element.findtext("data", "").split()]}
         else:
-            fields[element.tag] = float((element.text or "").strip())
+            fields[element.tag] = _xml_scalar(element.text)
     return fields
 
 

@@ -3,7 +3,7 @@ both clocks (``events``: one causal engine, replayed over a finished world), wha
 falls (``falls``), and the report written from them (``report``)."""
 
 from ray3d.site.events import EVENT_KINDS, Event, EventKind, SiteMonitor, site_events
-from ray3d.site.places import CountingLine, FloorPlan, Site, Zone, line_crossings, zone_visits
+from ray3d.site.places import CountingLine, FloorPlan, Site, Zone, in_zones, line_crossings
 
 __all__ = ["EVENT_KINDS", "CountingLine", "Event", "EventKind", "FloorPlan", "Site", "SiteMonitor", "Zone",
-           "line_crossings", "site_events", "zone_visits"]
+           "in_zones", "line_crossings", "site_events"]

@@ -12,16 +12,17 @@ from ray3d.body import POSTURES, postures
 from ray3d.errors import InputError
 from ray3d.io.world import World
 from ray3d.site.events import LINE_CROSSED, ZONE_ENTERED, ZONE_LEFT
-from ray3d.site.places import Site, zone_visits
+from ray3d.site.places import Site, in_zones
 from ray3d.temporal import velocity
 
 CHILD_STATURE_M = 1.30  # a person shorter than this is a child
 
 
-def track_summaries(world: World, site: Site) -> list[dict]:
+def track_summaries(world: World, site: Site, time_in_zones: dict[str, dict[str, float]]) -> list[dict]:
     """Per track: when it was seen (first and last time, seconds), the distance walked on the floor plan (metres,
-    between consecutive frames), the mean speed, the time spent in each zone, and the stature with its 95 %
-    interval where the refinement ran and its class (``stature_class``)."""
+    between consecutive frames), the mean speed, the time spent in each zone as the site's monitor counted it
+    (``time_in_zones``, ``events.SiteReplay``'s: the dwell of every visit, the one under way at the track's end
+    too), and the stature with its 95 % interval where the refinement ran and its class (``stature_class``)."""
     rows = []
     for track, result in world.in_frame("world").tracks.items():
         times, points = result.frames / result.fps, result.root[:, :2]
@@ -34,7 +35,7 @@ def track_summaries(world: World, site: Site) -> list[dict]:
                "stature_interval_m": refinement.get("stature_interval_m"),
                "stature_class": stature_class(refinement.get("stature_m"), refinement.get("stature_interval_m"))}
         for zone in site.zones:
-            row[f"time_in_{zone.name}_s"] = round(sum(v["dwell_s"] for v in zone_visits(times, points, zone)), 3)
+            row[f"time_in_{zone.name}_s"] = round(time_in_zones[track].get(zone.name, 0.0), 3)
         rows.append(row)
     return rows
 
@@ -85,7 +86,7 @@ def person_frames(world: World, site: Site) -> list[dict]:
         speed = np.linalg.norm(moved, axis=-1)
         heading = np.degrees(np.arctan2(moved[:, 1], moved[:, 0]))
         classes = postures(result.joints)
-        inside = {zone.name: zone.contains(points) for zone in site.zones}
+        inside = in_zones(site, points)
         for k in range(len(times)):
             rows.append({"track": track, "frame": int(result.frames[k]), "time_s": round(float(times[k]), 4),
                          "x_m": round(float(points[k, 0]), 3), "y_m": round(float(points[k, 1]), 3),

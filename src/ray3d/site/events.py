@@ -6,12 +6,13 @@ Every kind of event is one row of ``EVENT_KINDS`` (its name, its colour in the r
 beside ``event``, ``track`` and ``time_s``) and one method of ``SiteMonitor`` that finds it. An event is an
 ``Event``: a dict, written as one JSON line as it is.
 
-The rules: a line crossed (``line_crossings`` on the step just taken); a zone entered or left (a visit under way
-when a track starts is no entry, one under way when it ends no exit); a zone's occupancy above its limit (counted
-from who is in it, those there when their track started too, when an
-entry makes it too many); a visit's dwell above its limit (when it reaches it); a fall
-(``falls`` on the person's last seconds, once they have lain still long enough for it to count); a track started
-and ended.
+The rules: a line crossed (``line_crossings`` on the step just taken); a zone entered or left (``in_zones``: a
+person is in a zone while their latest place lies in it; a visit under way when a track starts is no entry, one
+under way when it ends no exit); a zone's occupancy above its limit (counted from who is in it, those there when
+their track started too, when an entry makes it too many); a visit's dwell above its limit (when it reaches it); a
+fall (``falls`` on the person's last seconds, once they have lain still long enough for it to count); a track
+started and ended. A track's time in a zone is the dwell of its visits, the one under way at its end too
+(``SiteMonitor.time_in_zones``, ``SiteReplay.time_in_zones``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from ray3d.io.world import World
 from ray3d.site.falls import FALL_STILL_S, FALL_WINDOW_S, falls
-from ray3d.site.places import Site, line_crossings
+from ray3d.site.places import Site, in_zones, line_crossings
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,6 +112,7 @@ class _Person:
         self.frame = -1
         self.place: np.ndarray | None = None
         self.inside: dict[str, float] = {}   # zone -> when this visit began (its entry time)
+        self.spent: dict[str, float] = {}    # zone -> the dwell of the visits that left it
         self.recent: deque = deque(maxlen=frames)  # (time, joints) over the longest a fall takes to show
         self.falls_reported_until = -np.inf
         self.dwell_reported: set[str] = set()
@@ -121,7 +123,8 @@ class _Person:
 class SiteMonitor:
     """``update(frame index, {track: world joints (17, 3)})`` -> the events of that frame; ``ended(track)`` -> a
     track's last events; ``counts`` holds the entries / exits per zone and the crossings per line and direction so
-    far, ``occupants`` who is in each zone now. Track ids are strings.
+    far, ``occupants`` who is in each zone now, ``time_in_zones(track)`` how long a track has spent in each. Track
+    ids are strings.
 
     ``carried``: the people a run cut off left in view (``CarriedPerson``), whose tracks this one may take up: one
     seen again goes on from where they were (no "track started"; their visits under way, no entry; a line crossed
@@ -131,7 +134,6 @@ class SiteMonitor:
         self.site, self.fps = site, fps
         self._people: dict[str, _Person] = {}
         self._carried: dict[str, CarriedPerson] = {person.person: person for person in carried}
-        self.occupants: dict[str, set[str]] = {zone.name: set() for zone in site.zones}
         self.counts = {**{zone.name: {"entered": 0, "left": 0} for zone in site.zones},
                        **{line.name: {"forward": 0, "back": 0} for line in site.lines}}
 
@@ -145,9 +147,7 @@ class SiteMonitor:
             if state is None:
                 state = self._people[track] = _Person(int(round(FALL_WINDOW_S * self.fps)))
                 events.append(Event(TRACK_STARTED, track, now, place_m=_place(place), frames=[frame_index]))
-                state.inside = {zone.name: now for zone in self.site.zones if zone.contains(place)}
-                for zone in state.inside:
-                    self.occupants[zone].add(track)
+                state.inside = {zone: now for zone, inside in in_zones(self.site, place).items() if inside[0]}
             else:
                 events += self._lines(track, state, frame_index, place)
                 events += self._zones(track, state, frame_index, place)
@@ -166,8 +166,6 @@ class SiteMonitor:
         state.place = place if carried.place is None else np.asarray(carried.place, dtype=float)
         state.inside = dict(carried.visits)
         state.counted_lines = {line for line, at in carried.crossed.items() if at >= carried.place_s}
-        for zone in state.inside:
-            self.occupants.setdefault(zone, set()).add(carried.person)
         return state
 
     def give_up(self) -> list[Event]:
@@ -185,14 +183,31 @@ class SiteMonitor:
         """The carried people not seen again yet."""
         return set(self._carried)
 
+    @property
+    def occupants(self) -> dict[str, set[str]]:
+        """Who is in each zone now: the people in view with a visit of it under way (``in_zones`` of their latest
+        place), those already in it when their track started too."""
+        return {zone.name: {track for track, state in self._people.items() if zone.name in state.inside}
+                for zone in self.site.zones}
+
+    def time_in_zones(self, track: str) -> dict[str, float]:
+        """Seconds ``track`` has spent in each zone so far: the dwell of its visits that left, and of the one under
+        way to its latest frame (a track's whole time in a zone when asked before ``ended``; {} for a track not in
+        view)."""
+        state = self._people.get(track)
+        if state is None:
+            return {}
+        now = state.frame / self.fps
+        return {zone.name: state.spent.get(zone.name, 0.0) + (now - state.inside[zone.name]
+                                                               if zone.name in state.inside else 0.0)
+                for zone in self.site.zones}
+
     def ended(self, track: str) -> list[Event]:
         """The track's end (its last frame): a fall still to be found in its last seconds, then "track ended"; a
         visit under way ends with it, unreported."""
         state = self._people.pop(track, None)
         if state is None:
             return []
-        for zone in state.inside:
-            self.occupants[zone].discard(track)
         return self._falls(track, state) + [Event(TRACK_ENDED, track, state.frame / self.fps,
                                                   place_m=_place(state.place), frames=[state.frame])]
 
@@ -212,21 +227,21 @@ class SiteMonitor:
 
     def _zones(self, track: str, state: _Person, frame_index: int, place: np.ndarray) -> list[Event]:
         events, now = [], frame_index / self.fps
+        inside = in_zones(self.site, place)
         for zone in self.site.zones:
-            was, is_now = zone.name in state.inside, bool(zone.contains(place))
-            occupants = self.occupants[zone.name]
+            was, is_now = zone.name in state.inside, bool(inside[zone.name][0])
             if is_now and not was:
                 state.inside[zone.name] = now
-                occupants.add(track)
                 self.counts[zone.name]["entered"] += 1
                 events.append(Event(ZONE_ENTERED, track, now, zone=zone.name, place_m=_place(place),
                                     frames=[state.frame, frame_index]))
+                occupants = self.occupants[zone.name]
                 if zone.max_occupancy is not None and len(occupants) > zone.max_occupancy:
                     events.append(Event(OCCUPANCY_ABOVE_LIMIT, track, now, zone=zone.name, occupancy=len(occupants),
                                         limit=zone.max_occupancy, people=sorted(occupants)))
             elif was and not is_now:
                 dwell = now - state.inside.pop(zone.name)
-                occupants.discard(track)
+                state.spent[zone.name] = state.spent.get(zone.name, 0.0) + dwell
                 state.dwell_reported.discard(zone.name)
                 self.counts[zone.name]["left"] += 1
                 events.append(Event(ZONE_LEFT, track, now, zone=zone.name, place_m=_place(place),
@@ -258,17 +273,21 @@ class SiteMonitor:
 
 @dataclasses.dataclass
 class SiteReplay:
-    """A finished world replayed through a ``SiteMonitor``: its ``events`` in time order, and the times (F,) of
-    the frames anybody was in with, per zone, how many people the monitor had in it at each (``occupancy``)."""
+    """A finished world replayed through a ``SiteMonitor``: its ``events`` in time order, the times (F,) of the
+    frames anybody was in with, per zone, how many people the monitor had in it at each (``occupancy``), and each
+    track's seconds in each zone as the monitor counted them at its end (``time_in_zones``: {track: {zone:
+    seconds}}, the visit under way when it ended too)."""
 
     events: list[Event]
     times: np.ndarray
     occupancy: dict[str, np.ndarray]
+    time_in_zones: dict[str, dict[str, float]]
 
 
 def replay_site(world: World, site: Site) -> SiteReplay:
     """The world's tracks replayed frame by frame through a ``SiteMonitor``, as ``ray3d live`` would have met them:
-    every event, and each zone's occupancy as the monitor counts it (the one rule on both clocks)."""
+    every event, each zone's occupancy and each track's time in each zone as the monitor counts them (the one rule
+    on both clocks)."""
     world = world.in_frame("world")
     present: dict[int, dict[str, np.ndarray]] = {}
     last: dict[int, list[str]] = {}
@@ -276,7 +295,7 @@ def replay_site(world: World, site: Site) -> SiteReplay:
         for row, frame in enumerate(result.frames.tolist()):
             present.setdefault(int(frame), {})[str(track)] = result.joints[row]
         last.setdefault(int(result.frames[-1]), []).append(str(track))
-    monitor, events = SiteMonitor(site, world.fps), []
+    monitor, events, time_in_zones = SiteMonitor(site, world.fps), [], {}
     frames = sorted(present)
     occupancy = {zone.name: np.zeros(len(frames), dtype=int) for zone in site.zones}
     for k, frame in enumerate(frames):
@@ -284,9 +303,10 @@ def replay_site(world: World, site: Site) -> SiteReplay:
         for zone, inside in monitor.occupants.items():
             occupancy[zone][k] = len(inside)
         for track in last.get(frame, ()):
+            time_in_zones[track] = monitor.time_in_zones(track)
             events += monitor.ended(track)
     return SiteReplay(sorted(events, key=lambda e: (e["time_s"], e["track"])), np.array(frames) / world.fps,
-                      occupancy)
+                      occupancy, time_in_zones)
 
 
 def site_events(world: World, site: Site) -> list[Event]:

@@ -1,5 +1,6 @@
 """A site's places: named zones (floor polygons) and directed counting lines, a picture of the floor, and the
-geometry of a track against them (a line crossed, in which direction; a zone's visits and how long each lasted).
+geometry of people against them (a line crossed, in which direction; which zones hold a place: ``in_zones``, the one
+occupancy rule).
 
 A person's place on the floor plan is their pelvis' (x, y). A line is directed from its ``start`` to its ``end``:
 crossing it from its left to its right (seen from above, z up) is "forward", the other way "back". Times are
@@ -65,6 +66,14 @@ class Site:
     floor_plan: FloorPlan | None = None
 
 
+def in_zones(site: Site, places) -> dict[str, np.ndarray]:
+    """(N, 2) floor places -> {zone name: (N,) bool}, which of them lie in each of ``site``'s zones. The one rule of
+    who is in a zone: a person is while their latest place lies in it. ``SiteMonitor`` applies it frame by frame
+    (its visits, dwell and ``occupants``), the store's record to each person's place once a second."""
+    places = np.asarray(places, dtype=np.float64).reshape(-1, 2)
+    return {zone.name: np.asarray(zone.contains(places), dtype=bool).reshape(-1) for zone in site.zones}
+
+
 def line_crossings(times: np.ndarray, points: np.ndarray, line: CountingLine) -> list[dict]:
     """(T,) seconds and (T, 2) floor points of one track -> its crossings of ``line``: the time (linearly
     interpolated between the two frames), the direction ("forward": from its left to its right), the place, and
@@ -85,24 +94,3 @@ def line_crossings(times: np.ndarray, points: np.ndarray, line: CountingLine) ->
                               "rows": [int(t), int(t + 1)],
                               "sides_m": [round(float(side[t]) / length, 3), round(float(side[t + 1]) / length, 3)]})
     return crossings
-
-
-def zone_visits(times: np.ndarray, points: np.ndarray, zone: Zone) -> list[dict]:
-    """(T,) seconds and (T, 2) floor points of one track -> its visits of ``zone``: entered and left (None for a
-    visit that begins at the track's start or lasts to its end: unknown), the time spent inside, from the first
-    frame inside to the first frame outside (to the last frame inside at the track's end), and the rows of the
-    first frame inside and the first outside (None at the track's end)."""
-    inside = zone.contains(np.asarray(points, dtype=np.float64))
-    visits, start = [], None
-    for t in range(len(inside) + 1):
-        now = bool(inside[t]) if t < len(inside) else False
-        if now and start is None:
-            start = t
-        elif not now and start is not None:
-            until = times[t] if t < len(inside) else times[t - 1]
-            visits.append({"entered_s": float(times[start]) if start > 0 else None,
-                           "left_s": float(times[t]) if t < len(inside) else None,
-                           "dwell_s": float(until - times[start]),
-                           "rows": [start, t if t < len(inside) else None]})
-            start = None
-    return visits

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ray3d.site.analytics import TimeBuckets, heat_map, zone_summaries
-from ray3d.site.places import Site
+from ray3d.site.places import Site, in_zones
 
 CELL_M = 0.5  # the heat map's squares
 PATHS_DRAWN = 200  # the floor plan draws the paths of this many people at most (the latest)
@@ -81,8 +81,7 @@ def record_buckets(record, site: Site, every_s: float) -> list[dict]:
     uncertain = uncertain_seconds(record, seconds + 0.5) & covered
     positions = record.positions
     second_of = np.floor(positions["at"]).astype(np.int64)
-    inside = {zone.name: zone.contains(np.stack([positions["x"], positions["y"]], axis=-1).reshape(-1, 2))
-              for zone in site.zones}
+    inside = in_zones(site, np.stack([positions["x"], positions["y"]], axis=-1))  # the monitor's rule, each second
     counts = {name: dict(zip(*(v.tolist() for v in np.unique(second_of[flags], return_counts=True))))
               for name, flags in inside.items()}
     for second in seconds[covered]:

@@ -43,7 +43,8 @@ def analyse_site(world, site, out_dir: str | Path, title: str = "ray3d site repo
     places = zone_summaries(events, site, world.rejoined)
     series = [{"time_s": round(float(t), 4), **{name: int(values[k]) for name, values in counts.items()}}
               for k, t in enumerate(times)]
-    tables = write_site_tables(out_dir, events, track_summaries(world, site), places, frames, series, overwrite)
+    tables = write_site_tables(out_dir, events, track_summaries(world, site, replay.time_in_zones), places, frames,
+                               series, overwrite)
     buckets = None
     if every_s is not None:
         end_s = max(float(r.frames[-1]) / r.fps for r in world.tracks.values())
