@@ -637,6 +637,22 @@ def test_a_camera_looking_up_or_low_under_small_people_is_doubted(tmp_path, caps
         assert len(warnings) == 1 and needle in warnings[0], warnings
 
 
+def test_a_live_run_warns_of_a_camera_looking_up_once_its_streams_are_open():
+    """``ray3d live`` says what ``Camera.doubts`` finds of each camera as it begins (once its streams are open, so
+    a refusal before stays one line); a camera looking down says nothing."""
+    from types import SimpleNamespace
+
+    from ray3d import Camera
+    from ray3d.jobs.live import LiveInputs, _said_at_the_start
+
+    looking_up = Camera.from_height_pitch(0.3, -12.0, (1000, 1002), hfov_deg=60.0, name="floor")
+    fine = Camera.from_height_pitch(2.5, 12.0, (1000, 1002), hfov_deg=60.0, name="door")
+    said = _said_at_the_start(LiveInputs(SimpleNamespace(cameras=[fine, looking_up])), None, 2)
+    assert said == ["warning: camera floor looks 12 degrees up from 0.30 m: is its pitch's sign right (positive "
+                    "looks down)? People are filmed from above or level"]
+    assert _said_at_the_start(LiveInputs(SimpleNamespace(cameras=[fine])), None, 1) == []
+
+
 def test_frames_named_by_text_are_said_by_the_commands_that_read_them(tmp_path, capsys):
     """COCO-style results whose image_ids are text: ``ray3d lift`` and ``ray3d calibrate --from-person`` say how
     they numbered them and which frames came out, one note; integer ids say nothing (issue 69)."""

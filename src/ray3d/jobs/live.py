@@ -186,9 +186,10 @@ def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions()
 
 
 def _said_at_the_start(inputs: LiveInputs, recorder: RunRecorder | None, cameras: int) -> list[str]:
-    """What a run says once its streams are open: its run of the store and the files it takes up, the people and
-    visits a run cut off left open (ended now), the cameras on Ray."""
-    lines = []
+    """What a run says once its streams are open: what is implausible of a camera (a ``warning:``, as the offline
+    commands say after their work), its run of the store and the files it takes up, the people and visits a run
+    cut off left open (ended now), the cameras on Ray."""
+    lines = [f"warning: {doubt}" for camera in inputs.followed.cameras for doubt in camera.doubts()[1]]
     if recorder is not None:
         taken_up = [f"{r.source} at frame {r.first_index}" for r in recorder.resumes if r.first_index]
         lines.append(f"store {recorder.shown}: run {recorder.run}"
