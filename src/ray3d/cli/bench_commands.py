@@ -159,6 +159,16 @@ def speed(args: argparse.Namespace) -> int:
     return 0
 
 
+def identity(args: argparse.Namespace) -> int:
+    from ray3d.bench.identity import ANNOTATION, run, table
+    from ray3d.jobs import CameraChoice, Job
+
+    job = Job((args.video,), (CameraChoice(args.camera),), detector=args.detector)
+    document = run(job, args.out, args.detections, args.annotation or ANNOTATION, args.min_track_s)
+    print(table(document))
+    return _show([args.out / "identities.json"])
+
+
 def add_parser(commands) -> None:
     """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
     from pathlib import Path
@@ -265,3 +275,21 @@ def add_parser(commands) -> None:
     speed_bench_parser.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
     add_force(speed_bench_parser, "replace --json if it exists")
     speed_bench_parser.set_defaults(handler=speed)
+    identity_parser = bench_commands_parser.add_parser("identity",
+                                                       help="who is who: ray3d video's tracker and ByteTrack, "
+                                                            "OC-SORT, SORT on the same detections against identities "
+                                                            "annotated by hand (IDF1, ID switches, MOTA)")
+    identity_parser.add_argument("video", type=Path, help="the video (default annotation: vtest.avi's)")
+    identity_parser.add_argument("--camera", required=True, help="the video's camera file")
+    identity_parser.add_argument("--out", required=True, type=Path,
+                                 help="folder for detections.npz, the trackers' MOT files and identities.json")
+    identity_parser.add_argument("--detections", type=Path,
+                                 help="the detections.npz of an earlier run (default: detect again)")
+    identity_parser.add_argument("--annotation", type=Path,
+                                 help="frame, person, x0, y0, x1, y1 per annotated box (default: the shipped "
+                                      "annotation of vtest.avi)")
+    identity_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    identity_parser.add_argument("--min-track-s", type=float, default=1.0,
+                                 help="leave out every tracker's tracks followed for less (ray3d video's default 1; "
+                                      "0: keep all)")
+    identity_parser.set_defaults(handler=identity)
