@@ -4,6 +4,7 @@ files went."""
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -169,6 +170,23 @@ def identity(args: argparse.Namespace) -> int:
     return _show([args.out / "identities.json"])
 
 
+def live(args: argparse.Namespace) -> int:
+    from ray3d.bench import live as bench_live
+
+    camera = str(args.camera)
+    if args.mode == "soak":
+        result = bench_live.soak(args.video, camera, args.out, args.site, args.minutes)
+    elif args.mode == "restarts":
+        result = bench_live.restarts(args.video, camera, args.out, args.site, args.kills, args.seed)
+    elif args.mode == "rtsp":
+        result = bench_live.rtsp(args.video, camera, args.out, args.site, args.seconds or 75.0)
+    else:
+        result = bench_live.cluster(args.video, camera, args.out, args.seconds or 40.0)
+    print(json.dumps({k: v for k, v in result.items() if k != "rss_mb_samples"}, indent=1))
+    write_json(args.out / f"{args.mode}.json", result, False)
+    return 0
+
+
 def add_parser(commands) -> None:
     """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
     from pathlib import Path
@@ -293,3 +311,20 @@ def add_parser(commands) -> None:
                                  help="leave out every tracker's tracks followed for less (ray3d video's default 1; "
                                       "0: keep all)")
     identity_parser.set_defaults(handler=identity)
+    live_parser = bench_commands_parser.add_parser("live",
+                                                   help="ray3d live run as a service runs it, measured from outside: "
+                                                        "soak (memory, drops, latency, every event stored), restarts "
+                                                        "(killed and started again), rtsp (a stream that goes down), "
+                                                        "cluster (cameras on a local Ray)")
+    live_parser.add_argument("video", type=Path, help="the video a camera would deliver (played at its rate)")
+    live_parser.add_argument("--mode", choices=["soak", "restarts", "rtsp", "cluster"], required=True)
+    live_parser.add_argument("--camera", required=True, help="the video's camera file")
+    live_parser.add_argument("--site", type=Path, help="a site file: its events (restarts: needed for the counts)")
+    live_parser.add_argument("--out", required=True, type=Path, help="a new folder for the runs and MODE.json")
+    live_parser.add_argument("--minutes", type=float, default=30.0,
+                             help="soak: how long, the video looped (default 30)")
+    live_parser.add_argument("--kills", type=int, default=5, help="restarts: SIGKILLs, each started again (default 5)")
+    live_parser.add_argument("--seed", type=int, default=0, help="restarts: the kills' moments")
+    live_parser.add_argument("--seconds", type=float,
+                             help="rtsp: how long it follows (default 75); cluster: each paced run (default 40)")
+    live_parser.set_defaults(handler=live)

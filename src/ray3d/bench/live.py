@@ -1,0 +1,395 @@
+"""``ray3d bench live``: the real ``ray3d live`` command line run as its own process, as a service runs it (and as
+only a process can be killed), and measured from outside:
+
+- ``soak``: a video looped at its own rate for a long time, the page read by a client as a browser would; the
+  process's memory every few seconds; every event written and in the store; the frames dropped and the latency;
+- ``restarts``: the video read as fast as it is processed, once uninterrupted (twice: the noise between two runs),
+  and once killed with SIGKILL at random moments and started again on the same store until the video ends; events
+  recorded twice, lost at each kill, and the counts per place against the uninterrupted run's;
+- ``rtsp``: the video served over RTSP on 127.0.0.1 (rtsp-server-perl fed by FFmpeg) and stopped for a few seconds
+  several times: the run goes on, each outage a gap in the store, nobody counted across a gap;
+- ``cluster``: one and two cameras on a local Ray (``--address local``), the frames each keeps; and the same video
+  followed in one process and on Ray, their worlds matched track by track (``metrics.match_tracks``).
+
+Each returns a dict of figures (``ray3d bench live`` writes it to OUT/<mode>.json)."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import os
+import random
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+
+from ray3d.errors import InputError
+from ray3d.io.world import read_world
+from ray3d.metrics import match_tracks
+from ray3d.store import read_record
+from ray3d.video import read_video_info
+
+MODES = ("soak", "restarts", "rtsp", "cluster")
+START = "2026-12-01T09:00:00+00:00"  # every restarts run's frame 0 (a file taken up goes on on this clock)
+AFTER_RESTART_S = 2.0  # a person in view at a restart is followed again within this
+# The command line's closing line (cli/live_commands.py): what the process itself counted.
+CLOSING = re.compile(r"(?P<processed>\d+) of (?P<read>\d+) frames processed \((?P<dropped>\d+) dropped.*?latency "
+                     r"median (?P<median>\S+) ms, 99th percentile (?P<p99>\S+) ms; (?P<events>\d+) events; "
+                     r"(?P<people>\d+) people in (?P<world>\S+) \(")
+LOST_ROWS = re.compile(r"; (\d+) rows lost")
+
+
+def live_command(sources: list[str], cameras: list[str], out: Path, site: Path | None, *flags: str) -> list[str]:
+    """``ray3d live`` on ``sources`` (one camera file each) into ``out``, with ``flags``, as this Python runs it."""
+    command = [sys.executable, "-m", "ray3d.cli", "live", *map(str, sources)]
+    for camera in cameras:
+        command += ["--camera", str(camera)]
+    if site is not None:
+        command += ["--site", str(site)]
+    return [*command, "--out", str(out), *flags]
+
+
+def closing_figures(stderr: str) -> dict:
+    """What a ``ray3d live`` run said of itself as it ended (frames read, processed and dropped, latency, events,
+    people and its world file, store rows lost); {} where it said nothing (it was killed)."""
+    found = CLOSING.search(stderr)
+    if found is None:
+        return {}
+    read, dropped = int(found["read"]), int(found["dropped"])
+    lost = LOST_ROWS.search(stderr)
+    return {"read": read, "processed": int(found["processed"]), "dropped": dropped,
+            "dropped_percent": round(100 * dropped / max(read, 1), 2), "latency_median_ms": float(found["median"]),
+            "latency_p99_ms": float(found["p99"]), "events": int(found["events"]), "people": int(found["people"]),
+            "world": found["world"], "store_rows_lost": int(lost[1]) if lost else 0}
+
+
+def run_to_end(command: list[str], env: dict | None = None) -> dict:
+    """A run of ``command`` to its end: its exit code and closing figures (refused: its one line of stderr)."""
+    done = subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                          env=None if env is None else {**os.environ, **env})
+    if done.returncode == 2:
+        raise InputError(f"bench live: ray3d live refused it: {done.stderr.strip().splitlines()[-1]}")
+    return {"exit_code": done.returncode, **closing_figures(done.stderr)}
+
+
+def fresh_folder(out: Path) -> Path:
+    """``out``, made; refused where it holds anything (a store appended to would mix two benchmarks)."""
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"bench live: {out} is not an empty folder; give a new one", arguments=("out",))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def video_seconds(video: str | Path) -> float:
+    info = read_video_info(video)
+    return info.frames / info.fps
+
+
+def looped(video: Path, seconds: float, out: Path) -> Path:
+    """``video`` played again and again for at least ``seconds`` of its time: itself where it is long enough, else
+    copies of it one after another (FFmpeg, the stream copied, not re-encoded) in ``out``."""
+    loops = math.ceil(seconds / video_seconds(video)) - 1
+    if loops <= 0:
+        return video
+    if shutil.which("ffmpeg") is None:
+        raise InputError(f"bench live soak: {seconds:g} s is longer than {video}; looping it needs ffmpeg")
+    subprocess.run(["ffmpeg", "-loglevel", "error", "-stream_loop", str(loops), "-i", str(video), "-c", "copy",
+                    str(out)], check=True)
+    return out
+
+
+def _resident_mb(pid: int) -> float | None:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return None
+
+
+def _read_page(url: str, stop: threading.Event, counter: list) -> None:
+    """The page's feed read as a browser reads it: ``counter[0]`` the snapshots received."""
+    try:
+        with urllib.request.urlopen(url + "stream", timeout=60) as feed:
+            for line in feed:
+                if stop.is_set():
+                    return
+                counter[0] += line.startswith(b"data: ")
+    except OSError:  # the run ended and took its page with it
+        return
+
+
+def soak(video: Path, camera: str, out: Path, site: Path | None = None, minutes: float = 30.0,
+         sample_s: float = 10.0) -> dict:
+    """``ray3d live`` on ``video`` looped at its own rate for ``minutes``, its page read by a client, its memory
+    noted every ``sample_s``: frames dropped, latency, events said / written / stored, store rows lost, the memory
+    after the first minute and its largest rise after that."""
+    out = fresh_folder(out)
+    seconds = math.ceil(60 * minutes)
+    source = looped(video, seconds, out / f"looped{video.suffix}")
+    command = live_command([source], [camera], out / "live", site, "--port", "0", "--quiet", "--until", f"{seconds}s")
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    said, stop, snapshots = [], threading.Event(), [0]
+
+    def listen() -> None:  # stderr: the page's address (then read it) and, at the end, the closing line
+        for line in process.stderr:
+            said.append(line)
+            if line.startswith("live page: "):
+                threading.Thread(target=_read_page, args=(line.split(": ", 1)[1].strip(), stop, snapshots),
+                                 daemon=True).start()
+
+    listener = threading.Thread(target=listen, daemon=True)
+    listener.start()
+    started, samples = time.monotonic(), []
+    while process.poll() is None:
+        rss = _resident_mb(process.pid)
+        if rss is not None:
+            samples.append((time.monotonic() - started, rss))
+        try:
+            process.wait(timeout=sample_s)
+        except subprocess.TimeoutExpired:
+            pass
+    stop.set()
+    listener.join()
+    figures = closing_figures("".join(said))
+    if process.returncode == 2 or not figures:
+        raise InputError(f"bench live soak: ray3d live ended with {process.returncode}: {''.join(said[-1:]).strip()}")
+    events = out / "live" / "events.jsonl"
+    return {"mode": "soak", "command": " ".join(command), "exit_code": process.returncode,
+            "minutes": round((time.monotonic() - started) / 60, 2), **figures,
+            "events_written": len(events.read_text().splitlines()) if events.exists() else 0,
+            "events_in_the_store": len(read_record(out / "live" / "site.db").events),
+            "snapshots_read_by_the_page_client": snapshots[0], **memory_figures(samples)}
+
+
+def memory_figures(samples: list[tuple[float, float]]) -> dict:
+    """A run's resident memory ((seconds from its start, MB) samples): all of them, its peak, and after its first
+    minute (models loaded, queues filled) where it lasted that long: the first, the largest rise over it, the last."""
+    after_minute = [rss for at, rss in samples if at >= 60]
+    figures = {"rss_mb_samples": [[round(at, 1), round(rss, 1)] for at, rss in samples],
+               "rss_mb_peak": round(max((rss for _, rss in samples), default=0.0), 1)}
+    if after_minute:
+        figures.update(rss_mb_at_1_min=round(after_minute[0], 1), rss_mb_last=round(after_minute[-1], 1),
+                       rss_mb_largest_rise_after_1_min=round(max(after_minute) - after_minute[0], 1))
+    return figures
+
+
+def _restarts_command(video: Path, camera: str, site: Path | None, out: Path) -> list[str]:
+    return live_command([video], [camera], out, site, "--unpaced", "--no-page", "--quiet", "--start-time", START,
+                        "--every", "1h")
+
+
+def restarts(video: Path, camera: str, out: Path, site: Path | None = None, kills: int = 5, seed: int = 0,
+             first_kill_s: float = 8.0) -> dict:
+    """``ray3d live --unpaced`` on ``video`` uninterrupted (twice), and killed with SIGKILL ``kills`` times at
+    random moments (from ``first_kill_s``, when the models have loaded and frames flow) and started again each time
+    on the same store until the video ends; then ``restarts_figures`` of the stores."""
+    out = fresh_folder(out)
+    whole, again, killed = out / "uninterrupted", out / "uninterrupted-again", out / "killed"
+    started = time.monotonic()
+    run_to_end(_restarts_command(video, camera, site, whole))
+    one_run_s = time.monotonic() - started
+    # The same run again: how much two uninterrupted runs differ (the refinement runs on a thread of its own, so
+    # when its answer lands varies with the machine's load): the noise the restarts' counts are read against.
+    run_to_end(_restarts_command(video, camera, site, again))
+    chooser, kill_times = random.Random(seed), []
+    for _ in range(kills):
+        process = subprocess.Popen(_restarts_command(video, camera, site, killed), stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL)
+        wait = chooser.uniform(first_kill_s, max(first_kill_s, one_run_s / (kills + 1)))
+        try:
+            process.wait(timeout=wait)
+            break  # it ended before its kill: the video is done
+        except subprocess.TimeoutExpired:
+            process.send_signal(signal.SIGKILL)
+            process.wait()
+            kill_times.append(round(wait, 1))
+    run_to_end(_restarts_command(video, camera, site, killed))
+    return {"mode": "restarts", "kills after s": kill_times, "one run s": round(one_run_s, 1),
+            **restarts_figures(whole, again, killed)}
+
+
+def event_counts(events: list[dict], keep=lambda event: True) -> dict:
+    """Entries, exits and crossings per place among ``events``."""
+    counted: dict = {}
+    for event in filter(keep, events):
+        if event["event"] in ("zone entered", "zone left"):
+            key = f"{event['zone']}: {event['event']}"
+        elif event["event"] == "line crossed":
+            key = f"{event['line']}: {event['direction']}"
+        else:
+            continue
+        counted[key] = counted.get(key, 0) + 1
+    return dict(sorted(counted.items()))
+
+
+def _signature(event: dict) -> tuple:
+    """An event as recorded: the same event twice has the same signature."""
+    return (event["event"], round(event["at"], 3), json.dumps(event.get("place_m")), event.get("zone"),
+            event.get("line"), event.get("direction"))
+
+
+def _alike(event: dict, others: list[dict], within_s: float = 0.5) -> bool:
+    """Whether ``others`` holds the same event found by another process (the refinement's thread timing may move
+    it a little): the same kind at the same place within ``within_s``."""
+    return any(o["event"] == event["event"] and o.get("zone") == event.get("zone") and o.get("line") ==
+               event.get("line") and o.get("direction") == event.get("direction") and
+               abs(o["at"] - event["at"]) <= within_s for o in others)
+
+
+def _lost_at_each_kill(record, killed: Path) -> list[dict]:
+    """What each killed run handed over (its events.jsonl lines, written before the store's commit) and the store
+    lacks: how many, and how far before that run's last committed moment the earliest lies."""
+    origin = datetime.datetime.fromisoformat(START).timestamp()
+    logged = [json.loads(line) for line in (killed / "events.jsonl").read_text().splitlines()]
+    kept = {_signature(e) for e in record.events}
+    lost = []
+    for run in record.runs[:-1]:
+        mine = [{**e, "at": origin + e["time_s"]} for e in logged if e["track"].startswith(f"{run['run']}-")]
+        missing = [e for e in mine if _signature(e) not in kept]
+        lost.append({"handed": len(mine), "not in the store": len(missing),
+                     "earliest before the last commit s": round(max(
+                         [run["last_at"] - e["at"] for e in missing if run["last_at"] is not None], default=0.0), 2)})
+    return lost
+
+
+def _in_view_across_a_gap(reference, record, down: list[dict]) -> dict[str, set]:
+    """The tracks whose events the gaps hide: in the uninterrupted run, a person seen before and after a kill's
+    moment; in the killed store, a person whose track never ended before a kill, or began within
+    ``AFTER_RESTART_S`` of a restart (new tracks, followed from a different history)."""
+    spans: dict = {}
+    for event in reference.events:
+        first, last = spans.get(event["track"], (event["at"], event["at"]))
+        spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
+    hidden_reference = {t for t, (first, last) in spans.items() for g in down
+                        if first <= g["to_at"] and last >= g["from_at"] - 1.0}
+    ended = {e["track"] for e in record.events if e["event"] == "track ended"}
+    started = {e["track"]: e["at"] for e in record.events if e["event"] == "track started"}
+    last_run = f"{record.runs[-1]['run']}-" if record.runs else ""
+    hidden_killed = {t for t in {e["track"] for e in record.events}
+                     if (t not in ended and not t.startswith(last_run)) or
+                     any(g["to_at"] - 0.5 <= started.get(t, -1e18) <= g["to_at"] + AFTER_RESTART_S for g in down)}
+    return {"uninterrupted": hidden_reference, "killed and restarted": hidden_killed}
+
+
+def restarts_figures(whole: Path, again: Path, killed: Path) -> dict:
+    """The killed-and-restarted store against the uninterrupted runs' (``restarts``)."""
+    reference, second, record = (read_record(folder / "site.db") for folder in (whole, again, killed))
+    down = [g for g in record.gaps if g["why"] == "the service was down"]
+    signatures = [_signature(e) for e in record.events]
+    first_gap = down[0]["from_at"] if down else float("inf")
+    hidden = _in_view_across_a_gap(reference, record, down)
+    runs_of: dict[str, set] = {}  # each track's runs: those in view at a restart go on in the next
+    for event in record.events:
+        runs_of.setdefault(event["track"], set()).add(event["run"])
+    seen = {"uninterrupted": reference.events, "uninterrupted again": second.events,
+            "killed and restarted": record.events}
+    return {"runs": len(record.runs),
+            "gaps": [[round(g["from_at"] - record.runs[0]["first_at"], 1), round(g["to_at"] - g["from_at"], 2)]
+                     for g in down],
+            "events": {name: len(events) for name, events in seen.items()},
+            "tracks": {name: len({e["track"] for e in events if e["event"] == "track started"})
+                       for name, events in seen.items()},
+            "taken up at a restart": sum(len(runs) > 1 for runs in runs_of.values()),
+            "duplicated": len(signatures) - len(set(signatures)),
+            "lost at each kill": _lost_at_each_kill(record, killed),
+            "lost before the first kill's last second": sum(
+                e["at"] <= first_gap - 1.0 and not _alike(e, record.events) for e in reference.events),
+            "counts": {name: event_counts(events) for name, events in seen.items()},
+            "people in view across a gap": {k: len(v) for k, v in hidden.items()},
+            "counts less what the gaps hide": {
+                name: event_counts(seen[name], lambda e, name=name: e["track"] not in hidden[name])
+                for name in hidden},
+            "ended": [r["ending"] for r in record.runs]}
+
+
+def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds: float = 75.0, outages: int = 3,
+         down_s: float = 4.0, up_s: float = 15.0) -> dict:
+    """``ray3d live`` following ``video`` served over RTSP on 127.0.0.1 (rtsp-server-perl, FFmpeg publishing it in
+    a loop at its rate) for ``seconds``, the publisher stopped for ``down_s`` after every ``up_s`` ``outages``
+    times: its exit code, the gaps its store recorded and the people with events on both sides of a gap."""
+    missing = [tool for tool in ("rtsp-server-perl", "ffmpeg") if shutil.which(tool) is None]
+    if missing:
+        raise InputError(f"bench live rtsp needs {' and '.join(missing)} (Debian packages)")
+    out = fresh_folder(out)
+    client, publishing = 18554, 18555
+    logs = open(out / "server.log", "w"), open(out / "publisher.log", "w")
+    server = subprocess.Popen(["rtsp-server-perl", "--clientport", str(client), "--serverport", str(publishing),
+                               "--client_listen_address", "127.0.0.1", "--source_listen_address", "127.0.0.1",
+                               "--rtp_start_port", "26000"], stdout=logs[0], stderr=logs[0])
+
+    def publish() -> subprocess.Popen:
+        return subprocess.Popen(["ffmpeg", "-loglevel", "error", "-re", "-stream_loop", "-1", "-i", str(video),
+                                 "-c:v", "mpeg4", "-q:v", "4", "-g", "10", "-f", "rtsp",
+                                 f"rtsp://127.0.0.1:{publishing}/vtest"], stdout=logs[1], stderr=logs[1])
+
+    publisher = publish()
+    try:
+        time.sleep(3.0)
+        command = live_command([f"rtsp://127.0.0.1:{client}/vtest"], [camera], out / "live", site, "--no-page",
+                               "--quiet", "--until", f"{math.ceil(seconds)}s", "--stall-timeout", "2",
+                               "--reconnect-max", str(down_s))
+        # This server has no TCP transport: OpenCV's FFmpeg reads it over UDP.
+        follower = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                                    env={**os.environ, "OPENCV_FFMPEG_CAPTURE_OPTIONS": "rtsp_transport;udp"})
+        said: list[str] = []
+        listener = threading.Thread(target=lambda: said.extend(follower.stderr), daemon=True)
+        listener.start()
+        for _ in range(outages):
+            time.sleep(up_s)
+            publisher.terminate()
+            publisher.wait()
+            time.sleep(down_s)
+            publisher = publish()
+        follower.wait()
+        listener.join()
+    finally:
+        for process in (publisher, server):
+            process.terminate()
+            process.wait()
+        for log in logs:
+            log.close()
+    record = read_record(out / "live" / "site.db")
+    spans: dict = {}
+    for event in record.events:
+        first, last = spans.get(event["track"], (event["at"], event["at"]))
+        spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
+    return {"mode": "rtsp", "command": " ".join(command), "exit_code": follower.returncode,
+            **closing_figures("".join(said)),
+            "gaps": [{"s": round(g["to_at"] - g["from_at"], 1), "why": g["why"]} for g in record.gaps],
+            "tracks started": sum(e["event"] == "track started" for e in record.events),
+            "people with events on both sides of a gap": sum(
+                first < g["from_at"] and last > g["to_at"] for first, last in spans.values() for g in record.gaps)}
+
+
+def cluster(video: Path, camera: str, out: Path, seconds: float = 40.0, cameras: tuple[int, ...] = (1, 2)) -> dict:
+    """``ray3d live --address local``: ``video`` played at its rate to each of ``cameras`` camera actors (one CPU
+    each) for ``seconds``, the frames dropped; and the video read whole (``--unpaced``) in one process and on Ray,
+    the two worlds matched track by track (median pelvis floor distance)."""
+    out = fresh_folder(out)
+    rows = []
+    for count in cameras:
+        figures = run_to_end(live_command([video] * count, [camera] * count, out / f"ray-{count}", None,
+                                          "--address", "local", "--workers", str(count), "--until",
+                                          f"{math.ceil(seconds)}s", "--no-page", "--quiet"))
+        rows.append({"cameras": count, **figures})
+    worlds = {}
+    for name, flags in (("one process", ()), ("on Ray", ("--address", "local", "--workers", "1"))):
+        figures = run_to_end(live_command([video], [camera], out / name.replace(" ", "-"), None, "--unpaced",
+                                          "--no-page", "--quiet", *flags))
+        worlds[name] = read_world(figures["world"]).in_frame("world")
+    matches = match_tracks(worlds["one process"].tracks, worlds["on Ray"].tracks)
+    return {"mode": "cluster", "paced": rows,
+            "same world": {"tracks": [len(w.tracks) for w in worlds.values()], "matched": len(matches),
+                           "median_pelvis_floor_distance_m": (float(np.median([m.median_m for m in matches]))
+                                                              if matches else None)}}
