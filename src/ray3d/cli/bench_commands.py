@@ -187,6 +187,22 @@ def live(args: argparse.Namespace) -> int:
     return 0
 
 
+def fusion(args: argparse.Namespace) -> int:
+    from ray3d.bench import fusion as bench_fusion
+    from ray3d.jobs import load_lifter
+
+    if args.clips < 1:
+        raise InputError(f"bench fusion: clips must be at least 1, got {args.clips}", arguments=("clips",))
+    if not set(args.cameras) <= {2, 3, 4}:
+        raise InputError(f"bench fusion: the room has 2 to 4 cameras, got {args.cameras}", arguments=("cameras",))
+    walks = bench_fusion.walking_clips(args.clips, args.data_dir)
+    measure = bench_fusion.live if args.live else bench_fusion.offline
+    result = measure(load_lifter(args.checkpoint), walks, args.seed, tuple(args.cameras))
+    print(json.dumps(result, indent=1))
+    write_json(args.out / ("fusion-live.json" if args.live else "fusion.json"), result, args.force)
+    return 0
+
+
 def add_parser(commands) -> None:
     """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
     from pathlib import Path
@@ -328,3 +344,19 @@ def add_parser(commands) -> None:
     live_parser.add_argument("--seconds", type=float,
                              help="rtsp: how long it follows (default 75); cluster: each paced run (default 40)")
     live_parser.set_defaults(handler=live)
+    fusion_parser = bench_commands_parser.add_parser("fusion",
+                                                     help="several cameras, one world, against known truth: test "
+                                                          "walks seen by 2-4 virtual cameras, lifted and fused "
+                                                          "(offline, or --live as ray3d live does)")
+    fusion_parser.add_argument("--out", required=True, type=Path, help="folder for fusion.json (fusion-live.json)")
+    fusion_parser.add_argument("--live", action="store_true",
+                               help="play the scenes frame by frame through the live path (causal lifting, "
+                                    "LiveFusion)")
+    fusion_parser.add_argument("--clips", type=int, default=6, help="test walks (default 6)")
+    fusion_parser.add_argument("--cameras", type=int, nargs="+", default=[2, 3, 4],
+                               help="each walk seen by this many of the room's cameras, in turn (default 2 3 4)")
+    fusion_parser.add_argument("--seed", type=int, default=0, help="the noise and the gaps")
+    fusion_parser.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    add_data_dir(fusion_parser)
+    add_force(fusion_parser, "replace the JSON if it exists")
+    fusion_parser.set_defaults(handler=fusion)
