@@ -61,8 +61,7 @@ def load_detections(path: Path) -> tuple[dict[int, list[Detection]], float, int,
         layout = str(data["layout"]) if "layout" in data else BLAZEPOSE33.name
         return by_frame, float(data["fps"]), int(data["frame_count"]), layout
     except (OSError, ValueError, KeyError) as error:
-        raise InputError(f"{path}: not the detections of `ray3d bench identity` ({error})",
-                         arguments=("detections",)) from None
+        raise InputError(f"--detections {path}: not the detections of `ray3d bench identity` ({error})") from None
 
 
 def floor_tracks(by_frame: dict[int, list[Detection]], frame_count: int, fps: float, layout: str, camera,
@@ -90,8 +89,8 @@ def read_annotation(path: Path) -> dict[int, list[tuple[str, np.ndarray]]]:
                 box = np.array([float(row[k]) for k in ("x0", "y0", "x1", "y1")])
                 annotated.setdefault(int(row["frame"]), []).append((row["person"], box))
     except (OSError, KeyError, TypeError, ValueError) as error:
-        raise InputError(f"{path} line {line}: not an annotation row (frame, person, x0, y0, x1, y1): {error}",
-                         arguments=("annotation",)) from None
+        raise InputError(f"{path} line {line}: not an annotation row (frame, person, x0, y0, x1, y1): {error}") \
+            from None
     return annotated
 
 

@@ -9,7 +9,7 @@ only a process can be killed), and measured from outside:
 - ``rtsp``: the video served over RTSP on 127.0.0.1 (rtsp-server-perl fed by FFmpeg) and stopped for a few seconds
   several times: the run goes on, each outage a gap in the store, nobody counted across a gap;
 - ``cluster``: one and two cameras on a local Ray (``--address local``), the frames each keeps; and the same video
-  followed in one process and on Ray, their worlds matched track by track (``metrics.match_tracks``).
+  followed in one process and on Ray, their worlds matched track by track (``bench.worlds``).
 
 Each returns a dict of figures (``ray3d bench live`` writes it to OUT/<mode>.json)."""
 
@@ -30,11 +30,8 @@ import time
 import urllib.request
 from pathlib import Path
 
-import numpy as np
-
+from ray3d.bench.worlds import compare_worlds
 from ray3d.errors import InputError
-from ray3d.io.world import read_world
-from ray3d.metrics import match_tracks
 from ray3d.store import read_record
 from ray3d.video import read_video_info
 
@@ -383,13 +380,7 @@ def cluster(video: Path, camera: str, out: Path, seconds: float = 40.0, cameras:
                                           "--address", "local", "--workers", str(count), "--until",
                                           f"{math.ceil(seconds)}s", "--no-page", "--quiet"))
         rows.append({"cameras": count, **figures})
-    worlds = {}
-    for name, flags in (("one process", ()), ("on Ray", ("--address", "local", "--workers", "1"))):
-        figures = run_to_end(live_command([video], [camera], out / name.replace(" ", "-"), None, "--unpaced",
-                                          "--no-page", "--quiet", *flags))
-        worlds[name] = read_world(figures["world"]).in_frame("world")
-    matches = match_tracks(worlds["one process"].tracks, worlds["on Ray"].tracks)
-    return {"mode": "cluster", "paced": rows,
-            "same world": {"tracks": [len(w.tracks) for w in worlds.values()], "matched": len(matches),
-                           "median_pelvis_floor_distance_m": (float(np.median([m.median_m for m in matches]))
-                                                              if matches else None)}}
+    worlds = [run_to_end(live_command([video], [camera], out / name, None, "--unpaced", "--no-page", "--quiet",
+                                      *flags))["world"]
+              for name, flags in (("one-process", ()), ("on-ray", ("--address", "local", "--workers", "1")))]
+    return {"mode": "cluster", "paced": rows, "one process against Ray": compare_worlds(*worlds)}

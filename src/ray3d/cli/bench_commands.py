@@ -192,14 +192,23 @@ def fusion(args: argparse.Namespace) -> int:
     from ray3d.jobs import load_lifter
 
     if args.clips < 1:
-        raise InputError(f"bench fusion: clips must be at least 1, got {args.clips}", arguments=("clips",))
+        raise InputError(f"bench fusion: --clips must be at least 1, got {args.clips}")
     if not set(args.cameras) <= {2, 3, 4}:
-        raise InputError(f"bench fusion: the room has 2 to 4 cameras, got {args.cameras}", arguments=("cameras",))
+        raise InputError(f"bench fusion: --cameras: the room has 2 to 4 cameras, got {args.cameras}")
     walks = bench_fusion.walking_clips(args.clips, args.data_dir)
     measure = bench_fusion.live if args.live else bench_fusion.offline
     result = measure(load_lifter(args.checkpoint), walks, args.seed, tuple(args.cameras))
     print(json.dumps(result, indent=1))
     write_json(args.out / ("fusion-live.json" if args.live else "fusion.json"), result, args.force)
+    return 0
+
+
+def worlds(args: argparse.Namespace) -> int:
+    from ray3d.bench.worlds import compare_worlds
+
+    if not 0.0 <= args.min_share <= 1.0:
+        raise InputError(f"bench worlds: --min-share is a share of frames, 0 to 1; got {args.min_share}")
+    print(json.dumps(compare_worlds(args.first, args.second, args.min_share)))
     return 0
 
 
@@ -360,3 +369,11 @@ def add_parser(commands) -> None:
     add_data_dir(fusion_parser)
     add_force(fusion_parser, "replace the JSON if it exists")
     fusion_parser.set_defaults(handler=fusion)
+    worlds_parser = bench_commands_parser.add_parser("worlds",
+                                                     help="two world files of one scene compared track by track: "
+                                                          "how far apart they put the same people")
+    worlds_parser.add_argument("first", type=Path, help="a world file; each of its tracks is matched")
+    worlds_parser.add_argument("second", type=Path, help="the world file its tracks are matched in")
+    worlds_parser.add_argument("--min-share", type=float, default=0.5,
+                               help="a partner shares at least this share of the track's frames (default 0.5)")
+    worlds_parser.set_defaults(handler=worlds)
