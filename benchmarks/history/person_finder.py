@@ -12,7 +12,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ray3d.bench.people import ANNOTATION, FINDER_NAMES, read_annotation, run
+from ray3d.bench.people import ANNOTATION, FINDER_NAMES, read_annotation, row_line, run
 
 
 def main() -> None:
@@ -28,10 +28,8 @@ def main() -> None:
     annotated = read_annotation(args.annotation)
     rows = []
     for finder in args.finders:
-        row = run(args.video, args.camera, finder, annotated, args.finder_every)
-        rows.append(row)
-        cells = "  ".join(f"{name} {hits}/{total}" for name, (hits, total) in row["recall"].items())
-        print(f"{finder:16s} {row['frames_per_s']:5.1f} frames/s  {cells}", flush=True)
+        rows.append(run(args.video, args.camera, finder, annotated, args.finder_every))
+        print(row_line(rows[-1]), flush=True)
     if args.out:
         Path(args.out).write_text(json.dumps(rows, indent=1))
 

@@ -2,11 +2,11 @@
 virtual cameras around a room (2-4 m high, 4-9 m from its centre), detector-like 2D noise (3 px per joint and
 frame), each camera missing the person for 0.6 s somewhere (its track then breaks in two, as a tracker's would).
 
-- ``offline``: each camera's tracks lifted as ``ray3d lift`` lifts them (refined, savgol), then fused by
-  ``ray3d.fusion``: world tracks per person (1 = no identity switch, hand-overs and broken tracks joined), fused
-  Abs-MPJPE against the best single camera on the frames two or more cameras see, time offsets found (a camera's
-  frames shifted by a known amount), two people crossing (tracks and switches), a camera placed 0.5 m off (which
-  camera the agreement check names), and what fusing costs beside lifting;
+- ``offline``: each camera's tracks lifted as ``ray3d lift`` lifts them (refined, savgol), then fused as a job
+  fuses them (``jobs.fuse_and_write``): world tracks per person (1 = no identity switch, hand-overs and broken
+  tracks joined), fused Abs-MPJPE against the best single camera on the frames two or more cameras see, time
+  offsets found (a camera's frames shifted by a known amount), two people crossing (tracks and switches), a camera
+  placed 0.5 m off (which camera the agreement check names), and what fusing costs beside lifting;
 - ``live``: the same scenes played frame by frame through what ``ray3d live`` runs for several cameras (each
   camera's tracks lifted causally as they arrive, ``LiftStream`` without waiting, joined and fused by
   ``fusion.live.LiveFusion``): world people per person, the live fused pelvis and Abs-MPJPE error against the best
@@ -21,10 +21,11 @@ import numpy as np
 
 from ray3d.data import motion as motion_data
 from ray3d.data.virtual_cameras import centre_clip, mounted_camera
-from ray3d.fusion import find_time_offset, fuse_worlds
+from ray3d.fusion import find_time_offset
 from ray3d.fusion.live import LiveFusion
 from ray3d.geometry.uncertainty import PersonNow
 from ray3d.io.world import World
+from ray3d.jobs import fuse_and_write
 from ray3d.refine import RefineConfig, network_position_sd
 
 FPS = 30.0
@@ -128,7 +129,7 @@ def _several_cameras(lifter, walks: list[np.ndarray], rng: np.random.Generator, 
             if len(worlds) < 2:
                 continue
             lifted_at = time.perf_counter()
-            fusion = fuse_worlds(worlds)
+            fusion = fuse_and_write(worlds)
             if count == max(cameras):
                 seconds["lifting"] += lifted_at - started
                 seconds["fusing"] += time.perf_counter() - lifted_at
@@ -168,7 +169,8 @@ def offline(lifter, walks: list[np.ndarray], seed: int = 0, cameras: tuple[int, 
     crossing = []
     for people in crossing_people(walks):
         views, _ = room_cameras(3)
-        fusion = fuse_worlds([w for w in (lifted(lifter, c, seen(c, people, rng)) for c in views) if w is not None])
+        worlds = [lifted(lifter, c, seen(c, people, rng)) for c in views]
+        fusion = fuse_and_write([w for w in worlds if w is not None])
         crossing.append([len(fusion.world.tracks), sum(identity_switches(people, t.frames, t.joints[:, 0])
                                                        for t in fusion.world.tracks.values())])
     rng = np.random.default_rng(seed + 3)
@@ -177,7 +179,7 @@ def offline(lifter, walks: list[np.ndarray], seed: int = 0, cameras: tuple[int, 
         truth, told = room_cameras(3, moved=2)
         tracks = [seen(c, walk[None], rng) for c in truth]  # what the cameras saw, lifted with what the files say
         worlds = [lifted(lifter, c, t) for c, t in zip(told, tracks)]
-        named.append(fuse_worlds([w for w in worlds if w is not None]).suspects())
+        named.append(fuse_and_write([w for w in worlds if w is not None]).suspects())
     return {"walks": len(walks), **result, "time offsets, frames (true, found, sd)": offsets,
             "two people crossing, 3 cameras (world tracks, identity switches)": crossing,
             "cam2 placed 0.5 m off: the agreement check names": named}

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from ray3d.bench.worlds import compare_worlds
 from ray3d.errors import InputError
+from ray3d.site.events import LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT
 from ray3d.store import read_record
 from ray3d.video import read_video_info
 
@@ -220,9 +221,9 @@ def event_counts(events: list[dict], keep=lambda event: True) -> dict:
     """Entries, exits and crossings per place among ``events``."""
     counted: dict = {}
     for event in filter(keep, events):
-        if event["event"] in ("zone entered", "zone left"):
+        if event["event"] in (ZONE_ENTERED.name, ZONE_LEFT.name):
             key = f"{event['zone']}: {event['event']}"
-        elif event["event"] == "line crossed":
+        elif event["event"] == LINE_CROSSED.name:
             key = f"{event['line']}: {event['direction']}"
         else:
             continue
@@ -270,8 +271,8 @@ def _in_view_across_a_gap(reference, record, down: list[dict]) -> dict[str, set]
         spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
     hidden_reference = {t for t, (first, last) in spans.items() for g in down
                         if first <= g["to_at"] and last >= g["from_at"] - 1.0}
-    ended = {e["track"] for e in record.events if e["event"] == "track ended"}
-    started = {e["track"]: e["at"] for e in record.events if e["event"] == "track started"}
+    ended = {e["track"] for e in record.events if e["event"] == TRACK_ENDED.name}
+    started = {e["track"]: e["at"] for e in record.events if e["event"] == TRACK_STARTED.name}
     last_run = f"{record.runs[-1]['run']}-" if record.runs else ""
     hidden_killed = {t for t in {e["track"] for e in record.events}
                      if (t not in ended and not t.startswith(last_run)) or
@@ -295,7 +296,7 @@ def restarts_figures(whole: Path, again: Path, killed: Path) -> dict:
             "gaps": [[round(g["from_at"] - record.runs[0]["first_at"], 1), round(g["to_at"] - g["from_at"], 2)]
                      for g in down],
             "events": {name: len(events) for name, events in seen.items()},
-            "tracks": {name: len({e["track"] for e in events if e["event"] == "track started"})
+            "tracks": {name: len({e["track"] for e in events if e["event"] == TRACK_STARTED.name})
                        for name, events in seen.items()},
             "taken up at a restart": sum(len(runs) > 1 for runs in runs_of.values()),
             "duplicated": len(signatures) - len(set(signatures)),
@@ -364,7 +365,7 @@ def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds:
     return {"mode": "rtsp", "command": " ".join(command), "exit_code": follower.returncode,
             **closing_figures("".join(said)),
             "gaps": [{"s": round(g["to_at"] - g["from_at"], 1), "why": g["why"]} for g in record.gaps],
-            "tracks started": sum(e["event"] == "track started" for e in record.events),
+            "tracks started": sum(e["event"] == TRACK_STARTED.name for e in record.events),
             "people with events on both sides of a gap": sum(
                 first < g["from_at"] and last > g["to_at"] for first, last in spans.values() for g in record.gaps)}
 

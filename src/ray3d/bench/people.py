@@ -111,3 +111,9 @@ def run(video: Path, camera: str, finder: str, annotated: dict[int, list[dict]],
                 tally[name][1] += 1
     return {"finder": finder, "every": every, "frames_per_s": round(frames / max(seconds, 1e-9), 1),
             "recall": {name: tuple(counts) for name, counts in sorted(tally.items())}}
+
+
+def row_line(row: dict) -> str:
+    """One finder's row of ``run`` as a line: its rate and each split's people found of those annotated."""
+    cells = "  ".join(f"{name} {hits}/{total}" for name, (hits, total) in row["recall"].items())
+    return f"{row['finder']:16s} {row['frames_per_s']:5.1f} frames/s  {cells}"

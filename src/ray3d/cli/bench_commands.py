@@ -213,7 +213,7 @@ def worlds(args: argparse.Namespace) -> int:
 
 
 def people(args: argparse.Namespace) -> int:
-    from ray3d.bench.people import ANNOTATION, finder_named, read_annotation, run
+    from ray3d.bench.people import ANNOTATION, finder_named, read_annotation, row_line, run
 
     if args.finder_every < 1:
         raise InputError(f"bench people: --finder-every must be at least 1, got {args.finder_every}")
@@ -223,8 +223,7 @@ def people(args: argparse.Namespace) -> int:
     rows = []
     for finder in args.finders:
         rows.append(run(args.video, str(args.camera), finder, annotated, args.finder_every))
-        cells = "  ".join(f"{name} {hits}/{total}" for name, (hits, total) in rows[-1]["recall"].items())
-        print(f"{finder:16s} {rows[-1]['frames_per_s']:5.1f} frames/s  {cells}", flush=True)
+        print(row_line(rows[-1]), flush=True)
     write_json(args.out / "people.json", {"rows": rows}, args.force)
     return 0
 
@@ -237,7 +236,7 @@ def add_parser(commands) -> None:
     from ray3d.cli.arguments import add_data_dir, add_force
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
-    bench_parser = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
+    bench_parser = commands.add_parser("bench", help="benchmarks: accuracy, speed, identities, live, fusion")
     bench_commands_parser = bench_parser.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
     robustness_parser = bench_commands_parser.add_parser("robustness",
                                                          help="the paper's robustness sweeps (CSV, markdown, PNG)")
@@ -335,65 +334,39 @@ def add_parser(commands) -> None:
     speed_bench_parser.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
     add_force(speed_bench_parser, "replace --json if it exists")
     speed_bench_parser.set_defaults(handler=speed)
-    identity_parser = bench_commands_parser.add_parser("identity",
-                                                       help="who is who: ray3d video's tracker and ByteTrack, "
-                                                            "OC-SORT, SORT on the same detections against identities "
-                                                            "annotated by hand (IDF1, ID switches, MOTA)")
-    identity_parser.add_argument("video", type=Path, help="the video (default annotation: vtest.avi's)")
-    identity_parser.add_argument("--camera", required=True, help="the video's camera file")
-    identity_parser.add_argument("--out", required=True, type=Path,
-                                 help="folder for detections.npz, the trackers' MOT files and identities.json")
-    identity_parser.add_argument("--detections", type=Path,
-                                 help="the detections.npz of an earlier run (default: detect again)")
+    identity_parser = bench_commands_parser.add_parser("identity", help="who is who: ray3d video's tracker, ByteTrack, "
+                                                       "OC-SORT, SORT against identities annotated by hand (IDF1)")
+    _video_and_camera(identity_parser, "detections.npz, the trackers' MOT files and identities.json")
+    identity_parser.add_argument("--detections", type=Path, help="an earlier run's detections.npz (default: detect)")
     identity_parser.add_argument("--annotation", type=Path,
-                                 help="frame, person, x0, y0, x1, y1 per annotated box (default: the shipped "
-                                      "annotation of vtest.avi)")
+                                 help="frame, person, x0, y0, x1, y1 per box (default: the shipped one of vtest.avi)")
     identity_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
     identity_parser.add_argument("--min-track-s", type=float, default=1.0,
-                                 help="leave out every tracker's tracks followed for less (ray3d video's default 1; "
-                                      "0: keep all)")
+                                 help="leave out every tracker's tracks followed for less (default 1, as ray3d video)")
     identity_parser.set_defaults(handler=identity)
-    people_parser = bench_commands_parser.add_parser("people",
-                                                     help="everyone in view: how many annotated people ray3d video's "
-                                                          "detector finds, by facing, crowding, hiding and height, "
-                                                          "per full-frame finder")
-    people_parser.add_argument("video", type=Path, help="the video (default annotation: vtest.avi's)")
-    people_parser.add_argument("--camera", required=True, help="the video's camera file")
-    people_parser.add_argument("--out", required=True, type=Path, help="folder for people.json")
+    people_parser = bench_commands_parser.add_parser("people", help="everyone in view: the annotated people ray3d "
+                                                     "video's detector finds, by facing, crowding, hiding, height")
+    _video_and_camera(people_parser, "people.json")
     people_parser.add_argument("--finders", nargs="+", default=["none", "movenet-384"],
-                               help="none, or movenet-SIZE[-COLUMNSxROWS] (its input in pixels, the frame cut into "
-                                    "tiles), e.g. movenet-384-2x1 (default: none movenet-384)")
-    people_parser.add_argument("--finder-every", type=int, default=2,
-                               help="the full-frame finder on every n-th frame (default 2, as ray3d video)")
-    people_parser.add_argument("--annotation", type=Path,
-                               help="the annotated people (default: the shipped annotation of vtest.avi)")
+                               help="full-frame finders: none, or movenet-SIZE[-COLUMNSxROWS] (default: both)")
+    people_parser.add_argument("--finder-every", type=int, default=2, help="the finder every n-th frame (default 2)")
+    people_parser.add_argument("--annotation", type=Path, help="the people (default: the shipped ones of vtest.avi)")
     add_force(people_parser, "replace people.json if it exists")
     people_parser.set_defaults(handler=people)
-    live_parser = bench_commands_parser.add_parser("live",
-                                                   help="ray3d live run as a service runs it, measured from outside: "
-                                                        "soak (memory, drops, latency, every event stored), restarts "
-                                                        "(killed and started again), rtsp (a stream that goes down), "
-                                                        "cluster (cameras on a local Ray)")
-    live_parser.add_argument("video", type=Path, help="the video a camera would deliver (played at its rate)")
+    live_parser = bench_commands_parser.add_parser("live", help="ray3d live as a service runs it, measured from "
+                                                   "outside: soak, restarts, rtsp (a stream down), cluster (Ray)")
+    _video_and_camera(live_parser, "the runs and MODE.json (a new folder)")
     live_parser.add_argument("--mode", choices=["soak", "restarts", "rtsp", "cluster"], required=True)
-    live_parser.add_argument("--camera", required=True, help="the video's camera file")
     live_parser.add_argument("--site", type=Path, help="a site file: its events (restarts: needed for the counts)")
-    live_parser.add_argument("--out", required=True, type=Path, help="a new folder for the runs and MODE.json")
-    live_parser.add_argument("--minutes", type=float, default=30.0,
-                             help="soak: how long, the video looped (default 30)")
-    live_parser.add_argument("--kills", type=int, default=5, help="restarts: SIGKILLs, each started again (default 5)")
+    live_parser.add_argument("--minutes", type=float, default=30.0, help="soak: how long, the video looped (30)")
+    live_parser.add_argument("--kills", type=int, default=5, help="restarts: SIGKILLs, each started again (5)")
     live_parser.add_argument("--seed", type=int, default=0, help="restarts: the kills' moments")
-    live_parser.add_argument("--seconds", type=float,
-                             help="rtsp: how long it follows (default 75); cluster: each paced run (default 40)")
+    live_parser.add_argument("--seconds", type=float, help="rtsp: how long (75); cluster: each paced run (40)")
     live_parser.set_defaults(handler=live)
-    fusion_parser = bench_commands_parser.add_parser("fusion",
-                                                     help="several cameras, one world, against known truth: test "
-                                                          "walks seen by 2-4 virtual cameras, lifted and fused "
-                                                          "(offline, or --live as ray3d live does)")
+    fusion_parser = bench_commands_parser.add_parser("fusion", help="several cameras, one world, against known "
+                                                     "truth: test walks seen by 2-4 virtual cameras, fused")
     fusion_parser.add_argument("--out", required=True, type=Path, help="folder for fusion.json (fusion-live.json)")
-    fusion_parser.add_argument("--live", action="store_true",
-                               help="play the scenes frame by frame through the live path (causal lifting, "
-                                    "LiveFusion)")
+    fusion_parser.add_argument("--live", action="store_true", help="frame by frame, as ray3d live lifts and fuses")
     fusion_parser.add_argument("--clips", type=int, default=6, help="test walks (default 6)")
     fusion_parser.add_argument("--cameras", type=int, nargs="+", default=[2, 3, 4],
                                help="each walk seen by this many of the room's cameras, in turn (default 2 3 4)")
@@ -402,11 +375,17 @@ def add_parser(commands) -> None:
     add_data_dir(fusion_parser)
     add_force(fusion_parser, "replace the JSON if it exists")
     fusion_parser.set_defaults(handler=fusion)
-    worlds_parser = bench_commands_parser.add_parser("worlds",
-                                                     help="two world files of one scene compared track by track: "
-                                                          "how far apart they put the same people")
+    worlds_parser = bench_commands_parser.add_parser("worlds", help="two world files of one scene, track by track: "
+                                                     "how far apart they put the same people")
     worlds_parser.add_argument("first", type=Path, help="a world file; each of its tracks is matched")
     worlds_parser.add_argument("second", type=Path, help="the world file its tracks are matched in")
     worlds_parser.add_argument("--min-share", type=float, default=0.5,
                                help="a partner shares at least this share of the track's frames (default 0.5)")
     worlds_parser.set_defaults(handler=worlds)
+
+
+def _video_and_camera(parser, outputs: str) -> None:
+    """A video benchmark's video, its camera file and the folder for its ``outputs``."""
+    parser.add_argument("video", type=Path, help="the video (vtest.avi for the shipped annotations)")
+    parser.add_argument("--camera", required=True, help="the video's camera file")
+    parser.add_argument("--out", required=True, type=Path, help=f"folder for {outputs}")
