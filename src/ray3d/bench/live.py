@@ -312,10 +312,14 @@ def restarts_figures(whole: Path, again: Path, killed: Path) -> dict:
 
 
 def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds: float = 75.0, outages: int = 3,
-         down_s: float = 4.0, up_s: float = 15.0) -> dict:
+         down_s: float = 4.0) -> dict:
     """``ray3d live`` following ``video`` served over RTSP on 127.0.0.1 (rtsp-server-perl, FFmpeg publishing it in
-    a loop at its rate) for ``seconds``, the publisher stopped for ``down_s`` after every ``up_s`` ``outages``
-    times: its exit code, the gaps its store recorded and the people with events on both sides of a gap."""
+    a loop at its rate) for ``seconds``, the publisher stopped ``outages`` times for ``down_s``, evenly apart: its
+    exit code, the gaps its store recorded and the people with events on both sides of a gap."""
+    up_s = (seconds - outages * down_s) / (outages + 1)
+    if up_s <= 0:
+        raise InputError(f"bench live rtsp: --seconds {seconds:g} leaves no time between {outages} outages of "
+                         f"{down_s:g} s")
     missing = [tool for tool in ("rtsp-server-perl", "ffmpeg") if shutil.which(tool) is None]
     if missing:
         raise InputError(f"bench live rtsp needs {' and '.join(missing)} (Debian packages)")
