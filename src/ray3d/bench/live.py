@@ -23,6 +23,7 @@ import random
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -324,11 +325,12 @@ def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds:
     if missing:
         raise InputError(f"bench live rtsp needs {' and '.join(missing)} (Debian packages)")
     out = fresh_folder(out)
-    client, publishing = 18554, 18555
+    client, publishing = _free_port(), _free_port()
     logs = open(out / "server.log", "w"), open(out / "publisher.log", "w")
     server = subprocess.Popen(["rtsp-server-perl", "--clientport", str(client), "--serverport", str(publishing),
                                "--client_listen_address", "127.0.0.1", "--source_listen_address", "127.0.0.1",
-                               "--rtp_start_port", "26000"], stdout=logs[0], stderr=logs[0])
+                               "--rtp_start_port", str(20000 + _free_port() % 20000)], stdout=logs[0], stderr=logs[0])
+    _wait_for_port(publishing)
 
     def publish() -> subprocess.Popen:
         return subprocess.Popen(["ffmpeg", "-loglevel", "error", "-re", "-stream_loop", "-1", "-i", str(video),
@@ -337,7 +339,7 @@ def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds:
 
     publisher = publish()
     try:
-        time.sleep(3.0)
+        time.sleep(3.0)  # the stream published before anybody reads it
         command = live_command([f"rtsp://127.0.0.1:{client}/vtest"], [camera], out / "live", site, "--no-page",
                                "--quiet", "--until", f"{math.ceil(seconds)}s", "--stall-timeout", "2",
                                "--reconnect-max", str(down_s))
@@ -361,6 +363,10 @@ def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds:
             process.wait()
         for log in logs:
             log.close()
+    (out / "live.log").write_text("".join(said))
+    if not (out / "live" / "site.db").exists():
+        raise InputError(f"bench live rtsp: ray3d live ended with {follower.returncode} before its store: "
+                         f"{''.join(said[-1:]).strip()} (all it said: {out / 'live.log'})")
     record = read_record(out / "live" / "site.db")
     spans: dict = {}
     for event in record.events:
@@ -372,6 +378,26 @@ def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds:
             "tracks started": sum(e["event"] == TRACK_STARTED.name for e in record.events),
             "people with events on both sides of a gap": sum(
                 first < g["from_at"] and last > g["to_at"] for first, last in spans.values() for g in record.gaps)}
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _wait_for_port(port: int, timeout_s: float = 30.0) -> None:
+    """Until a server listens on ``port`` of 127.0.0.1 (a busy machine starts one slowly)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+            return
+        except OSError:
+            if time.monotonic() > deadline:
+                raise InputError(f"bench live rtsp: the RTSP server did not listen on port {port} within "
+                                 f"{timeout_s:g} s") from None
+            time.sleep(0.2)
 
 
 def cluster(video: Path, camera: str, out: Path, seconds: float = 40.0, cameras: tuple[int, ...] = (1, 2)) -> dict:
