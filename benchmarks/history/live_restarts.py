@@ -1,6 +1,6 @@
 """Restarts lose nothing and count nothing twice (issue 60): ``ray3d live --unpaced`` once uninterrupted (twice),
 and once killed with SIGKILL at ``--kills`` random moments and started again each time on the same store. Now
-``ray3d bench live VIDEO --mode restarts`` (``ray3d.bench.live.restarts``, where what each figure means is said);
+``ray3d bench live VIDEO --mode restarts`` (``ray3d.bench.restarts``, where what each figure means is said);
 this is the command the history's figures name, kept running, and ``--analyse`` reads an earlier run's stores again.
 
     python benchmarks/history/live_restarts.py ../shared/data/real-video/vtest.avi \\
@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ray3d.bench.live import restarts, restarts_figures
+from ray3d.bench.restarts import restarts, restarts_figures
 
 
 def main() -> None:

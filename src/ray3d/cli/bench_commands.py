@@ -172,12 +172,13 @@ def identity(args: argparse.Namespace) -> int:
 
 def live(args: argparse.Namespace) -> int:
     from ray3d.bench import live as bench_live
+    from ray3d.bench.restarts import restarts
 
     camera = str(args.camera)
     if args.mode == "soak":
         result = bench_live.soak(args.video, camera, args.out, args.site, args.minutes)
     elif args.mode == "restarts":
-        result = bench_live.restarts(args.video, camera, args.out, args.site, args.kills, args.seed)
+        result = restarts(args.video, camera, args.out, args.site, args.kills, args.seed)
     elif args.mode == "rtsp":
         result = bench_live.rtsp(args.video, camera, args.out, args.site, args.seconds or 75.0)
     else:
