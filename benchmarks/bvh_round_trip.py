@@ -14,11 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d import Lifter, cameras
+from ray3d import cameras
 from ray3d.data.bvh import read_bvh
 from ray3d.demo import DEMO_CAMERA, demo_clip
 from ray3d.io.bvh_export import Y_UP, bvh_text
 from ray3d.io.world import World, write_world
+from ray3d.jobs import load_lifter
 from ray3d.skeleton import H36M17
 
 
@@ -31,7 +32,7 @@ def main() -> None:
     camera = cameras.h36m(*DEMO_CAMERA)
     pixels = camera.project(demo_clip())
     for model in args.models:
-        lifted = Lifter.load(model).lift(pixels, camera)
+        lifted = load_lifter(model).lift(pixels, camera)
         world = World({"0": lifted}, camera, model)
         np.save(args.out / f"{model}.npy", lifted.joints)  # for an independent reader (bvh_bvhio_check.py)
         rigid = args.out / f"{model}-rigid.bvh"

@@ -16,7 +16,7 @@ from ray3d import cameras, metrics
 from ray3d.data.detector_emulation import body_frames, detector_points, offset_joints
 from ray3d.data.motion import load_shipped
 from ray3d.data.virtual_cameras import centre_clip
-from ray3d.lifting.lifter import Lifter
+from ray3d.jobs import load_lifter
 from ray3d.skeleton import COCO17
 
 
@@ -31,8 +31,8 @@ def main() -> None:
     cams = [cameras.h36m("S9", c) for c in ("54138969", "55011271", "58860488", "60457274")]
     rng = np.random.default_rng(0)
     for name in args.models:
-        lifter = Lifter.load(name)
-        reference = lifter if lifter.model.config.layout == "h36m17" else Lifter.load(args.h36m_model)
+        lifter = load_lifter(name)
+        reference = lifter if lifter.model.config.layout == "h36m17" else load_lifter(args.h36m_model)
         for refine in (False, True):
             e = {"h36m17": [], "coco17": [], "coco17 noisy": []}
             for cam in cams:

@@ -17,7 +17,7 @@ import numpy as np
 from ray3d.bench.level import run
 from ray3d.data.motion import load_shipped
 from ray3d.data.virtual_cameras import grid
-from ray3d.lifting.lifter import Lifter
+from ray3d.jobs import load_lifter
 
 BINS_M = (0.0, 4.0, 8.0, 16.0, 30.0, 60.0)
 NEAR_M = 8.0
@@ -25,7 +25,7 @@ NEAR_M = 8.0
 
 def main() -> None:
     checkpoint, out = sys.argv[1], sys.argv[2]
-    lifter, motion = Lifter.load(checkpoint), load_shipped(None, "test")
+    lifter, motion = load_lifter(checkpoint), load_shipped(None, "test")
     rows = [r for cameras in ("level-test", "far-test") for r in run(lifter, motion, cameras=grid(cameras), seed=1)
             if "refused" not in r]
     distance = np.array([r["network_predicted_distance_m"] for r in rows])

@@ -9,14 +9,15 @@ import time
 
 import numpy as np
 
-from ray3d import Lifter, cameras
+from ray3d import cameras
 from ray3d.demo import demo_clip
+from ray3d.jobs import load_lifter
 
 FRAMES = 216_000
 
 
 def main() -> None:
-    lifter = Lifter.load(sys.argv[1] if len(sys.argv) > 1 else "ray3d")
+    lifter = load_lifter(sys.argv[1] if len(sys.argv) > 1 else "ray3d")
     camera = cameras.h36m("S9", "54138969")
     clip = demo_clip()
     pixels = np.tile(camera.project(clip), (FRAMES // len(clip) + 1, 1, 1))[:FRAMES]

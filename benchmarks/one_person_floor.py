@@ -13,9 +13,10 @@ import argparse
 
 import numpy as np
 
-from ray3d import Camera, Lifter, metrics
+from ray3d import Camera, metrics
 from ray3d.data import motion as motion_data
 from ray3d.data.virtual_cameras import centre_clip
+from ray3d.jobs import load_lifter
 
 
 def main() -> None:
@@ -25,7 +26,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     motion = motion_data.load_shipped(None, "test")
-    lifter = Lifter.load()
+    lifter = load_lifter()
     camera = Camera.from_height_pitch(3.0, 20.0, (1920, 1080), hfov_deg=60.0, name="3m-20deg")
     ahead = camera.pixels_to_world_directions(np.array([[960.0, 540.0]]))[0]
     ahead = ahead[:2] / np.linalg.norm(ahead[:2])

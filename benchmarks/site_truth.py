@@ -19,11 +19,11 @@ import argparse
 
 import numpy as np
 
-from ray3d import Lifter
 from ray3d.data.samples import scale_bones
 from ray3d.data.virtual_cameras import centre_clip, grid
 from ray3d.evaluate import evaluation_motion
 from ray3d.io.world import LiftResult
+from ray3d.jobs import load_lifter
 from ray3d.site.analytics import stature_class
 from ray3d.site.falls import falls
 from ray3d.site.places import CountingLine, Zone, line_crossings, zone_visits
@@ -90,7 +90,7 @@ def main() -> None:
     parser.add_argument("--clips", type=int, default=20)
     args = parser.parse_args()
     motion, _ = evaluation_motion(split="test")
-    lifter = Lifter.load()
+    lifter = load_lifter()
     cameras = grid(args.cameras)[::args.camera_stride]
     same, crossings, time_errors, dwell_errors, classes, children = 0, 0, [], [], [], []
     loiter_errors = []

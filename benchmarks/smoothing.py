@@ -17,7 +17,7 @@ import numpy as np
 from ray3d import cameras, metrics, temporal
 from ray3d.data.motion import load_shipped
 from ray3d.data.virtual_cameras import centre_clip
-from ray3d.lifting.lifter import Lifter
+from ray3d.jobs import load_lifter
 
 FPS = 30.0
 
@@ -42,7 +42,7 @@ def main() -> None:
     motion = load_shipped(None, "test")
     clips = [centre_clip(motion.clip(i).astype(float))[::2] for i in range(0, motion.num_clips, 6)]
     views = [cameras.h36m("S9", c) for c in ("54138969", "55011271", "58860488", "60457274")]
-    lifter = Lifter.load(args.model)
+    lifter = load_lifter(args.model)
     rng = np.random.default_rng(0)
     methods = (None, "savgol", "one-euro")
     for noise in args.noise:

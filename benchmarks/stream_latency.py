@@ -12,8 +12,14 @@ import numpy as np
 import torch
 
 from ray3d import cameras
+from ray3d.bench.speed import stream_ms_per_frame
 from ray3d.demo import demo_clip
-from ray3d.lifting.lifter import Lifter
+from ray3d.jobs import load_lifter
+from ray3d.models import backends
+
+RUNNERS = {"torch": lambda model: model,  # the network itself; the others trace it
+           "torchscript": lambda model: backends.TorchScriptLiftingModel(model, 1000.0),
+           "onnx": lambda model: backends.OnnxLiftingModel(model, 1000.0)}
 
 
 def median_ms(call, items) -> float:
@@ -28,7 +34,7 @@ def median_ms(call, items) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("--model", default="ray3d")
-    parser.add_argument("--backends", nargs="+", default=["torch", "torchscript"])
+    parser.add_argument("--backends", nargs="+", choices=list(RUNNERS), default=["torch", "torchscript"])
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--frames", type=int, default=300)
     args = parser.parse_args()
@@ -38,9 +44,9 @@ def main() -> None:
     pixels = camera.project(demo_clip()[:args.frames])
 
     print(f"pixels -> rays, one frame: {median_ms(camera.pixels_to_rays, pixels):.3f} ms")
+    model = load_lifter(args.model).model
     for backend in args.backends:
-        stream = Lifter.load(args.model, backend=backend).stream(camera)
-        print(f"{args.model} {backend}: push {median_ms(stream.push, pixels):.2f} ms")
+        print(f"{args.model} {backend}: push {stream_ms_per_frame(RUNNERS[backend](model), args.frames):.2f} ms")
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from ray3d.io.camera_files import read_camera
-from ray3d.lifting.lifter import Lifter
+from ray3d.jobs import load_lifter
 from ray3d.video import lift_video, make_detector, read_frames, read_video_info
 
 
@@ -109,7 +109,7 @@ def main() -> None:
     args = parser.parse_args()
     camera = read_camera(args.camera)
     result = lift_video(args.video, camera, args.out / "run", make_detector("people", camera),
-                        Lifter.load(args.checkpoint), overwrite=True)
+                        load_lifter(args.checkpoint), overwrite=True)
     info = read_video_info(args.video)
     counted = np.linspace(5, info.frames - 5, args.count_frames).round().astype(int).tolist()
     found = count_sheets(args.video, result.keypoints, counted, args.out / "count", tuple(args.rows))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 import torch
@@ -98,3 +100,28 @@ def test_mismatched_shapes_raise():
         metrics.mpjpe(np.zeros((2, 17, 3)), np.zeros((2, 16, 3)))
     with pytest.raises(InputError, match="reduction"):
         metrics.mpjpe(np.zeros((2, 17, 3)), np.zeros((2, 17, 3)), reduction="sum")
+
+
+def _track(frames, xs, y=0.0):
+    """A track standing at (x, y) on the floor in each of ``frames``."""
+    frames = np.asarray(frames)
+    root = np.zeros((len(frames), 3))
+    root[:, 0], root[:, 1], root[:, 2] = xs, y, 0.9  # the pelvis's height does not count
+    return SimpleNamespace(frames=frames, root=root)
+
+
+def test_match_tracks_pairs_each_track_with_the_nearest_that_shares_its_frames():
+    first = {"a": _track(range(10), np.arange(10.0)), "b": _track(range(5, 15), 3.0, y=5.0),
+             "lonely": _track(range(100, 110), 0.0)}
+    second = {"x": _track(range(0, 8), np.arange(8.0) + 0.1, y=0.2),  # a's walk, 0.1 m along and 0.2 m across
+              "y": _track(range(0, 10), np.arange(10.0), y=3.0),  # a's frames, 3 m off
+              "z": _track(range(10, 20), 3.0, y=5.5)}  # b's second half only
+    matches = {m.first: m for m in metrics.match_tracks(first, second)}
+    assert set(matches) == {"a", "b"}  # "lonely" shares no frame with any
+    assert matches["a"].second == "x" and matches["a"].frames.tolist() == list(range(8))
+    assert matches["a"].median_m == pytest.approx(np.hypot(0.1, 0.2))
+    assert matches["b"].second == "z" and len(matches["b"].frames) == 5 and matches["b"].median_m == pytest.approx(0.5)
+    # b shares only half its frames with z; asking for more leaves it unmatched; a within 0.1 m: none near enough
+    assert [m.first for m in metrics.match_tracks(first, second, min_share=0.6)] == ["a"]
+    assert [m.first for m in metrics.match_tracks(first, second, within_m=0.3)] == ["a"]
+    assert metrics.match_tracks(first, second, within_m=0.1) == []

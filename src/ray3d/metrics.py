@@ -1,11 +1,13 @@
 """Pose metrics (brief section 5) for numpy and torch, in the input's units (multiply metres by 1000 for mm).
 
 Every metric takes predictions and ground truth of shape (..., J, 3) and returns the mean over all frames, or
-with ``reduction="none"`` one value per frame (shape (...)), ready for :func:`grouped_mean`.
+with ``reduction="none"`` one value per frame (shape (...)), ready for :func:`grouped_mean`. Two worlds of one
+scene are compared track by track with :func:`match_tracks`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Hashable, Sequence
 
 import numpy as np
@@ -126,3 +128,39 @@ def grouped_mean(per_frame: Array, groups: Sequence[Hashable]) -> tuple[float, d
         by_group.setdefault(g, []).append(i)
     means = {g: float(values[idx].mean()) for g, idx in by_group.items()}
     return float(np.mean(list(means.values()))), means
+
+
+@dataclasses.dataclass(frozen=True)
+class TrackMatch:
+    """A track of one world matched to a track of another world of the same scene: their names, the frames both
+    have and the distance between their pelvis floor points in each (m)."""
+
+    first: Hashable
+    second: Hashable
+    frames: np.ndarray
+    distances_m: np.ndarray
+
+    @property
+    def median_m(self) -> float:
+        return float(np.median(self.distances_m))
+
+
+def match_tracks(first: dict, second: dict, min_share: float = 0.0, within_m: float = np.inf) -> list[TrackMatch]:
+    """Each track of ``first`` matched to the track of ``second`` whose pelvis floor points lie nearest (median
+    over the frames both have), among those sharing at least ``min_share`` of its frames (at least one) and
+    within ``within_m``; tracks without such a partner are left out. Tracks are {name: track}, each with
+    ``frames`` (N,) and ``root`` (N, 3) on one clock and in one frame of reference (two worlds' ``in_frame("world")``).
+    Several tracks of ``first`` may match one of ``second`` (a track broken in two where the other is whole)."""
+    matches = []
+    for name, track in first.items():
+        candidates = []
+        for other_name, other in second.items():
+            shared, rows, other_rows = np.intersect1d(track.frames, other.frames, return_indices=True)
+            if len(shared) == 0 or len(shared) < min_share * len(track.frames):
+                continue
+            distances = np.linalg.norm(track.root[rows, :2] - other.root[other_rows, :2], axis=-1)
+            candidates.append(TrackMatch(name, other_name, shared, distances))
+        nearest = min(candidates, key=lambda match: match.median_m, default=None)
+        if nearest is not None and nearest.median_m <= within_m:
+            matches.append(nearest)
+    return matches

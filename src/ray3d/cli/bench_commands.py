@@ -4,6 +4,7 @@ files went."""
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -159,6 +160,75 @@ def speed(args: argparse.Namespace) -> int:
     return 0
 
 
+def identity(args: argparse.Namespace) -> int:
+    from ray3d.bench.identity import ANNOTATION, run, table
+    from ray3d.jobs import CameraChoice, Job
+
+    job = Job((args.video,), (CameraChoice(args.camera),), detector=args.detector)
+    document = run(job, args.out, args.detections, args.annotation or ANNOTATION, args.min_track_s)
+    print(table(document))
+    return _show([args.out / "identities.json"])
+
+
+def live(args: argparse.Namespace) -> int:
+    from ray3d.bench import live as bench_live
+    from ray3d.bench.restarts import restarts
+
+    camera = str(args.camera)
+    if args.mode == "soak":
+        result = bench_live.soak(args.video, camera, args.out, args.site, args.minutes)
+    elif args.mode == "restarts":
+        result = restarts(args.video, camera, args.out, args.site, args.kills, args.seed)
+    elif args.mode == "rtsp":
+        result = bench_live.rtsp(args.video, camera, args.out, args.site, args.seconds or 75.0)
+    else:
+        result = bench_live.cluster(args.video, camera, args.out, args.seconds or 40.0)
+    print(json.dumps({k: v for k, v in result.items() if k != "rss_mb_samples"}, indent=1))
+    write_json(args.out / f"{args.mode}.json", result, False)
+    return 0
+
+
+def fusion(args: argparse.Namespace) -> int:
+    from ray3d.bench import fusion as bench_fusion
+    from ray3d.jobs import load_lifter
+
+    if args.clips < 1:
+        raise InputError(f"bench fusion: --clips must be at least 1, got {args.clips}")
+    if not set(args.cameras) <= {2, 3, 4}:
+        raise InputError(f"bench fusion: --cameras: the room has 2 to 4 cameras, got {args.cameras}")
+    walks = bench_fusion.walking_clips(args.clips, args.data_dir)
+    measure = bench_fusion.live if args.live else bench_fusion.offline
+    result = measure(load_lifter(args.checkpoint), walks, args.seed, tuple(args.cameras))
+    print(json.dumps(result, indent=1))
+    write_json(args.out / ("fusion-live.json" if args.live else "fusion.json"), result, args.force)
+    return 0
+
+
+def worlds(args: argparse.Namespace) -> int:
+    from ray3d.bench.worlds import compare_worlds
+
+    if not 0.0 <= args.min_share <= 1.0:
+        raise InputError(f"bench worlds: --min-share is a share of frames, 0 to 1; got {args.min_share}")
+    print(json.dumps(compare_worlds(args.first, args.second, args.min_share)))
+    return 0
+
+
+def people(args: argparse.Namespace) -> int:
+    from ray3d.bench.people import ANNOTATION, finder_named, read_annotation, row_line, run
+
+    if args.finder_every < 1:
+        raise InputError(f"bench people: --finder-every must be at least 1, got {args.finder_every}")
+    for name in args.finders:  # a misspelt finder refused before minutes of the others
+        finder_named(name)
+    annotated = read_annotation(args.annotation or ANNOTATION)
+    rows = []
+    for finder in args.finders:
+        rows.append(run(args.video, str(args.camera), finder, annotated, args.finder_every))
+        print(row_line(rows[-1]), flush=True)
+    write_json(args.out / "people.json", {"rows": rows}, args.force)
+    return 0
+
+
 def add_parser(commands) -> None:
     """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
     from pathlib import Path
@@ -167,7 +237,7 @@ def add_parser(commands) -> None:
     from ray3d.cli.arguments import add_data_dir, add_force
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
-    bench_parser = commands.add_parser("bench", help="benchmarks: robustness sweeps, speed")
+    bench_parser = commands.add_parser("bench", help="benchmarks: accuracy, speed, identities, live, fusion")
     bench_commands_parser = bench_parser.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
     robustness_parser = bench_commands_parser.add_parser("robustness",
                                                          help="the paper's robustness sweeps (CSV, markdown, PNG)")
@@ -265,3 +335,58 @@ def add_parser(commands) -> None:
     speed_bench_parser.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
     add_force(speed_bench_parser, "replace --json if it exists")
     speed_bench_parser.set_defaults(handler=speed)
+    identity_parser = bench_commands_parser.add_parser("identity", help="who is who: ray3d video's tracker, ByteTrack, "
+                                                       "OC-SORT, SORT against identities annotated by hand (IDF1)")
+    _video_and_camera(identity_parser, "detections.npz, the trackers' MOT files and identities.json")
+    identity_parser.add_argument("--detections", type=Path, help="an earlier run's detections.npz (default: detect)")
+    identity_parser.add_argument("--annotation", type=Path,
+                                 help="frame, person, x0, y0, x1, y1 per box (default: the shipped one of vtest.avi)")
+    identity_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
+    identity_parser.add_argument("--min-track-s", type=float, default=1.0,
+                                 help="leave out every tracker's tracks followed for less (default 1, as ray3d video)")
+    identity_parser.set_defaults(handler=identity)
+    people_parser = bench_commands_parser.add_parser("people", help="everyone in view: the annotated people ray3d "
+                                                     "video's detector finds, by facing, crowding, hiding, height")
+    _video_and_camera(people_parser, "people.json")
+    people_parser.add_argument("--finders", nargs="+", default=["none", "movenet-384"],
+                               help="full-frame finders: none, or movenet-SIZE[-COLUMNSxROWS] (default: both)")
+    people_parser.add_argument("--finder-every", type=int, default=2, help="the finder every n-th frame (default 2)")
+    people_parser.add_argument("--annotation", type=Path, help="the people (default: the shipped ones of vtest.avi)")
+    add_force(people_parser, "replace people.json if it exists")
+    people_parser.set_defaults(handler=people)
+    live_parser = bench_commands_parser.add_parser("live", help="ray3d live as a service runs it, measured from "
+                                                   "outside: soak, restarts, rtsp (a stream down), cluster (Ray)")
+    _video_and_camera(live_parser, "the runs and MODE.json (a new folder)")
+    live_parser.add_argument("--mode", choices=["soak", "restarts", "rtsp", "cluster"], required=True)
+    live_parser.add_argument("--site", type=Path, help="a site file: its events (restarts: needed for the counts)")
+    live_parser.add_argument("--minutes", type=float, default=30.0, help="soak: how long, the video looped (30)")
+    live_parser.add_argument("--kills", type=int, default=5, help="restarts: SIGKILLs, each started again (5)")
+    live_parser.add_argument("--seed", type=int, default=0, help="restarts: the kills' moments")
+    live_parser.add_argument("--seconds", type=float, help="rtsp: how long (75); cluster: each paced run (40)")
+    live_parser.set_defaults(handler=live)
+    fusion_parser = bench_commands_parser.add_parser("fusion", help="several cameras, one world, against known "
+                                                     "truth: test walks seen by 2-4 virtual cameras, fused")
+    fusion_parser.add_argument("--out", required=True, type=Path, help="folder for fusion.json (fusion-live.json)")
+    fusion_parser.add_argument("--live", action="store_true", help="frame by frame, as ray3d live lifts and fuses")
+    fusion_parser.add_argument("--clips", type=int, default=6, help="test walks (default 6)")
+    fusion_parser.add_argument("--cameras", type=int, nargs="+", default=[2, 3, 4],
+                               help="each walk seen by this many of the room's cameras, in turn (default 2 3 4)")
+    fusion_parser.add_argument("--seed", type=int, default=0, help="the noise and the gaps")
+    fusion_parser.add_argument("--checkpoint", default="ray3d", help="the model that lifts (default ray3d)")
+    add_data_dir(fusion_parser)
+    add_force(fusion_parser, "replace the JSON if it exists")
+    fusion_parser.set_defaults(handler=fusion)
+    worlds_parser = bench_commands_parser.add_parser("worlds", help="two world files of one scene, track by track: "
+                                                     "how far apart they put the same people")
+    worlds_parser.add_argument("first", type=Path, help="a world file; each of its tracks is matched")
+    worlds_parser.add_argument("second", type=Path, help="the world file its tracks are matched in")
+    worlds_parser.add_argument("--min-share", type=float, default=0.5,
+                               help="a partner shares at least this share of the track's frames (default 0.5)")
+    worlds_parser.set_defaults(handler=worlds)
+
+
+def _video_and_camera(parser, outputs: str) -> None:
+    """A video benchmark's video, its camera file and the folder for its ``outputs``."""
+    parser.add_argument("video", type=Path, help="the video (vtest.avi for the shipped annotations)")
+    parser.add_argument("--camera", required=True, help="the video's camera file")
+    parser.add_argument("--out", required=True, type=Path, help=f"folder for {outputs}")

@@ -307,8 +307,8 @@ class MediaPipeDetector:
 
 
 # The full-frame finder every second frame offline (the people it found followed between, and at once where one was
-# lost): on vtest.avi's annotated people (benchmarks/person_finder.py, 2026-12-07) 52 of 60 at 12.5 frames/s,
-# against 51 every frame at 9.1; its identities 0.944 IDF1 against 0.832 (benchmarks/vtest_identities.py). Cut into
+# lost): on vtest.avi's annotated people (ray3d bench people, 2026-12-07) 52 of 60 at 12.5 frames/s,
+# against 51 every frame at 9.1; its identities 0.944 IDF1 against 0.832 (ray3d bench identity). Cut into
 # two tiles it found 56, but made half-people of a man close up (real-near's cam02) and kept identities worse (0.899).
 OFFLINE_FULL_FRAME_EVERY = 2
 

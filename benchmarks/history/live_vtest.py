@@ -29,6 +29,7 @@ from ray3d.jobs import CameraChoice, Job
 from ray3d.jobs.live import live_job, local_inputs
 from ray3d.live.runner import LiveOptions
 from ray3d.live.source import FrameSource, SourceGroup
+from ray3d.metrics import match_tracks
 from ray3d.site.files import read_site
 from ray3d.video import make_detector
 
@@ -57,20 +58,8 @@ def _summary(world) -> dict:
 
 
 def _matched_distances(live, offline) -> tuple[list[float], int]:
-    distances, matched = [], 0
-    for result in live.tracks.values():
-        best = None
-        for other in offline.tracks.values():
-            shared, mine, theirs = np.intersect1d(result.frames, other.frames, return_indices=True)
-            if len(shared) < 5:
-                continue
-            gap = np.linalg.norm(result.root[mine, :2] - other.root[theirs, :2], axis=-1)
-            if np.median(gap) < 1.0 and (best is None or len(shared) > len(best)):
-                best = gap
-        if best is not None:
-            matched += 1
-            distances += best.tolist()
-    return distances, matched
+    matches = match_tracks(live.tracks, offline.tracks, within_m=1.0)
+    return [d for m in matches for d in m.distances_m.tolist()], len(matches)
 
 
 def main() -> None:

@@ -1,0 +1,156 @@
+"""``ray3d bench live --mode restarts``: restarts lose nothing and count nothing twice. ``ray3d live`` on a video
+read as fast as it is processed (``--unpaced``), once uninterrupted (twice: the noise between two runs), and once
+killed with SIGKILL at random moments and started again each time with the same command on the same store until the
+video ends (``restarts``); then (``restarts_figures``):
+
+- duplicates: events recorded twice (the same kind, place and moment, across the runs);
+- events lost: what each killed run handed over (its events.jsonl) that the store lacks, and the uninterrupted run's
+  events before the first kill's last second that the killed store lacks;
+- the counts (entries, exits and crossings per place) of the whole store against the uninterrupted runs', and the
+  same counts less what the gaps hide: the events of the people in view across a gap."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import random
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+from ray3d.bench.live import fresh_folder, live_command, run_to_end
+from ray3d.site.events import LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT
+from ray3d.store import read_record
+
+START = "2026-12-01T09:00:00+00:00"  # every run's frame 0 (a file taken up goes on on this clock)
+AFTER_RESTART_S = 2.0  # a person in view at a restart is followed again within this
+
+
+def _restarts_command(video: Path, camera: str, site: Path | None, out: Path) -> list[str]:
+    return live_command([video], [camera], out, site, "--unpaced", "--no-page", "--quiet", "--start-time", START,
+                        "--every", "1h")
+
+
+def restarts(video: Path, camera: str, out: Path, site: Path | None = None, kills: int = 5, seed: int = 0,
+             first_kill_s: float = 8.0) -> dict:
+    """``ray3d live --unpaced`` on ``video`` uninterrupted (twice), and killed with SIGKILL ``kills`` times at
+    random moments (from ``first_kill_s``, when the models have loaded and frames flow) and started again each time
+    on the same store until the video ends; then ``restarts_figures`` of the stores."""
+    out = fresh_folder(out)
+    whole, again, killed = out / "uninterrupted", out / "uninterrupted-again", out / "killed"
+    started = time.monotonic()
+    run_to_end(_restarts_command(video, camera, site, whole))
+    one_run_s = time.monotonic() - started
+    # The same run again: how much two uninterrupted runs differ (the refinement runs on a thread of its own, so
+    # when its answer lands varies with the machine's load): the noise the restarts' counts are read against.
+    run_to_end(_restarts_command(video, camera, site, again))
+    chooser, kill_times = random.Random(seed), []
+    for _ in range(kills):
+        process = subprocess.Popen(_restarts_command(video, camera, site, killed), stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL)
+        wait = chooser.uniform(first_kill_s, max(first_kill_s, one_run_s / (kills + 1)))
+        try:
+            process.wait(timeout=wait)
+            break  # it ended before its kill: the video is done
+        except subprocess.TimeoutExpired:
+            process.send_signal(signal.SIGKILL)
+            process.wait()
+            kill_times.append(round(wait, 1))
+    run_to_end(_restarts_command(video, camera, site, killed))
+    return {"mode": "restarts", "kills after s": kill_times, "one run s": round(one_run_s, 1),
+            **restarts_figures(whole, again, killed)}
+
+
+def event_counts(events: list[dict], keep=lambda event: True) -> dict:
+    """Entries, exits and crossings per place among ``events``."""
+    counted: dict = {}
+    for event in filter(keep, events):
+        if event["event"] in (ZONE_ENTERED.name, ZONE_LEFT.name):
+            key = f"{event['zone']}: {event['event']}"
+        elif event["event"] == LINE_CROSSED.name:
+            key = f"{event['line']}: {event['direction']}"
+        else:
+            continue
+        counted[key] = counted.get(key, 0) + 1
+    return dict(sorted(counted.items()))
+
+
+def _signature(event: dict) -> tuple:
+    """An event as recorded: the same event twice has the same signature."""
+    return (event["event"], round(event["at"], 3), json.dumps(event.get("place_m")), event.get("zone"),
+            event.get("line"), event.get("direction"))
+
+
+def _alike(event: dict, others: list[dict], within_s: float = 0.5) -> bool:
+    """Whether ``others`` holds the same event found by another process (the refinement's thread timing may move
+    it a little): the same kind at the same place within ``within_s``."""
+    return any(o["event"] == event["event"] and o.get("zone") == event.get("zone") and o.get("line") ==
+               event.get("line") and o.get("direction") == event.get("direction") and
+               abs(o["at"] - event["at"]) <= within_s for o in others)
+
+
+def _lost_at_each_kill(record, killed: Path) -> list[dict]:
+    """What each killed run handed over (its events.jsonl lines, written before the store's commit) and the store
+    lacks: how many, and how far before that run's last committed moment the earliest lies."""
+    origin = datetime.datetime.fromisoformat(START).timestamp()
+    logged = [json.loads(line) for line in (killed / "events.jsonl").read_text().splitlines()]
+    kept = {_signature(e) for e in record.events}
+    lost = []
+    for run in record.runs[:-1]:
+        mine = [{**e, "at": origin + e["time_s"]} for e in logged if e["track"].startswith(f"{run['run']}-")]
+        missing = [e for e in mine if _signature(e) not in kept]
+        lost.append({"handed": len(mine), "not in the store": len(missing),
+                     "earliest before the last commit s": round(max(
+                         [run["last_at"] - e["at"] for e in missing if run["last_at"] is not None], default=0.0), 2)})
+    return lost
+
+
+def _in_view_across_a_gap(reference, record, down: list[dict]) -> dict[str, set]:
+    """The tracks whose events the gaps hide: in the uninterrupted run, a person seen before and after a kill's
+    moment; in the killed store, a person whose track never ended before a kill, or began within
+    ``AFTER_RESTART_S`` of a restart (new tracks, followed from a different history)."""
+    spans: dict = {}
+    for event in reference.events:
+        first, last = spans.get(event["track"], (event["at"], event["at"]))
+        spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
+    hidden_reference = {t for t, (first, last) in spans.items() for g in down
+                        if first <= g["to_at"] and last >= g["from_at"] - 1.0}
+    ended = {e["track"] for e in record.events if e["event"] == TRACK_ENDED.name}
+    started = {e["track"]: e["at"] for e in record.events if e["event"] == TRACK_STARTED.name}
+    last_run = f"{record.runs[-1]['run']}-" if record.runs else ""
+    hidden_killed = {t for t in {e["track"] for e in record.events}
+                     if (t not in ended and not t.startswith(last_run)) or
+                     any(g["to_at"] - 0.5 <= started.get(t, -1e18) <= g["to_at"] + AFTER_RESTART_S for g in down)}
+    return {"uninterrupted": hidden_reference, "killed and restarted": hidden_killed}
+
+
+def restarts_figures(whole: Path, again: Path, killed: Path) -> dict:
+    """The killed-and-restarted store against the uninterrupted runs' (``restarts``)."""
+    reference, second, record = (read_record(folder / "site.db") for folder in (whole, again, killed))
+    down = [g for g in record.gaps if g["why"] == "the service was down"]
+    signatures = [_signature(e) for e in record.events]
+    first_gap = down[0]["from_at"] if down else float("inf")
+    hidden = _in_view_across_a_gap(reference, record, down)
+    runs_of: dict[str, set] = {}  # each track's runs: those in view at a restart go on in the next
+    for event in record.events:
+        runs_of.setdefault(event["track"], set()).add(event["run"])
+    seen = {"uninterrupted": reference.events, "uninterrupted again": second.events,
+            "killed and restarted": record.events}
+    return {"runs": len(record.runs),
+            "gaps": [[round(g["from_at"] - record.runs[0]["first_at"], 1), round(g["to_at"] - g["from_at"], 2)]
+                     for g in down],
+            "events": {name: len(events) for name, events in seen.items()},
+            "tracks": {name: len({e["track"] for e in events if e["event"] == TRACK_STARTED.name})
+                       for name, events in seen.items()},
+            "taken up at a restart": sum(len(runs) > 1 for runs in runs_of.values()),
+            "duplicated": len(signatures) - len(set(signatures)),
+            "lost at each kill": _lost_at_each_kill(record, killed),
+            "lost before the first kill's last second": sum(
+                e["at"] <= first_gap - 1.0 and not _alike(e, record.events) for e in reference.events),
+            "counts": {name: event_counts(events) for name, events in seen.items()},
+            "people in view across a gap": {k: len(v) for k, v in hidden.items()},
+            "counts less what the gaps hide": {
+                name: event_counts(seen[name], lambda e, name=name: e["track"] not in hidden[name])
+                for name in hidden},
+            "ended": [r["ending"] for r in record.runs]}

@@ -1,0 +1,69 @@
+"""``ray3d bench live``: each mode runs the real ``ray3d live`` command line as its own process (a soak of a looped
+clip with its page read, a run killed and started again on its store), on a generated few-second clip. They need
+the video extra (the command's detector) and are skipped without it."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+import test_live
+
+from ray3d.bench.live import closing_figures
+from ray3d.cli import main
+
+CAMERA = "h36m:S9:54138969"
+
+
+@pytest.fixture(scope="module")
+def clip(tmp_path_factory):
+    """3 s at 10 frames/s: two people painted walking past."""
+    pytest.importorskip("mediapipe")
+    import cv2
+
+    path = tmp_path_factory.mktemp("clip") / "clip.avi"
+    people = test_live._scene(30)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), test_live.FPS,
+                             tuple(test_live.CAMERA.image_size))
+    for image in test_live._frames(len(people), people=people):
+        writer.write(np.ascontiguousarray(image[..., ::-1]))  # RGB -> BGR
+    writer.release()
+    return path
+
+
+def test_the_closing_line_of_ray3d_live_is_read_and_a_killed_run_says_nothing():
+    said = ("store out/site.db: run 1\nclip.avi: the stream ended: 28 of 60 frames processed (24 dropped, 40.0 %; 2 "
+            "people left for the next frame to keep up); latency median 193 ms, 99th percentile 409 ms; 7 events; 2 "
+            "people in out/world.csv (0 short tracks left out)\nstore out/site.db: run 1: 7 events, 3 positions, "
+            "2 people, 0 gaps written; 3 rows lost\n")
+    assert closing_figures(said) == {"read": 60, "processed": 28, "dropped": 24, "dropped_percent": 40.0,
+                                     "latency_median_ms": 193.0, "latency_p99_ms": 409.0, "events": 7, "people": 2,
+                                     "world": "out/world.csv", "store_rows_lost": 3}
+    assert closing_figures("store out/site.db: run 1\n") == {}
+
+
+def test_a_soak_loops_the_clip_reads_the_page_and_finds_every_event_stored(clip, tmp_path):
+    if shutil.which("ffmpeg") is None:
+        pytest.skip("ffmpeg loops the clip")
+    out = tmp_path / "soak"
+    assert main(["bench", "live", str(clip), "--mode", "soak", "--camera", CAMERA, "--minutes", "0.1",
+                 "--out", str(out)]) == 0
+    result = json.loads((out / "soak.json").read_text())
+    assert (out / "looped.avi").is_file() and result["exit_code"] == 0
+    assert result["read"] >= 50 and 0 < result["processed"] <= result["read"]  # 6 s of a 3 s clip, at its rate
+    assert result["events_written"] == result["events_in_the_store"] == result["events"]
+    assert result["snapshots_read_by_the_page_client"] > 0 and result["rss_mb_peak"] > 100
+    assert main(["bench", "live", str(clip), "--mode", "soak", "--camera", CAMERA, "--out", str(out)]) == 2
+
+
+def test_a_run_killed_and_started_again_on_its_store_records_nothing_twice(clip, tmp_path):
+    out = tmp_path / "restarts"
+    assert main(["bench", "live", str(clip), "--mode", "restarts", "--camera", CAMERA, "--kills", "1",
+                 "--out", str(out)]) == 0
+    result = json.loads((out / "restarts.json").read_text())
+    assert len(result["kills after s"]) == 1 and result["runs"] == 2
+    assert result["ended"] == ["cut off", "ended"] and result["duplicated"] == 0
+    assert set(result["counts"]) == {"uninterrupted", "uninterrupted again", "killed and restarted"}
+    assert all((out / run / "site.db").is_file() for run in ("uninterrupted", "uninterrupted-again", "killed"))
