@@ -25,11 +25,20 @@ from ray3d.evaluate import evaluation_motion
 from ray3d.io.world import LiftResult
 from ray3d.jobs import load_lifter
 from ray3d.site.analytics import stature_class
+from ray3d.site.events import SiteMonitor
 from ray3d.site.falls import falls
-from ray3d.site.places import CountingLine, Zone, line_crossings, zone_visits
+from ray3d.site.places import CountingLine, Site, Zone, line_crossings
 
 FPS = 30.0
 
+
+
+def time_in_zone(joints: np.ndarray, zone: Zone) -> float:
+    """Seconds a walker (world joints (T, 17, 3) at ``FPS``) spends in ``zone``, by the site monitor's rule."""
+    monitor = SiteMonitor(Site((zone,)), FPS)
+    for frame, pose in enumerate(joints):
+        monitor.update(frame, {"walker": pose})
+    return monitor.time_in_zones("walker")[zone.name]
 
 def scene(clip: np.ndarray) -> tuple[CountingLine, Zone] | None:
     path = clip[:, 0, :2]
@@ -108,7 +117,7 @@ def main() -> None:
         line, zone = placed
         times = np.arange(len(clip)) / FPS
         truth_crossings = line_crossings(times, clip[:, 0, :2], line)
-        truth_dwell = sum(v["dwell_s"] for v in zone_visits(times, clip[:, 0, :2], zone))
+        truth_dwell = time_in_zone(clip, zone)
         child = scale_bones(clip, np.full(clip.shape[:2], 0.7))
         for camera in cameras:
             if not camera.sees(clip):
@@ -120,17 +129,16 @@ def main() -> None:
                 same += 1
                 time_errors += [abs(a["time_s"] - b["time_s"]) for a, b in zip(lifted, truth_crossings)]
             if truth_dwell > 0.5:
-                dwell = sum(v["dwell_s"] for v in zone_visits(times, result.root[:, :2], zone))
+                dwell = time_in_zone(result.joints, zone)
                 dwell_errors.append(abs(dwell - truth_dwell) / truth_dwell)
             classes.append(stature_class(result.refinement["stature_m"], result.refinement["stature_interval_m"]))
             false_falls += len(falls(times, result.joints))
             staying = loiterer(clip)
             stay_zone = Zone("spot", staying[len(clip) // 2, 0, :2] + np.array([[-1, -1], [1, -1], [1, 1], [-1, 1.0]]))
             if camera.sees(staying):
-                stay_times = np.arange(len(staying)) / FPS
-                truth_stay = sum(v["dwell_s"] for v in zone_visits(stay_times, staying[:, 0, :2], stay_zone))
-                lifted_stay = lifter.lift(camera.project(staying), camera, fps=FPS, smooth_3d="savgol").root
-                stay = sum(v["dwell_s"] for v in zone_visits(stay_times, lifted_stay[:, :2], stay_zone))
+                truth_stay = time_in_zone(staying, stay_zone)
+                lifted_stay = lifter.lift(camera.project(staying), camera, fps=FPS, smooth_3d="savgol").joints
+                stay = time_in_zone(lifted_stay, stay_zone)
                 loiter_errors.append(abs(stay - truth_stay) / truth_stay)
             if camera.sees(child):
                 small = lifter.lift(camera.project(child), camera, fps=FPS, smooth_3d="savgol").refinement
