@@ -38,34 +38,15 @@ class Lifter:
     @classmethod
     def load(cls, name_or_path: str | None = None, device: str | None = None, backend: str = "torch",
              image_width: float = 1000.0, layout: str = "h36m17", precision: str = "fp32") -> Lifter:
-        """A shipped model by name (``ray3d``, ``ray3d-real``, ``videopose3d``, ...) or a checkpoint path; without
-        one, the shipped model for keypoints of ``layout`` (``checkpoints.default_model``: ``ray3d`` for H36M-17,
-        ``ray3d-real`` for a detector's layout).
-
-        ``backend="torchscript"`` runs a frozen TorchScript trace on the CPU (lowest latency with torch alone:
-        live use); ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``). Pixel-input
-        models are then built for images ``image_width`` pixels wide.
-
-        ``precision="bf16"`` or ``"int8"`` runs the network's hidden matrix products in that precision on the
-        CPU (``models.precision``; its accuracy cost is in docs/RESULTS.md and ``ray3d evaluate --precision``).
-        """
+        """The model ``ModelRunner.load`` gives (the shipped one for keypoints of ``layout`` without a name or
+        path), run by ``backend`` on ``device`` in ``precision``."""
         return cls(ModelRunner.load(name_or_path, device, backend, image_width, layout, precision))
 
-    @property
-    def name(self) -> str:
-        return self.runner.name
-
-    @property
-    def document(self) -> dict:
-        return self.runner.document
-
-    @property
-    def model(self):
-        return self.runner.model
-
-    @property
-    def receptive_field(self) -> int:
-        return self.runner.receptive_field
+    # What callers read of the model, from its runner.
+    name = property(lambda self: self.runner.name)  # how world files name the model that lifted them
+    document = property(lambda self: self.runner.document)
+    model = property(lambda self: self.runner.model)
+    receptive_field = property(lambda self: self.runner.receptive_field)
 
     def input_skeleton(self, skeleton: Skeleton) -> Skeleton:
         return self.runner.input_skeleton(skeleton)

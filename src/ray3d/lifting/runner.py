@@ -48,9 +48,17 @@ class ModelRunner:
     @classmethod
     def load(cls, name_or_path: str | None = None, device: str | None = None, backend: str = "torch",
              image_width: float = 1000.0, layout: str = "h36m17", precision: str = "fp32") -> ModelRunner:
-        """A shipped model by name or a checkpoint path (without one, the shipped model for keypoints of
-        ``layout``: ``checkpoints.default_model``) run by ``backend`` ("torch", "torchscript" or "onnx") in
-        ``precision``; the arguments as ``Lifter.load`` takes them."""
+        """A shipped model by name (``ray3d``, ``ray3d-real``, ``videopose3d``, ...) or a checkpoint path; without
+        one, the shipped model for keypoints of ``layout`` (``checkpoints.default_model``: ``ray3d`` for H36M-17,
+        ``ray3d-real`` for a detector's layout).
+
+        ``backend="torchscript"`` runs a frozen TorchScript trace on the CPU (lowest latency with torch alone:
+        live use); ``backend="onnx"`` runs it with ONNX Runtime (``pip install 'ray3d[onnx]'``). Pixel-input
+        models are then built for images ``image_width`` pixels wide.
+
+        ``precision="bf16"`` or ``"int8"`` runs the network's hidden matrix products in that precision on the
+        CPU (``models.precision``; its accuracy cost is in docs/RESULTS.md and ``ray3d evaluate --precision``).
+        """
         check_precision(precision)
         name_or_path = name_or_path or default_model(layout)
         model, document = load_model(name_or_path)
