@@ -114,12 +114,12 @@ def test_a_lifter_given_small_batches_runs_them_traced_with_the_same_answer(demo
     big = Lifter.load("ray3d")
     big.lift(pixels, camera, refine=False)  # one batch of 242 windows: never traced
     assert big.runner._small_batch_runner is None
-    live = Lifter.load("ray3d")
+    live = Lifter.load("ray3d").runner
     live.prepare_small_batches()  # ray3d live: traced before frames arrive
-    assert live.runner._small_batch_runner is not None and live.runner._runner(1) is live.runner._small_batch_runner
-    reduced = Lifter.load("ray3d", precision="int8")
+    assert live._small_batch_runner is not None and live._network_for(1) is live._small_batch_runner
+    reduced = Lifter.load("ray3d", precision="int8").runner
     reduced.prepare_small_batches()  # a reduced-precision network is not traced
-    assert reduced.runner._small_batch_runner is None and reduced.runner._runner(1) is reduced.model
+    assert reduced._small_batch_runner is None and reduced._network_for(1) is reduced.model
 
 
 def test_evaluate_reports_what_a_reduced_precision_costs(tmp_path, capsys):

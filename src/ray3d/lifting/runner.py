@@ -126,9 +126,9 @@ class ModelRunner:
         layout seen by ``camera`` -> (N, 17, 3) world joints."""
         cameras = CameraBatch.repeated(camera, len(pixels))
         batch = TensorBatch.from_arrays(pixels, rays, cameras, self.device, confidences)
-        return predict_world(self._runner(len(pixels)), batch, cameras, flip_test).cpu().numpy()
+        return predict_world(self._network_for(len(pixels)), batch, cameras, flip_test).cpu().numpy()
 
-    def _runner(self, windows: int):
+    def _network_for(self, windows: int):
         """What runs a batch of ``windows``: the network, or from the third small batch (below
         ``BATCH_PER_GROUP`` windows) on, its TorchScript trace."""
         if not self._traceable or windows >= BATCH_PER_GROUP:
