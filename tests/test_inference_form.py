@@ -84,7 +84,7 @@ def test_lifting_with_the_shipped_model_matches_the_trained_form_in_metres():
     lifter = Lifter.load("ray3d")
     assert getattr(lifter.model, "inference_form", False)
     lifted = lifter.lift(pixels, camera, chunk=130).joints  # chunks of 130 and 20 frames: both paths
-    lifter.model = load_model("ray3d")[0]  # the network as trained, batch norms and per-group layers
+    lifter.runner.model = load_model("ray3d")[0]  # the network as trained, batch norms and per-group layers
     expected = lifter.lift(pixels, camera, chunk=130).joints
     assert np.abs(lifted - expected).max() < 1e-5
 

@@ -174,3 +174,57 @@ def test_each_camera_of_a_job_is_lifted_with_its_own_options_and_their_floors_mu
     with pytest.raises(InputError, match="one floor") as refused:
         run_job(job, tmp_path / "again.json", progress=False)
     assert "floor_z" in refused.value.arguments
+
+
+class _NoDetector:
+    """What a live camera is built with before any frame comes: the layout its detector reports."""
+
+    layout = "h36m17"
+
+
+def test_one_pair_of_camera_files_gets_the_same_floors_offline_and_live(tmp_path):
+    """Two cameras of one site whose files declare different floors: the first a raised stage among its floor
+    regions, the second where the floor lies (``floor_z_m``). Offline (``ray3d lift`` with both keypoint files)
+    and live (the cameras a live job follows its streams with, lifting each track its camera lets go) take each
+    camera's options by one rule (``Job.lift_options``): each camera on its own regions, both on the site's one
+    floor height; so each person stands on the same floor both ways, to the last digit. (Live once left the first
+    camera's floor height to its people.)"""
+    from ray3d.jobs.live import local_inputs
+    from ray3d.jobs.run import lift_cameras_together
+    from ray3d.live.source import FrameSource, SourceGroup
+    from ray3d.video.detectors import Detection
+    from ray3d.video.tracking import Track
+
+    other = cameras.h36m("S9", "55011271")
+    walk = demo_clip()[:120]
+    stage = {"name": "stage", "polygon": [[-1.0, -1.0], [0.05, -1.0], [0.05, 1.0], [-1.0, 1.0]], "height_m": 0.2}
+    inputs, files = [], []
+    for name, camera, declared in (("one", CAMERA, {"floor_regions": [stage]}), ("other", other, {"floor_z_m": -0.1})):
+        np.savez(tmp_path / f"{name}.npz", keypoints=camera.project(walk), fps=50.0)
+        (tmp_path / f"{name}.json").write_text(json.dumps({**camera.to_dict(), **declared}))
+        inputs.append(tmp_path / f"{name}.npz")
+        files.append(CameraChoice(str(tmp_path / f"{name}.json")))
+    offline = lift_cameras_together(Job(tuple(inputs), tuple(files), remember_floor=False), progress=False)
+    people = [next(iter(result.world.tracks.values())) for result in offline]
+    assert [(p.refinement["ankle_plane"]["decision"], p.refinement["ankle_plane"]["floor_z_m"]) for p in people] == [
+        ("given", -0.1), ("given", -0.1)]
+
+    sources = [FrameSource(iter(()), 50.0, f"stream {name}", waits=True) for name in ("one", "other")]
+    live_job = Job(tuple(source.name for source in sources), tuple(files), remember_floor=False)
+    live = local_inputs(live_job, SourceGroup(sources), [CAMERA, other], [_NoDetector(), _NoDetector()])
+    try:
+        options = [view.finisher.lift_options for view in live.followed.views]
+        assert [o.floor_z for o in options] == [-0.1, -0.1]
+        assert [[r.name for r in o.floor.regions] for o in options] == [["stage"], []]
+        for view, camera, person in zip(live.followed.views, (CAMERA, other), people):
+            pixels = camera.project(walk)
+            view.finisher.put(Track("0", list(range(len(walk))), [Detection(p, np.ones(17), 1.0) for p in pixels]))
+            (finished,) = view.finisher.close()
+            lifted = finished.world.tracks["0"]
+            assert lifted.refinement["ankle_plane"] == person.refinement["ankle_plane"]
+            np.testing.assert_allclose(lifted.joints, person.joints, rtol=0, atol=1e-9)
+    finally:
+        for view in live.followed.views:
+            view.finisher.close()
+        for source in sources:
+            source.close()

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from ray3d import InputError, Lifter, cameras
+from ray3d.lifting.options import LiftOptions
 from ray3d.refine import RefineConfig
 from ray3d.skeleton import BLAZEPOSE33, COCO17, H36M17
 
@@ -87,6 +88,39 @@ def test_batches_and_tracks_share_one_world(lifter, camera):
     np.testing.assert_array_equal(tracks["right"].frames, np.arange(100, 115))
     gappy = lifter.lift_tracks({7: (np.array([0, 1, 2, 5, 6]), a[[0, 1, 2, 5, 6]])}, camera)[7]
     assert len(gappy.joints) == 7 and gappy.interpolated[3:5].all()
+
+
+def test_lift_tracks_is_lift_cameras_with_one_camera_and_lift_options_stand_for_the_keywords(lifter, camera):
+    """One camera's people lifted by ``lift_tracks`` are ``lift_cameras``' with that one camera, to the last digit
+    (their ankle plane, what they showed of the floor and the track that could not be lifted too); ``options``, a
+    ``LiftOptions`` (or each camera's own), lifts as the same options given one by one."""
+    rootless = camera.project(_walk(30) + np.array([-0.5, 1.0, 0.0]))
+    rootless[:, 0] = np.nan
+    tracks = {"a": (np.arange(30), camera.project(_walk(30))), "c": (np.arange(30), rootless),
+              "b": (np.arange(10, 40), camera.project(_walk(30) + np.array([0.5, 1.0, 0.0])))}
+    keywords = {"smooth_3d": "savgol", "flip_test": True, "floor_z": -0.05}
+    alone = lifter.lift_tracks(tracks, camera, fps=30.0, **keywords)
+    (together,) = lifter.lift_cameras({"only": (tracks, camera)}, fps=30.0, **keywords).values()
+    by_options = lifter.lift_tracks(tracks, camera, fps=30.0, options=LiftOptions(**keywords))
+    assert list(alone) == ["a", "b"] and list(alone.unliftable) == ["c"] and alone.ankle_plane.source == "given"
+    for other in (together, by_options):
+        assert list(other) == list(alone) and other.unliftable == alone.unliftable
+        assert other.ankle_plane == alone.ankle_plane and other.floor_evidence() == alone.floor_evidence()
+        for track, result in alone.items():
+            for field in ("joints", "frames", "interpolated", "position_sd"):
+                np.testing.assert_array_equal(getattr(other[track], field), getattr(result, field))
+    facing = cameras.h36m("S9", "55011271")
+    views = {"one": (tracks, camera), "two": ({"d": (np.arange(30), facing.project(_walk(30)))}, facing)}
+    own = {"one": LiftOptions(smooth_3d=None, floor_z=-0.05),
+           "two": LiftOptions(smooth_3d="savgol", flip_test=True, floor_z=-0.05)}
+    given = lifter.lift_cameras(views, fps=30.0, options=own)
+    spelled = lifter.lift_cameras(views, fps=30.0, smooth_3d={"one": None, "two": "savgol"},
+                                  flip_test={"one": False, "two": True}, floor_z=-0.05)
+    for name in views:
+        assert list(given[name]) == list(spelled[name]) and given[name].ankle_plane == spelled[name].ankle_plane
+        for track, result in spelled[name].items():
+            np.testing.assert_array_equal(given[name][track].joints, result.joints)
+    assert not np.array_equal(given["one"]["a"].joints, alone["a"].joints)  # the options did differ: no smoothing
 
 
 def test_lift_with_frame_numbers_fills_the_gaps_as_lift_tracks_does(lifter, camera):

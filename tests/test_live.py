@@ -766,29 +766,27 @@ def test_a_webhook_that_hangs_never_holds_up_the_stream_and_closing_it_is_bounde
     server.shutdown()
 
 
-def test_each_live_camera_in_this_process_lifts_on_its_own_floor(tmp_path):
-    """Two cameras whose files state different floors: each camera's people are lifted on its own, in process as
-    on Ray (``job.lift_options(k)``), not all on the first camera's."""
+def test_live_cameras_whose_files_place_the_floor_differently_are_refused_as_offline(tmp_path):
+    """Two cameras of one run whose files place the site's one floor differently (``floor_z_m``): refused before
+    a frame is followed, naming the file and the field, as ``ray3d lift`` refuses them (``Job.lift_options``, one
+    rule on both clocks; each camera on its own floor regions: tests/test_jobs.py)."""
     from ray3d.jobs import CameraChoice, Job
     from ray3d.jobs.live import local_inputs
 
-    people = _scene(4)
     facing = cameras.h36m("S9", "55011271")
     files = []
     for k, (camera, floor_z) in enumerate(((CAMERA, -0.2), (facing, 0.1))):
         path = tmp_path / f"camera{k}.json"
         path.write_text(json.dumps({**camera.to_dict(), "floor_z_m": floor_z}))
         files.append(str(path))
-    sources = [FrameSource(_frames(len(people), people=people, camera=c), FPS, f"scene from {c.name}", waits=True)
-               for c in (CAMERA, facing)]
+    sources = [FrameSource(iter(()), FPS, f"scene from {c.name}", waits=True) for c in (CAMERA, facing)]
     job = Job(tuple(s.name for s in sources), tuple(CameraChoice(file) for file in files))
-    inputs = local_inputs(job, SourceGroup(sources), [CAMERA, facing],
-                          [_ScriptedDetector(people, c) for c in (CAMERA, facing)])
     try:
-        assert [view.finisher.lift_options.floor_z for view in inputs.followed.views] == [-0.2, 0.1]
+        with pytest.raises(InputError, match=r"camera1.json: floor_z_m 0.1 where .*camera0.json says -0.2: the "
+                                             "cameras of one site stand on one floor"):
+            local_inputs(job, SourceGroup(sources), [CAMERA, facing], [_ScriptedDetector(_scene(4), c)
+                                                                         for c in (CAMERA, facing)])
     finally:
-        for view in inputs.followed.views:
-            view.finisher.close()
         for source in sources:
             source.close()
 

@@ -14,7 +14,8 @@ from ray3d.cli import main
 from ray3d.demo import DEMO_CAMERA, demo_clip
 from ray3d.errors import InputError
 from ray3d.io.world import read_world
-from ray3d.lifting.lifter import SMALL_BATCHES_BEFORE_TRACING, Lifter
+from ray3d.lifting.lifter import Lifter
+from ray3d.lifting.runner import SMALL_BATCHES_BEFORE_TRACING
 from ray3d.models import PRESETS, LiftingNetwork
 from ray3d.models.inference import inference_network
 from ray3d.models.precision import (
@@ -47,7 +48,7 @@ def fp32_joints(demo):
 def test_reduced_precision_agrees_with_fp32_on_the_demo_clip(demo, fp32_joints, precision, mean_mm, most_mm):
     camera, truth, pixels = demo
     lifter = Lifter.load("ray3d", precision=precision)
-    assert lifter.precision == precision and isinstance(lifter.model, ReducedPrecisionNetwork)
+    assert lifter.runner.precision == precision and isinstance(lifter.model, ReducedPrecisionNetwork)
     joints = lifter.lift(pixels, camera, refine=False).joints
     apart = 1000 * np.linalg.norm(joints - fp32_joints, axis=-1)
     assert 0 < apart.mean() < mean_mm and apart.max() < most_mm  # it did change, and by little
@@ -99,9 +100,10 @@ def test_a_lifter_given_small_batches_runs_them_traced_with_the_same_answer(demo
     lifter = Lifter.load("ray3d")
     stream = lifter.stream(camera, wait_for_future=False)
     answers = [stream.push(frame) for frame in pixels[:12]]
-    assert lifter._small_batch_runner is not None and lifter._small_batches >= SMALL_BATCHES_BEFORE_TRACING
+    runner = lifter.runner
+    assert runner._small_batch_runner is not None and runner._small_batches >= SMALL_BATCHES_BEFORE_TRACING
     eager = Lifter.load("ray3d")
-    eager._traceable = False  # the network itself, every time
+    eager.runner._traceable = False  # the network itself, every time
     reference = eager.stream(camera, wait_for_future=False)
     expected = [reference.push(frame) for frame in pixels[:12]]
     for got, want in zip(answers, expected):
@@ -111,13 +113,13 @@ def test_a_lifter_given_small_batches_runs_them_traced_with_the_same_answer(demo
             np.testing.assert_allclose(got, want, atol=1e-5)  # metres
     big = Lifter.load("ray3d")
     big.lift(pixels, camera, refine=False)  # one batch of 242 windows: never traced
-    assert big._small_batch_runner is None
-    live = Lifter.load("ray3d")
+    assert big.runner._small_batch_runner is None
+    live = Lifter.load("ray3d").runner
     live.prepare_small_batches()  # ray3d live: traced before frames arrive
-    assert live._small_batch_runner is not None and live._runner(1) is live._small_batch_runner
-    reduced = Lifter.load("ray3d", precision="int8")
+    assert live._small_batch_runner is not None and live._network_for(1) is live._small_batch_runner
+    reduced = Lifter.load("ray3d", precision="int8").runner
     reduced.prepare_small_batches()  # a reduced-precision network is not traced
-    assert reduced._small_batch_runner is None and reduced._runner(1) is reduced.model
+    assert reduced._small_batch_runner is None and reduced._network_for(1) is reduced.model
 
 
 def test_evaluate_reports_what_a_reduced_precision_costs(tmp_path, capsys):

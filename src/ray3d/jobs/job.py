@@ -113,13 +113,31 @@ class Job:
         return input_kind(self.inputs[0])
 
     def lift_options(self, k: int) -> LiftOptions:
-        """Input ``k``'s lifting options, with the floor it rests on and, where that is to be observed, what its
-        camera's people showed of it in earlier jobs (``remembered_floor``)."""
+        """Input ``k``'s lifting options, by which both clocks lift its camera (``ray3d lift``, ``ray3d video``,
+        batch rows and live alike): the floor it rests on (the ``floor_file``'s regions, else its camera file's),
+        where that floor lies (the site's, ``floor_z``) and, where that is to be observed, what its camera's people
+        showed of it in earlier jobs (``remembered_floor``)."""
         floor = read_floor(self.floor_file) if self.floor_file else floor_of_camera_file(self.cameras[k].file)
-        floor_z = self.lift.floor_z if self.lift.floor_z is not None else floor_z_of_camera_file(self.cameras[k].file)
+        floor_z = self.site_floor_z()
         remembered = self.remembered_floor(k) if floor_z is None else ()
         return dataclasses.replace(self.lift, floor=floor, floor_z=floor_z,
                                    seen_before=(*self.lift.seen_before, *remembered))
+
+    def site_floor_z(self) -> float | None:
+        """Where the floor of the job's cameras lies, one site's one floor: the job's own (``--floor-z``), else
+        the one their camera files declare (``floor_z_m``: a file that declares none stands on it too; files
+        that place it differently are refused), else None (observed from the people)."""
+        if self.lift.floor_z is not None:
+            return self.lift.floor_z
+        declared = {}
+        for choice in self.cameras:
+            if (floor_z := floor_z_of_camera_file(choice.file)) is not None:
+                declared.setdefault(floor_z, choice.file)
+        if len(declared) > 1:
+            (first, first_file), (second, second_file) = list(declared.items())[:2]
+            raise InputError(f"{second_file}: floor_z_m {second:g} where {first_file} says {first:g}: the cameras of "
+                             "one site stand on one floor", ("camera", "floor_z"))
+        return next(iter(declared), None)
 
     def floor_memory(self, k: int) -> Path | None:
         """Where input ``k``'s camera's floor memory lies (beside its camera file); None for a camera without a

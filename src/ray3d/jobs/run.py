@@ -197,15 +197,6 @@ def run_videos_together(job: Job, outs: list[str | Path], progress: bool = True)
             for result, (_, camera, _) in zip(results, opened)]
 
 
-def each_cameras_options(job: Job) -> dict:
-    """``Lifter.lift_cameras``' options of a several-camera ``job``, each camera's its own (the floor regions and
-    where the floor lies that its camera file declares): {option: {input index: value}}; the refinement is the
-    job's."""
-    options = [job.lift_options(k).lift_arguments() for k in range(len(job.inputs))]
-    return {name: {k: own[name] for k, own in enumerate(options)} if name != "refine" else job.lift.refine
-            for name in options[0]}
-
-
 def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     """Every keypoint file of a several-camera job lifted as one site's cameras (``Lifter.lift_cameras``): one
     world frame, one floor, where people's ankles meet it observed from every camera's people together (and
@@ -213,6 +204,7 @@ def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     ``fuse_and_write``."""
     from ray3d.io.keypoints import read_keypoints
 
+    options = {k: job.lift_options(k) for k in range(len(job.inputs))}  # each camera's own, as live's
     files = [read_keypoints(path, job.layout, job.fps, **job.read_options) for path in job.inputs]
     cameras = [choice.camera() for choice in job.cameras]
     layouts = {k: keypoints.layout for k, keypoints in enumerate(files)}
@@ -220,7 +212,7 @@ def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     lifted = lifter.lift_cameras({k: (keypoints.by_track(), camera) for k, (keypoints, camera)
                                   in enumerate(zip(files, cameras))}, layouts,
                                  {k: keypoints.fps for k, keypoints in enumerate(files)}, progress,
-                                 one_clock=not job.find_offsets, **each_cameras_options(job))
+                                 one_clock=not job.find_offsets, options=options)
     results = []
     for k, (path, keypoints, camera) in enumerate(zip(job.inputs, files, cameras)):
         if isinstance(lifted[k], InputError):

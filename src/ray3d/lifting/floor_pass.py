@@ -1,7 +1,7 @@
-"""The floor-and-refinement pass over cameras' tracks on their way through a lifter's network (``CameraTracks``):
-each track through the network (``run_network``), the evidence of the floor they share read and decided
-(``settle``: ``refine.ankle_plane``), the network run again where the floor is not the camera's z = 0, and each
-track refined on it (``refined``). What ``Lifter.lift``, ``lift_tracks`` and ``lift_cameras`` stand on."""
+"""The floor-and-refinement pass over cameras' tracks (``CameraTracks``) on their way through a model's network
+(``ModelRunner``): each track through the network (``run_network``), the evidence of the floor they share read and
+decided (``settle``: ``refine.ankle_plane``), the network run again where the floor is not the camera's z = 0, and
+each track refined on it (``refined``). What ``Lifter.lift``, ``lift_tracks`` and ``lift_cameras`` stand on."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from ray3d import body, temporal
 from ray3d.errors import InputError
 from ray3d.io.world import LiftResult
 from ray3d.lifting.inputs import PreparedTrack
+from ray3d.lifting.runner import ModelRunner
 from ray3d.lifting.tracks import CameraTracks, people_seen_twice
 from ray3d.refine import (
     AnklePlane,
@@ -29,10 +30,10 @@ from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence, floor_evidence
 from ray3d.skeleton import H36M17
 
 
-def lift_views(lifter, views: list[CameraTracks], chunk: int,
+def lift_views(runner: ModelRunner, views: list[CameraTracks], chunk: int,
                spans: list[dict] | None = None) -> tuple[list[dict], list[AnklePlane | None]]:
     """Cameras of one floor, each's tracks on their way (``CameraTracks``, with its own options), through
-    ``lifter``'s network -> for each {track: LiftResult, or the InputError that stopped it}, and each view's ankle
+    ``runner``'s network -> for each {track: LiftResult, or the InputError that stopped it}, and each view's ankle
     plane (None unrefined): given (``floor_z``), or decided on every track, the evidence each view's options hold of
     people seen before (``LiftOptions.seen_before``) and, with each view's {track: frame ids} on one clock
     (``spans``), the people two cameras saw at once (``settle``). Each view's ``found`` keeps its tracks' evidence,
@@ -41,16 +42,16 @@ def lift_views(lifter, views: list[CameraTracks], chunk: int,
     if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
         raise InputError(f"chunk: frames per network call, a whole number of at least 1; got {chunk!r}", ("chunk",))
     for view in views:
-        run_network(lifter, view, 0.0, chunk)
+        run_network(runner, view, 0.0, chunk)
     refine = views[0].options.refine
-    configs = [refine_config(lifter.document, refine, view.prepared) for view in views]
+    configs = [refine_config(runner.document, refine, view.prepared) for view in views]
     for view, config in zip(views, configs):
         view.found = {track: None if e is None else floor_evidence(e, config.keypoint_ankle_height_m,
                                                                    config.read_size_m)
                       for track, e in view.found.items()}
     if not refine or not any(view.lifted() for view in views):
         return [unrefined(view, config) for view, config in zip(views, configs)], [None] * len(views)
-    planes = settle(lifter, views, configs, spans, chunk)
+    planes = settle(runner, views, configs, spans, chunk)
     return [refined(view, plane, config) for view, plane, config in zip(views, planes, configs)], planes
 
 
@@ -60,14 +61,14 @@ def refine_config(document: dict, refine: bool | RefineConfig, prepared: dict) -
     return refine if isinstance(refine, RefineConfig) else RefineConfig.for_model(document, skeleton)
 
 
-def run_network(lifter, view: CameraTracks, depth: float, chunk: int) -> None:
-    """The view's tracks through ``lifter``'s network with its camera's z = 0 moved to ``depth`` (where the floor
+def run_network(runner: ModelRunner, view: CameraTracks, depth: float, chunk: int) -> None:
+    """The view's tracks through ``runner``'s network with its camera's z = 0 moved to ``depth`` (where the floor
     is thought to be); from the first run (the camera as given) each track's ``SizeEvidence`` of the ankle plane."""
     camera = view.camera.with_origin_at_height(depth) if depth else view.camera
     view.depth, view.networks = depth, {}
     for track, entry in view.prepared.items():
         try:
-            view.networks[track] = lifter.network(entry, camera, view.options.flip_test, chunk, view.progress[track])
+            view.networks[track] = runner.network(entry, camera, view.options.flip_test, chunk, view.progress[track])
         except InputError as err:
             view.networks[track] = err
     if not depth:
@@ -77,7 +78,7 @@ def run_network(lifter, view: CameraTracks, depth: float, chunk: int) -> None:
                       for track, joints in view.networks.items() if not isinstance(joints, InputError)}
 
 
-def settle(lifter, views: list[CameraTracks], configs: list[RefineConfig], spans: list[dict] | None,
+def settle(runner: ModelRunner, views: list[CameraTracks], configs: list[RefineConfig], spans: list[dict] | None,
            chunk: int) -> list[AnklePlane]:
     """Each view's ankle plane on the views' one floor: given (the views' ``floor_z``, which must agree), or
     observed from their people, what each view saw before (``LiftOptions.seen_before``: ``SizeEvidence`` of
@@ -110,7 +111,7 @@ def settle(lifter, views: list[CameraTracks], configs: list[RefineConfig], spans
                                     max(config.read_size_sd for config in configs), tuple(ankles))
     for view in views:
         if view.depth != floor.height_m:
-            run_network(lifter, view, floor.height_m, chunk)
+            run_network(runner, view, floor.height_m, chunk)
     return [floor.standing(config.keypoint_ankle_height_m) for config in configs]
 
 

@@ -8,11 +8,13 @@ import numpy as np
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.lifting.inputs import MODEL_FPS, camera_rays, checked_keypoints, model_inputs, stand_in_for_unseen
+from ray3d.lifting.runner import ModelRunner
 from ray3d.skeleton import layout_skeleton
 
 
 class LiftStream:
-    """Live lifting: ``push`` one frame's keypoints (J, 2) and get world joints (17, 3) back.
+    """Live lifting: ``push`` one frame's keypoints (J, 2) and get world joints (17, 3) back, from a model's
+    ``runner`` (``Lifter.stream`` makes one).
 
     ``fps`` is the input's frame rate (default: the model's, 60). Frames at another rate are brought to the
     model's as offline lifting does, by linear interpolation in time, causally: each frame adds the model-rate
@@ -29,11 +31,11 @@ class LiftStream:
     not seen yet takes its parent's, as a detector's miss is simulated in training.
     """
 
-    def __init__(self, lifter, camera: Camera, layout: str = "h36m17", flip_test: bool = False,
+    def __init__(self, runner: ModelRunner, camera: Camera, layout: str = "h36m17", flip_test: bool = False,
                  fps: float | None = None, wait_for_future: bool = True):
-        config = lifter.model.config
-        self.lifter, self.camera, self.skeleton, self.flip_test = lifter, camera, layout_skeleton(layout), flip_test
-        self.frames = lifter.receptive_field
+        config = runner.model.config
+        self.runner, self.camera, self.skeleton, self.flip_test = runner, camera, layout_skeleton(layout), flip_test
+        self.frames = runner.receptive_field
         self.delay = config.window.delay if wait_for_future else 0
         self.lookahead = config.window.delay - self.delay  # future frames stood in by the present
         self.step = MODEL_FPS / (fps or MODEL_FPS)      # model-rate frames per input frame
@@ -41,7 +43,7 @@ class LiftStream:
             raise InputError(f"fps: a centred model waits for future frames only at its own {MODEL_FPS:g} frames/s; "
                              "stream without waiting for them", arguments=("wait_for_future",))
         self.remove_roll = config.remove_roll
-        self.inputs = lifter.input_skeleton(self.skeleton)  # the joints the model reads
+        self.inputs = runner.input_skeleton(self.skeleton)  # the joints the model reads
         self._pixels: np.ndarray | None = None   # (F, J, 2) the current window, of the model's input layout
         self._rays: np.ndarray | None = None     # (F, J, 3)
         self._scores: np.ndarray | None = None   # (F, J) confidences
@@ -124,13 +126,13 @@ class LiftStream:
 
 
 def lift_streams(streams: list[LiftStream]) -> list[np.ndarray]:
-    """One answer (17, 3) for each of ``streams`` (of one lifter and camera, each ``ready()``) from a single
+    """One answer (17, 3) for each of ``streams`` (of one runner and camera, each ``ready()``) from a single
     call of the network."""
     if not streams:
         return []
     first = streams[0]
     pixels, rays, scores = (np.stack(parts) for parts in zip(*(stream.window() for stream in streams)))
-    answers = first.lifter.lift_windows(pixels, rays, first.camera, first.flip_test, scores)
+    answers = first.runner.lift_windows(pixels, rays, first.camera, first.flip_test, scores)
     for stream in streams:
         stream.answered += 1
     return list(answers)

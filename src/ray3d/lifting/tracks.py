@@ -1,18 +1,23 @@
-"""Several tracks of a camera: on their way through the network (``CameraTracks``) and what lifting them gives
-(``LiftedTracks``), put together from each track's outcome."""
+"""Several tracks of a camera: made ready to lift (``prepared_tracks``), on their way through the network
+(``CameraTracks``) and what lifting them gives (``LiftedTracks``), put together from each track's outcome."""
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
+from collections.abc import Callable
 
 import numpy as np
 
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
+from ray3d.geometry.arrays import numeric_array
+from ray3d.io.detections import TrackDetections
+from ray3d.lifting.inputs import prepare_track
 from ray3d.lifting.options import LiftOptions
 from ray3d.refine import AnklePlane
 from ray3d.refine.ankle_plane import SeenTwice, seen_twice
+from ray3d.skeleton import Skeleton
 
 
 class LiftedTracks(dict):
@@ -32,6 +37,45 @@ class LiftedTracks(dict):
     def floor_evidence(self) -> tuple:
         """Everything these people showed of the floor, as a later lift's ``seen_before`` takes it."""
         return (*(e for e in self.evidence.values() if e is not None), *self.ankles)
+
+
+def rows_with_gaps(frames, keypoints: np.ndarray, confidences) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """``Lifter.lift``'s rows at ``frames``, their frame numbers -> (every frame number from the first to the last
+    (T',), keypoints (T', J, 2) NaN and confidences (T', J) 0 in the frames skipped), as ``prepared_tracks`` fills a
+    track's gaps (``TrackDetections.dense``). Refused: frame numbers that are not one per row, not whole numbers,
+    or not increasing."""
+    numbers, rows = numeric_array(frames, "frames"), len(keypoints) if keypoints.ndim else 0
+    if numbers.ndim != 1 or len(numbers) != rows:
+        raise InputError(f"frames: the frame number of each of the keypoints' {rows} rows expected, got "
+                         f"shape {numbers.shape}", arguments=("frames",))
+    if not (np.isfinite(numbers).all() and (numbers == np.round(numbers)).all()):
+        raise InputError("frames: whole numbers expected", arguments=("frames",))
+    if (np.diff(numbers) <= 0).any():
+        row = int(np.flatnonzero(np.diff(numbers) <= 0)[0]) + 1
+        raise InputError(f"frames: frame numbers must increase row by row; row {row} has {numbers[row]:.0f} after "
+                         f"{numbers[row - 1]:.0f}", arguments=("frames",))
+    if confidences is not None:
+        scores = numeric_array(confidences, "confidences")
+        if scores.shape != keypoints.shape[:2]:
+            raise InputError(f"confidences: expected shape {keypoints.shape[:-1]}, got {scores.shape}",
+                             arguments=("confidences",))
+    return TrackDetections(numbers, keypoints, confidences).dense("frames")
+
+
+def prepared_tracks(tracks: dict, camera: Camera, fps: float | None, layout: str, smooth_2d: str | None,
+                    model_skeleton: Callable[[Skeleton], Skeleton]) -> tuple[dict, dict, dict]:
+    """{track: detections, as ``Lifter.lift_tracks`` takes them} -> {track: its ``PreparedTrack`` for a model
+    reading ``model_skeleton(skeleton)``}, {track: its frame span}, {track: the InputError refusing it}."""
+    prepared, spans, failures = {}, {}, {}
+    for track, entry in tracks.items():
+        try:
+            if not isinstance(entry, tuple) or len(entry) not in (2, 3):
+                raise InputError(f"tracks[{track!r}]: expected (frame ids, pixels[, confidences])", ("tracks",))
+            spans[track], pixels, confidences = TrackDetections(*entry).dense(f"tracks[{track!r}]")
+            prepared[track] = prepare_track(pixels, camera, confidences, fps, layout, smooth_2d, model_skeleton)
+        except InputError as err:
+            failures[track] = err
+    return prepared, spans, failures
 
 
 def progress_labels(prepared: dict, shown: bool) -> dict:

@@ -230,9 +230,7 @@ def lift_videos(inputs: list[tuple], lifter: Lifter, options: LiftOptions | list
                                   in enumerate(zip(followed, started))},
                                  {k: people.layout for k, people in enumerate(followed)},
                                  {k: people.fps for k, people in enumerate(followed)}, one_clock=one_clock,
-                                 **{name: {k: own.lift_arguments()[name] for k, own in enumerate(each)}
-                                    for name in each[0].lift_arguments() if name != "refine"},
-                                 refine=each[0].refine)
+                                 options=dict(enumerate(each)))
     lifting = time.perf_counter() - clock
     results = []
     for k, ((info, camera, out_dir, _), people, target) in enumerate(zip(started, followed, targets)):
