@@ -13,9 +13,12 @@ from ray3d.geometry import Camera
 from ray3d.io.camera_files import camera_from_options, floor_of_camera_file, floor_z_of_camera_file, read_floor
 from ray3d.io.floor_memory import floor_memory_path, input_key, read_floor_memory, remember_floor
 from ray3d.io.world import WRITTEN_FORMATS
+from ray3d.lifting.lifter import Lifter
 from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.models.precision import check_precision
 from ray3d.refine.ankle_plane import SeenTwice, SizeEvidence
+from ray3d.site.files import read_site
+from ray3d.skeleton import layout_skeleton
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv")
 
@@ -177,15 +180,10 @@ class Job:
 
     def site_plan(self):
         """The ``site.places.Site`` of ``site`` (None without one)."""
-        from ray3d.site.files import read_site
-
         return None if self.site is None else read_site(self.site)
 
 
 def load_lifter(checkpoint: str | None = None, precision: str = "fp32", layout: str | None = None):
     """The model a job or a benchmark lifts by: ``checkpoint`` (a shipped name or a path; None: the shipped model for
     keypoints of ``layout``, H36M-17 when None) in ``precision``."""
-    from ray3d.lifting.lifter import Lifter
-    from ray3d.skeleton import layout_skeleton
-
     return Lifter.load(checkpoint, layout=layout_skeleton(layout or "h36m17").name, precision=precision)

@@ -11,11 +11,18 @@ import dataclasses
 from pathlib import Path
 
 from ray3d.errors import InputError
+from ray3d.fusion import fuse_worlds
 from ray3d.geometry import Camera
 from ray3d.io.atomic import check_output, refuse_existing
 from ray3d.io.bvh_export import export_paths
+from ray3d.io.keypoints import read_keypoints
 from ray3d.io.world import World, write_world
 from ray3d.jobs.job import Job
+from ray3d.lifting.files import lift_file
+from ray3d.site.places import Site
+from ray3d.site.report import analyse_site, site_outputs
+from ray3d.video import DEFAULT_DETECTOR, camera_for_video, lift_video, lift_videos, make_detector, read_video_info
+from ray3d.viz.html_viewer import write_viewer
 
 
 @dataclasses.dataclass
@@ -117,8 +124,6 @@ def site_folder(job: Job, out: str | Path) -> Path:
 def check_site_outputs(folder: Path, inputs: tuple, overwrite: bool, every_s: float | None = None) -> None:
     """Before any work: no output of a site's report in ``folder`` (with time buckets of ``every_s``) may be one of
     ``inputs`` or exist (unless ``overwrite``)."""
-    from ray3d.site.report import site_outputs
-
     for path in site_outputs(folder, every_s is not None):
         refuse_existing(check_output(path, inputs), overwrite)
 
@@ -128,9 +133,6 @@ def site_report(world: World, site, folder: str | Path, title: str = "", overwri
     """``world``'s people on ``site`` (a ``site.places.Site``): its events, counts per place, tables and plots in
     ``folder`` (``site.report.analyse_site``; time buckets of ``every_s`` seconds from ``start_time``). The one
     place a job's, a live run's or ``ray3d site``'s report is made."""
-    from ray3d.site.places import Site
-    from ray3d.site.report import analyse_site
-
     if not isinstance(world, World) or not isinstance(site, Site):
         raise InputError(f"world, site: a World and a Site (site.files.read_site); got {type(world).__name__} and "
                          f"{type(site).__name__}", ("world", "site"))
@@ -143,8 +145,6 @@ def site_report(world: World, site, folder: str | Path, title: str = "", overwri
 def video_input(job: Job, k: int):
     """Input ``k`` of a video job made ready: its ``VideoInfo`` (the header read once), its camera (for the video's
     image size) and its detector."""
-    from ray3d.video import read_video_info
-
     info = read_video_info(job.inputs[k])
     return (info, *camera_and_detector(job, k, info))
 
@@ -153,8 +153,6 @@ def camera_and_detector(job: Job, k: int, info, live: bool = False):
     """Input ``k``'s camera for its video's or stream's ``VideoInfo`` (image size, frame rate) and its detector
     (``live``: one that keeps up with a stream; a callable ``job.detector`` makes it for the camera). The one place
     a video's or a stream's camera and detector are put together."""
-    from ray3d.video import DEFAULT_DETECTOR, camera_for_video, make_detector
-
     camera = camera_for_video(job.cameras[k].camera(info.image_size), info)
     detector = job.detector(camera) if callable(job.detector) else \
         make_detector(job.detector or DEFAULT_DETECTOR, camera, live=live)
@@ -164,11 +162,7 @@ def camera_and_detector(job: Job, k: int, info, live: bool = False):
 def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -> InputResult:
     """Input ``k`` lifted as one camera's: a video into the folder ``out`` (world, detections, viewer, overlay), a
     keypoint file into the world file ``out`` (None: lifted, not written)."""
-    from ray3d.lifting.files import lift_file
-
     if job.kind == "video":
-        from ray3d.video import lift_video
-
         info, camera, detector = video_input(job, k)
         result = lift_video(info, camera, out, detector, job.lifter(detector.layout), job.lift_options(k), job.video,
                             world_format=job.world_format, overlay=job.overlay, overwrite=job.overwrite,
@@ -186,8 +180,6 @@ def run_input(job: Job, k: int, out: str | Path | None, progress: bool = True) -
 def run_videos_together(job: Job, outs: list[str | Path], progress: bool = True) -> list[InputResult]:
     """Every video of a several-camera job into its folder of ``outs``, its people followed as ``run_input``
     follows them and lifted with every other camera's on the site's one floor (``video.lift_videos``)."""
-    from ray3d.video import lift_videos
-
     opened = [video_input(job, k) for k in range(len(job.inputs))]
     results = lift_videos([(info, camera, out, detector) for (info, camera, detector), out in zip(opened, outs)],
                           job.lifter(opened[0][2].layout), [job.lift_options(k) for k in range(len(opened))],
@@ -202,8 +194,6 @@ def lift_cameras_together(job: Job, progress: bool = True) -> list[InputResult]:
     world frame, one floor, where people's ankles meet it observed from every camera's people together (and
     triangulated where two see one at once, unless the files' clocks are to be found). Not written; fuse them with
     ``fuse_and_write``."""
-    from ray3d.io.keypoints import read_keypoints
-
     options = {k: job.lift_options(k) for k in range(len(job.inputs))}  # each camera's own, as live's
     files = [read_keypoints(path, job.layout, job.fps, **job.read_options) for path in job.inputs]
     cameras = [choice.camera() for choice in job.cameras]
@@ -231,8 +221,6 @@ def fuse_and_write(worlds: list[World], world_path: str | Path | None = None, of
     """Several cameras' worlds -> one (``ray3d.fusion.fuse_worlds``: offsets given, found, or 0; who is who found,
     or given as ``groups``), written to ``world_path`` (.json) and drawn in ``viewer_path`` where given. Returns
     the ``Fusion``."""
-    from ray3d.fusion import fuse_worlds
-
     for path in (world_path, viewer_path):
         if path is not None:
             refuse_existing(Path(path), overwrite)
@@ -240,8 +228,6 @@ def fuse_and_write(worlds: list[World], world_path: str | Path | None = None, of
     if world_path is not None:
         write_world(world_path, fusion.world, overwrite=overwrite)
     if viewer_path is not None:
-        from ray3d.viz.html_viewer import write_viewer
-
         write_viewer(viewer_path, fusion.world.tracks, fusion.world.fps, fusion.world.camera,
                      title=title or f"ray3d: {len(worlds)} cameras", overwrite=overwrite,
                      more_cameras=fusion.world.cameras[1:])
