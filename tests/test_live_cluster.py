@@ -28,6 +28,7 @@ from ray3d.jobs.live import live_job, local_inputs, open_live  # noqa: E402
 from ray3d.lifting.options import VideoOptions  # noqa: E402
 from ray3d.live.runner import LiveOptions  # noqa: E402
 from ray3d.live.source import FrameSource, SourceGroup  # noqa: E402
+from ray3d.metrics import match_tracks  # noqa: E402
 
 # The scripted detector and the scene travel to the actors by value (they are test code, not importable there).
 ray.cloudpickle.register_pickle_by_value(test_live)
@@ -86,13 +87,7 @@ def test_each_camera_in_a_ray_actor_gives_the_world_of_the_run_in_this_process(t
     assert local.ending == on_ray.ending == "ended" and on_ray.processed + on_ray.dropped == on_ray.read == 60
     mine, theirs = read_world(local.files["world"]), read_world(on_ray.files["world"])
     assert len(mine.tracks) == len(theirs.tracks) == 2
-    for result in mine.tracks.values():  # every track matched, near
-        distances = []
-        for other in theirs.tracks.values():
-            shared, a, b = np.intersect1d(result.frames, other.frames, return_indices=True)
-            if len(shared):
-                distances.append(np.median(np.linalg.norm(result.root[a, :2] - other.root[b, :2], axis=-1)))
-        assert min(distances) <= 0.15
+    assert len(match_tracks(mine.tracks, theirs.tracks, within_m=0.15)) == 2  # every track matched, near
     events = [json.loads(line) for line in (tmp_path / "ray" / "events.jsonl").read_text().splitlines()]
     assert sum(e["event"] == "track started" for e in events) == sum(e["event"] == "track ended" for e in events) == 2
 
