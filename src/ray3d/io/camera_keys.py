@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from ray3d.errors import InputError
-from ray3d.geometry.camera import DICT_FIELDS
+from ray3d.geometry.camera_parameters import DICT_FIELDS
 
 FLOOR_KEY = "floor_regions"
 FLOOR_Z_KEY = "floor_z_m"
