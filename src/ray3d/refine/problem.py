@@ -16,8 +16,59 @@ from ray3d.body import HEAD, HEAD_HEIGHT_OF_BODY_SIZE, body_sizes, lowest_ankles
 from ray3d.geometry import Camera
 from ray3d.geometry.floor import Floor
 from ray3d.refine.config import CUES, EVIDENCE_FPS, PINNED_SD, UNCERTAINTY_SAMPLES, RefineConfig
+from ray3d.refine.gauss_newton import gauss_newton, soft_l1_cost, soft_l1_weights
 
 PRIORS = 4  # the rows of the track's terms' priors, last of the linear rows: size, network error, contact, head
+
+
+def _term_columns(count: int) -> range:
+    """x's columns of the track's terms, after the ``count`` frames' factors: size, network error, contact, head."""
+    return range(count, count + PRIORS)
+
+
+def _linear_terms(joints: np.ndarray, distance: np.ndarray, fps: float, config: RefineConfig, observed: np.ndarray,
+                  per_frame: float) -> tuple[sparse.csr_matrix, np.ndarray, np.ndarray]:
+    """The rows of the problem linear in x, their targets and their weights: each frame's factor against the
+    network's (less its shared error), the smoothness of the (T,) camera ``distance``, each ``observed`` frame's
+    size against the track's, and last the priors of the track's terms (``PRIORS`` rows)."""
+    count = len(joints)
+    columns = count + PRIORS
+    size_column, bias_column, offset_column, head_column = _term_columns(count)
+    blocks, targets, weights = [], [], []
+
+    def add(matrix, target, weight) -> None:
+        blocks.append(sparse.csr_matrix(matrix))
+        targets.append(np.broadcast_to(target, matrix.shape[:1]))
+        weights.append(np.broadcast_to(weight, matrix.shape[:1]))
+
+    frames = sparse.eye(count, columns)
+    add(frames - sparse.csr_matrix((np.ones(count), (np.arange(count), np.full(count, bias_column))),
+                                   shape=(count, columns)),
+        0.0, per_frame / config.network_frame_sd(distance))
+    if count > 2:  # the distance log(s_t d_t) changes smoothly: its second difference is small
+        second = sparse.csr_matrix(sparse.eye(count - 2, columns) - 2 * sparse.eye(count - 2, columns, 1)
+                  + sparse.eye(count - 2, columns, 2))
+        add(second, -(second[:, :count] @ np.log(distance)), 1 / (config.distance_acceleration_sd * fps ** -1.5))
+    add(sparse.hstack([sparse.eye(count), -np.ones((count, 1)), sparse.csr_matrix((count, PRIORS - 1))]),
+        -np.log(np.maximum(body_sizes(joints), 1e-3)), observed * per_frame / config.frame_size_sd)
+
+    def prior(column: int, target: float, sd: float) -> None:
+        add(sparse.csr_matrix(([1.0], ([0], [column])), shape=(1, columns)), target, 1 / sd)
+
+    prior(size_column, np.log(config.body_size_m), config.body_size_sd)
+    # The network's shared error and the person's contact height are held at 0 in the solution (weighing each
+    # frame's network depth on its own and the contact height at its prior measured best on the test
+    # performers, docs/RESULTS.md) and released to their spreads for its uncertainty.
+    prior(bias_column, 0.0, PINNED_SD)
+    prior(offset_column, 0.0, PINNED_SD)
+    prior(head_column, 0.0, PINNED_SD)
+    return sparse.vstack(blocks).tocsr(), np.concatenate(targets), np.concatenate(weights)
+
+
+def _picks(frames: np.ndarray, column: np.ndarray | int, columns: int) -> sparse.csr_matrix:
+    """One row per frame of ``frames``, a 1 in ``column`` (a frame's own, or one column for all) of ``columns``."""
+    return sparse.csr_matrix((np.ones(len(frames)), (np.arange(len(frames)), np.broadcast_to(column, len(frames)))),
+                             shape=(len(frames), columns))
 
 
 class TrackProblem:
@@ -34,55 +85,20 @@ class TrackProblem:
         # Neighbouring frames' errors are alike (the network sees overlapping windows), so a second of footage
         # is worth the same evidence at any frame rate; a frame filled in across a gap is no evidence of size.
         self.per_frame = np.sqrt(EVIDENCE_FPS / fps)
-        count = self.count
-        self.columns = columns = count + 4
-        self.size_column, self.bias_column, self.offset_column, self.head_column = range(count, count + 4)
-        blocks, targets, weights = [], [], []
-
-        def add(matrix, target, weight) -> None:
-            blocks.append(sparse.csr_matrix(matrix))
-            targets.append(np.broadcast_to(target, matrix.shape[:1]))
-            weights.append(np.broadcast_to(weight, matrix.shape[:1]))
-
-        frames = sparse.eye(count, columns)
-        add(frames - sparse.csr_matrix((np.ones(count), (np.arange(count), np.full(count, self.bias_column))),
-                                       shape=(count, columns)),
-            0.0, self.per_frame / config.network_frame_sd(distance))
-        if count > 2:  # the distance log(s_t d_t) changes smoothly: its second difference is small
-            second = sparse.csr_matrix(sparse.eye(count - 2, columns) - 2 * sparse.eye(count - 2, columns, 1)
-                      + sparse.eye(count - 2, columns, 2))
-            add(second, -(second[:, :count] @ np.log(distance)), 1 / (config.distance_acceleration_sd * fps ** -1.5))
-        add(sparse.hstack([sparse.eye(count), -np.ones((count, 1)), sparse.csr_matrix((count, PRIORS - 1))]),
-            -np.log(np.maximum(body_sizes(joints), 1e-3)), observed * self.per_frame / config.frame_size_sd)
-
-        def prior(column: int, target: float, sd: float) -> None:
-            add(sparse.csr_matrix(([1.0], ([0], [column])), shape=(1, columns)), target, 1 / sd)
-
-        prior(self.size_column, np.log(config.body_size_m), config.body_size_sd)
-        # The network's shared error and the person's contact height are held at 0 in the solution (weighing each
-        # frame's network depth on its own and the contact height at its prior measured best on the test
-        # performers, docs/RESULTS.md) and released to their spreads for its uncertainty.
-        prior(self.bias_column, 0.0, PINNED_SD)
-        prior(self.offset_column, 0.0, PINNED_SD)
-        prior(self.head_column, 0.0, PINNED_SD)
-        self.linear, self.target = sparse.vstack(blocks).tocsr(), np.concatenate(targets)
-        self.weight = np.concatenate(weights)
+        self.columns = columns = self.count + PRIORS
+        self.size_column, self.bias_column, self.offset_column, self.head_column = _term_columns(self.count)
+        self.linear, self.target, self.weight = _linear_terms(joints, distance, fps, config, observed, self.per_frame)
         self.released = self.weight.copy()
         self.bias_sd = float(config.network_bias_sd(np.median(distance)))
         self.released[-3:] = 1 / np.array([self.bias_sd, config.floor_offset_sd_m, config.head_offset_sd_m])
         self.robust = np.ones(len(self.target) + floored.sum() + headed.sum(), dtype=bool)
         self.robust[len(self.target) - PRIORS:len(self.target)] = False
-
-        def picks(frames: np.ndarray, column: np.ndarray | int) -> sparse.csr_matrix:
-            """One row per frame of ``frames``, a 1 in ``column`` (a frame's own, or one column for all)."""
-            return sparse.csr_matrix((np.ones(len(frames)), (np.arange(len(frames)),
-                                      np.broadcast_to(column, len(frames)))), shape=(len(frames), columns))
-
-        self.floor_scale_rows = picks(np.flatnonzero(floored), np.flatnonzero(floored))
-        self.floor_offset_rows = picks(np.flatnonzero(floored), self.offset_column)
-        self.head_scale_rows = picks(np.flatnonzero(headed), np.flatnonzero(headed))
-        self.head_size_rows = picks(np.flatnonzero(headed), self.size_column)
-        self.head_offset_rows = picks(np.flatnonzero(headed), self.head_column)
+        floor_frames, head_frames = np.flatnonzero(floored), np.flatnonzero(headed)
+        self.floor_scale_rows = _picks(floor_frames, floor_frames, columns)
+        self.floor_offset_rows = _picks(floor_frames, self.offset_column, columns)
+        self.head_scale_rows = _picks(head_frames, head_frames, columns)
+        self.head_size_rows = _picks(head_frames, self.size_column, columns)
+        self.head_offset_rows = _picks(head_frames, self.head_column, columns)
 
     def _moved(self, x: np.ndarray, points: np.ndarray, frames: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -126,32 +142,15 @@ class TrackProblem:
         """Robust (soft L1) for the frames' terms: quadratic within ``robust_scale`` standard deviations, linear
         beyond; squares for the priors of the track's size, network error and contact height, which would
         otherwise run away together."""
-        scaled = (self.residuals(x) / self.config.robust_scale) ** 2
-        return float(np.sum(np.where(self.robust, 2 * (np.sqrt(1 + scaled) - 1), scaled)))
+        return soft_l1_cost(self.residuals(x), self.robust, self.config.robust_scale)
 
     def _robust_weight(self, residuals: np.ndarray) -> np.ndarray:
-        return np.where(self.robust, 1 / np.sqrt(1 + (residuals / self.config.robust_scale) ** 2), 1.0)
+        return soft_l1_weights(residuals, self.robust, self.config.robust_scale)
 
     def solve(self, start: np.ndarray, iterations: int = 50, tolerance: float = 1e-10) -> np.ndarray:
         """Gauss-Newton with iteratively reweighted least squares for the robust loss; each step is one sparse
         solve of the (banded) normal equations, so long tracks cost little."""
-        x, cost = start.copy(), self.cost(start)
-        for _ in range(iterations):
-            residuals, jacobian = self.residuals(x), self.jacobian(x)
-            weight = self._robust_weight(residuals)
-            normal = (jacobian.T @ sparse.diags(weight) @ jacobian).tocsc()
-            step = splu(normal + sparse.eye(len(x), format="csc") * 1e-12).solve(-(jacobian.T @ (weight * residuals)))
-            for _ in range(20):  # halve a step that does not lower the cost
-                trial = self.cost(x + step)
-                if trial <= cost:
-                    break
-                step = step / 2
-            else:
-                return x
-            x, cost = x + step, trial
-            if np.abs(step).max() < tolerance:
-                break
-        return x
+        return gauss_newton(self.residuals, self.jacobian, self.cost, self._robust_weight, start, iterations, tolerance)
 
     def cue_shares(self, x: np.ndarray) -> np.ndarray:
         """(T, 4) each frame's information on its distance (log s_t) from the network, the floor, the head's

@@ -20,13 +20,11 @@ from scipy.optimize import linear_sum_assignment
 
 from ray3d.geometry import Camera
 from ray3d.io.detections import TrackDetections
-from ray3d.skeleton import H36M17, convert_keypoints
 from ray3d.video.boxes import box_inside, box_overlap
-from ray3d.video.clothes import COLOUR_GATE, clothes_boxes, clothes_colour, colour_distance
+from ray3d.video.clothes import COLOUR_GATE, colour_distance
 from ray3d.video.detectors import Detection
-from ray3d.video.proposals import PersonScale
+from ray3d.video.floor_points import FloorPoint, FloorPoints
 
-_ANKLES = [H36M17.joint_names.index("l_ankle"), H36M17.joint_names.index("r_ankle")]
 _GATE = 13.8  # chi-square, 2 degrees of freedom, 99.9 %: beyond it a detection cannot be that person
 _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared standard deviations of position
 # A detection whose image box overlaps this much (intersection over union) the box of a person seen in the last
@@ -88,7 +86,7 @@ class _Person:
         self.filter.errorCovPost = np.diag([noise[0, 0], noise[1, 1], 2.0 ** 2, 2.0 ** 2]).astype(np.float64)
         self.colour, self.hits, self.missed = colour, 1, 0
         self.box: np.ndarray | None = None  # (4,) the image box of their last detection
-        self.together = False  # one detection held both them and somebody beside or passing them (``_merged``)
+        self.together = False  # one detection held both them and somebody beside or passing them (``_held_together``)
         self.track: Track | None = None
         self.waiting: list[tuple] = []  # (frame, detection, floor point, its covariance) until confirmed
 
@@ -122,6 +120,34 @@ class _Person:
         self.missed += frames
 
 
+class _CarriedIds:
+    """The ids of the people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``:
+    id, last place and its stream time), for tracks confirmed in the stream's first ``CLAIM_S`` seconds to take up."""
+
+    def __init__(self, carried, dt: float):
+        self._carried = [person for person in carried if person.place is not None]
+        self.dt = dt
+        self._claim_until: int | None = None  # the last frame in which a carried person's id may be taken up
+
+    def start(self, frame_index: int) -> None:
+        """A frame of the stream: the first one given opens the time in which ids may be taken up."""
+        if self._claim_until is None:
+            self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
+
+    def claim(self, here: np.ndarray, frame_index: int) -> str | None:
+        """The id of the carried person nearest ``here`` (x, y metres), if they could have walked there since they
+        were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``) and it is still early enough; taken."""
+        if not self._carried or frame_index > self._claim_until:
+            return None
+        now = frame_index * self.dt
+        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - carried.place_s) for carried in self._carried]
+        distance = [float(np.hypot(*(here - np.asarray(carried.place)))) for carried in self._carried]
+        within = [k for k in range(len(self._carried)) if distance[k] <= reach[k]]
+        if not within:
+            return None
+        return self._carried.pop(min(within, key=distance.__getitem__)).person
+
+
 class FloorTracker:
     """``tracker.update(frame_index, detections, frame)`` once per frame, then ``tracker.tracks()``.
 
@@ -141,8 +167,8 @@ class FloorTracker:
     def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5,
                  confirm_hits: int = CONFIRM_FRAMES,
                  acceleration: float = 2.0, id_prefix: str = "", carried=()):
-        self.camera, self.layout, self.confirm_hits, self.acceleration = camera, layout, confirm_hits, acceleration
-        self.person_height = PersonScale(camera)
+        self.confirm_hits, self.acceleration = confirm_hits, acceleration
+        self.floor_points = FloorPoints(camera, layout)
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
         # Every how many frames it is given (a live camera under load takes every k-th): a person may be missed in
         # MISSES_KEPT frames given in a row whatever time that spans, as at the full rate.
@@ -151,8 +177,7 @@ class FloorTracker:
         self._tracks: list[Track] = []
         self._confirmed = 0  # tracks confirmed so far (their ids), including those handed over by ``finished``
         self.id_prefix = id_prefix
-        self._carried = [person for person in carried if person.place is not None]
-        self._claim_until: int | None = None  # the last frame in which a carried person's id may be taken up
+        self._carried = _CarriedIds(carried, self.dt)
         self._last_frame: int | None = None
         self.frames_with_people = 0  # frames in which the detector found anybody
 
@@ -160,49 +185,18 @@ class FloorTracker:
         """Assign this frame's detections to people (``tracks()`` holds the result). Frames may be skipped
         (live use drops some): people move, and go unseen, for the frames since the last update."""
         elapsed = 1 if self._last_frame is None else max(1, frame_index - self._last_frame)
-        if self._claim_until is None:
-            self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
+        self._carried.start(frame_index)
         self._last_frame = frame_index
         self.frames_with_people += bool(detections)
-        measured = self._measure(detections, frame)
+        measured = self.floor_points(detections, frame)
         usable = [i for i, m in enumerate(measured) if m is not None]
         for person in self._active:
             person.predict(elapsed)
-        matched_people: dict[int, int] = {}  # person (row) -> their detection
-        matched_detections = self._merged(detections, measured, usable)
-        # A matching cascade: people seen in the last frame choose first, then those missed for one frame, and
-        # so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
-        # person in front, who is still being seen.
-        def priority(person: _Person) -> tuple[bool, int]:
-            return person.track is None, person.missed
-
-        for level in sorted({priority(p) for p in self._active}):
-            rows = [r for r, p in enumerate(self._active) if priority(p) == level]
-            cols = [i for i in usable if i not in matched_detections]
-            if not cols:
-                break
-            cost = np.full((len(rows), len(cols)), np.inf)
-            for a, r in enumerate(rows):
-                for b, i in enumerate(cols):
-                    floor, noise, colour = measured[i]
-                    person = self._active[r]
-                    d2 = person.distance(floor, noise)
-                    unlike = colour_distance(person.colour, colour[0])
-                    if unlike >= COLOUR_GATE:
-                        continue
-                    if d2 < _GATE:
-                        cost[a, b] = d2 + _APPEARANCE_WEIGHT * unlike
-                    elif person.missed == 0 and _overlap(person.box, detections[i].box) >= _SAME_BOX:
-                        cost[a, b] = _GATE + _APPEARANCE_WEIGHT * unlike
-            chosen_rows, chosen_cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
-            for a, b in zip(chosen_rows, chosen_cols):
-                if np.isfinite(cost[a, b]):
-                    r, i = rows[a], cols[b]
-                    matched_people[r] = i
-                    matched_detections.add(i)
-                    self._active[r].correct(*measured[i][:2])
+        matched_detections = _held_together(self._active, detections, measured, usable)
+        matched_people = self._match(detections, measured, [i for i in usable if i not in matched_detections])
+        matched_detections |= set(matched_people.values())
         for r, i in matched_people.items():
-            floor, noise, (colour, alone) = measured[i]
+            floor, noise, colour, alone = measured[i]
             # A box overlapping another one, or where somebody not seen now was last seen (they may be behind it),
             # may hold their colours too.
             hiding = any(_overlap(other.box, detections[i].box) > 0.05 for k, other in enumerate(self._active)
@@ -220,37 +214,36 @@ class FloorTracker:
                 survivors.append(person)
         for i in usable:
             if i not in matched_detections:
-                floor, noise, (colour, _) = measured[i]
+                floor, noise, colour, _ = measured[i]
                 person = _Person(floor, noise, colour, self.dt, self.acceleration)
                 survivors.append(person)
                 self._record(person, frame_index, detections[i], floor, noise)
         self._active = survivors
 
-    def _merged(self, detections: list[Detection], measured: list, usable: list[int]) -> set[int]:
-        """The detections that hold two people walking together or passing each other: each near two followed
-        people who were seen in the last frame (or held together since) within ``TOGETHER_M`` of each other, its
-        box covering most of both their last boxes and more than either (not one person in front of another
-        hidden), and no other detection near either. Given to neither (they coast until they part, or for
-        ``max_gap_s``): whichever took it would carry on as the other when they do."""
-        seen = [p for p in self._active if p.track is not None and (p.missed == 0 or p.together)]
-        for person in self._active:
-            person.together = False
-        held = set()
-        for a, first in enumerate(seen):
-            for second in seen[a + 1:]:
-                if np.linalg.norm(first.filter.statePre[:2, 0] - second.filter.statePre[:2, 0]) > TOGETHER_M:
-                    continue
-                near = [i for i in usable if first.distance(*measured[i][:2]) < _GATE
-                        or second.distance(*measured[i][:2]) < _GATE]
-                # Their last boxes (before the first such frame) both mostly inside it; held since, while it lasts.
-                if len(near) != 1:
-                    continue
-                box = detections[near[0]].box
-                if all(p.missed or (box_inside(p.box, box) >= 0.5 and box_inside(box, p.box) < 0.8)
-                       for p in (first, second)):
-                    held.add(near[0])
-                    first.together = second.together = True
-        return held
+    def _match(self, detections: list[Detection], measured: list[FloorPoint | None], free: list[int]
+               ) -> dict[int, int]:
+        """People (their rows in ``_active``) -> the detection each is given, of the ``free`` ones, their filters
+        corrected by it. A matching cascade: people seen in the last frame choose first, then those missed for one
+        frame, and so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
+        person in front, who is still being seen."""
+        def priority(person: _Person) -> tuple[bool, int]:
+            return person.track is None, person.missed
+
+        matched: dict[int, int] = {}
+        for level in sorted({priority(p) for p in self._active}):
+            rows = [r for r, p in enumerate(self._active) if priority(p) == level]
+            cols = [i for i in free if i not in matched.values()]
+            if not cols:
+                break
+            cost = _assignment_cost([self._active[r] for r in rows], [detections[i] for i in cols],
+                                    [measured[i] for i in cols])
+            chosen_rows, chosen_cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
+            for a, b in zip(chosen_rows, chosen_cols):
+                if np.isfinite(cost[a, b]):
+                    r, i = rows[a], cols[b]
+                    matched[r] = i
+                    self._active[r].correct(*measured[i][:2])
+        return matched
 
     def tracks(self) -> list[Track]:
         """Every confirmed track so far (less those ``finished`` handed over), in the order they were confirmed."""
@@ -277,67 +270,59 @@ class FloorTracker:
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            track_id = self._claim(person, frame_index)
+            track_id = self._carried.claim(person.filter.statePost[:2, 0], frame_index)
             if track_id is None:
                 track_id = f"{self.id_prefix}{self._confirmed}"
                 self._confirmed += 1
             person.track = Track(track_id, frames, detections, floor, person.colour, noise)
             self._tracks.append(person.track)
 
-    def _claim(self, person: _Person, frame_index: int) -> str | None:
-        """The id of the carried person nearest where ``person`` stands now, if they could have walked there since
-        they were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``) and it is still early enough; taken."""
-        if not self._carried or frame_index > self._claim_until:
-            return None
-        here, now = person.filter.statePost[:2, 0], frame_index * self.dt
-        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - carried.place_s) for carried in self._carried]
-        distance = [float(np.hypot(*(here - np.asarray(carried.place)))) for carried in self._carried]
-        within = [k for k in range(len(self._carried)) if distance[k] <= reach[k]]
-        if not within:
-            return None
-        return self._carried.pop(min(within, key=distance.__getitem__)).person
 
-    def _measure(self, detections: list[Detection], frame: np.ndarray) -> list:
-        """Each detection's floor point (2,), its covariance (2, 2) and (clothes colour, whether its box is clear
-        of everybody else's), or None where the camera cannot place it on the floor."""
-        if not detections:
-            return []
-        h36m, seen = convert_keypoints(np.stack([d.pixels for d in detections]), self.layout,
-                                       np.stack([d.confidences for d in detections]) >= 0.5)
-        feet = np.stack([self._foot_pixel(d, p, s) for d, p, s in zip(detections, h36m, seen)])
-        # The foot point wanders with the stride and the detector: a few percent of the person's height in pixels.
-        sd_px = np.maximum(2.0, 0.04 * np.array([d.box[3] - d.box[1] for d in detections]))
-        nudged = np.stack([feet, feet + sd_px[:, None] * [1, 0], feet + sd_px[:, None] * [0, 1]], axis=1)
-        points = self.camera.pixels_to_height_plane(nudged, 0.0)  # (N, 3, 3)
-        boxes = np.stack([d.box for d in detections])
-        overlap = box_overlap(boxes, boxes)
-        np.fill_diagonal(overlap, 0.0)
-        alone = overlap.max(axis=1) < 0.05
-        measured = []
-        for detection, point, clear, pixels, found in zip(detections, points, alone, h36m, seen):
-            if not np.isfinite(point).all():
-                measured.append(None)
+def _assignment_cost(people: list[_Person], detections: list[Detection], measured: list[FloorPoint]) -> np.ndarray:
+    """(people, detections) the cost of giving each detection to each person: the squared Mahalanobis distance of
+    its floor point plus how unlike their clothes are; infinite where it cannot be them (beyond the gate in
+    position, unless it is the box they had in the last frame, or in clothes)."""
+    cost = np.full((len(people), len(detections)), np.inf)
+    for a, person in enumerate(people):
+        for b, (detection, point) in enumerate(zip(detections, measured)):
+            d2 = person.distance(point.floor, point.noise)
+            unlike = colour_distance(person.colour, point.colour)
+            if unlike >= COLOUR_GATE:
                 continue
-            spread = (point[1:, :2] - point[0, :2]).T
-            noise = spread @ spread.T + np.eye(2) * 0.15 ** 2  # the stride: the ankles swing about the body
-            colour = clothes_colour(frame, *clothes_boxes(detection, pixels, found))
-            measured.append((point[0, :2], noise, (colour, clear)))
-        return measured
+            if d2 < _GATE:
+                cost[a, b] = d2 + _APPEARANCE_WEIGHT * unlike
+            elif person.missed == 0 and _overlap(person.box, detection.box) >= _SAME_BOX:
+                cost[a, b] = _GATE + _APPEARANCE_WEIGHT * unlike
+    return cost
 
-    def _foot_pixel(self, detection: Detection, pixels: np.ndarray, seen: np.ndarray) -> np.ndarray:
-        """The pixel between the feet, from the detection's H36M-17 ``pixels`` (17, 2) and which are ``seen``
-        (17,): the ankles where they are seen (also when the person crouches); where they are not (the legs
-        hidden, or a half-body pose), no higher than the bottom of the joints seen, and as low as a person
-        standing there with their head at the top."""
-        ankles = pixels[_ANKLES][seen[_ANKLES]]
-        if len(ankles):
-            return ankles.mean(axis=0)
-        x0, y0, x1, y1 = detection.box
-        foot = np.array([(x0 + x1) / 2, y1])
-        expected = float(self.person_height(foot))
-        if np.isfinite(expected):
-            foot[1] = max(y1, self.person_height.foot_below_head(foot[0], y0, expected))
-        return foot
+
+def _held_together(people: list[_Person], detections: list[Detection], measured: list[FloorPoint | None],
+                   usable: list[int]) -> set[int]:
+    """The detections that hold two people walking together or passing each other: each near two followed
+    people who were seen in the last frame (or held together since) within ``TOGETHER_M`` of each other, its
+    box covering most of both their last boxes and more than either (not one person in front of another
+    hidden), and no other detection near either. Given to neither (they coast until they part, or for
+    ``max_gap_s``): whichever took it would carry on as the other when they do. Marks the people it holds
+    ``together``."""
+    seen = [p for p in people if p.track is not None and (p.missed == 0 or p.together)]
+    for person in people:
+        person.together = False
+    held = set()
+    for a, first in enumerate(seen):
+        for second in seen[a + 1:]:
+            if np.linalg.norm(first.filter.statePre[:2, 0] - second.filter.statePre[:2, 0]) > TOGETHER_M:
+                continue
+            near = [i for i in usable if first.distance(*measured[i][:2]) < _GATE
+                    or second.distance(*measured[i][:2]) < _GATE]
+            # Their last boxes (before the first such frame) both mostly inside it; held since, while it lasts.
+            if len(near) != 1:
+                continue
+            box = detections[near[0]].box
+            if all(p.missed or (box_inside(p.box, box) >= 0.5 and box_inside(box, p.box) < 0.8)
+                   for p in (first, second)):
+                held.add(near[0])
+                first.together = second.together = True
+    return held
 
 
 def _overlap(a: np.ndarray, b: np.ndarray) -> float:
