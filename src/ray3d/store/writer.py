@@ -92,7 +92,6 @@ class RunRecorder:
         # A stream's URL is recorded without its password (the store is read by whoever reports on the site).
         self.location, self.sources, self.report = location, [without_passwords(s) for s in sources], report
         self.shown = shown(location)  # as said in messages (a PostgreSQL URL without its password)
-        self.commit_every_s = commit_every_s
         self._writer = WriterLock(location)
         self._writer.take()
         database = None
