@@ -25,7 +25,8 @@ from ray3d.site.analytics import stature_class
 
 class Views:
     """What the cameras give, brought together: each camera's finished people appended to its world file; with
-    several, their people joined into world people (``LiveFusion``) on the first camera's clock."""
+    several, their people joined into world people (``LiveFusion``) on the first camera's clock, each frame held
+    until it is settled (``HeldFrames``)."""
 
     def __init__(self, cameras, out_dir: Path, offsets_s: list[float] | None, recorder=None):
         self.cameras, self.several, self.recorder = cameras, len(cameras.cameras) > 1, recorder
@@ -46,12 +47,8 @@ class Views:
         self.written, self.left_out = 0, {}
         self.joined: dict[str, list[tuple[int, str]]] = {}  # who each world person that left was
         self.label = " + ".join(str(name) for name in cameras.names)  # who saw the world's people
-        # Several cameras: the frames not settled yet, {frame: {person: PersonNow}}, held until who everybody in
-        # them is has been decided (``LiveFusion``: ``WAIT_S`` at most) and every camera's view of them is in.
-        self._held: dict[int, dict[str, PersonNow]] = {}
-        self._hold_frames = int(np.ceil((WAIT_S + 2.0 / min(cameras.fps)) * self.fps))
-        self._settled_until = -1  # the last frame settled
-        self._newest = -1  # the newest frame any camera has given
+        self.held = HeldFrames(self.fps, int(np.ceil((WAIT_S + 2.0 / min(cameras.fps)) * self.fps))) \
+            if self.several else None
         # The run's one floor: the cameras' pool (``live.floor.FloorPool``) from what earlier runs showed of
         # these cameras where they stand now, the people two of them saw at once crossed as the join names them,
         # and each camera's latest decision, for the page.
@@ -78,40 +75,14 @@ class Views:
         for track in result.ended:
             self.fusion.finished(view, track)
         persons = self.fusion.update(view, time_s, result.persons)
-        # The people now are every camera's latest answers: a camera's frame that comes in after another's later
-        # one updates the newest frame (an older one would go back in time for the other camera's people).
-        index = self._newest = max(self._newest, int(round(time_s * self.fps)))
-        self._hold(index, persons)
-        self._hold_decided()
-        return self._settle(index - self._hold_frames), persons, self._ended(time_s)
+        settled = self.held.newest(time_s, persons, self.fusion.decided)
+        return settled, persons, self._ended(time_s)
 
     def recorded(self, view: int, result: FrameResult) -> None:
         """This camera's processed frame recorded, once its events are handed to the store: a run cut off after
         the store's commit is taken up at the next frame, with every event of this one."""
         if self.recorder is not None:
             self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
-
-    def _hold(self, index: int, persons: list[PersonNow], replace: bool = True) -> None:
-        """``persons`` in frame ``index`` until it is settled (too late for a frame settled already); without
-        ``replace``, only where the frame has not got that person."""
-        if index > self._settled_until:
-            frame = self._held.setdefault(index, {})
-            for person in persons:
-                if replace or person.track not in frame:
-                    frame[person.track] = person
-
-    def _hold_decided(self) -> None:
-        """What tracks saw before who they were was decided (``LiveFusion.decided``), into the held frames."""
-        for at, now in self.fusion.decided:
-            self._hold(int(round(at * self.fps)), [now], replace=False)
-        self.fusion.decided.clear()
-
-    def _settle(self, until: float) -> list[tuple]:
-        """The held frames up to ``until``, in order: (frame, its people)."""
-        ready = sorted(index for index in self._held if index <= until)
-        if ready:
-            self._settled_until = ready[-1]
-        return [(index, list(self._held.pop(index).values())) for index in ready]
 
     def finish(self) -> tuple[list[tuple], list[tuple[str, int]]]:
         """Everybody still in view handed over: the frames not settled yet, in order, and who leaves (person, the
@@ -124,10 +95,10 @@ class Views:
                     self.fusion.finished(view, track)
                 else:
                     leaving.append((track, last_frame))
-        if self.several:
-            leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self._ended(np.inf, seen=True)]
-            self._hold_decided()
-        return self._settle(np.inf), leaving
+        if not self.several:
+            return [], leaving
+        leaving = [(n, int(round(seen_s * self.fps))) for n, seen_s in self._ended(np.inf, seen=True)]
+        return self.held.last(self.fusion.decided), leaving
 
     def _ended(self, time_s: float, seen: bool = False) -> list:
         """``LiveFusion.ended``, and who each of those people was kept and appended to the join's file."""
@@ -192,6 +163,56 @@ class Views:
                                      stature_class(stature, refinement.get("stature_interval_m")),
                                      len((finished.world.rejoined or {}).get(finished.track, ())),
                                      self.cameras.names[view])
+
+
+class HeldFrames:
+    """Several cameras' frames not settled yet, {frame: {person: PersonNow}} on the first camera's clock (``fps``),
+    held until who everybody in them is has been decided (``LiveFusion``: ``WAIT_S`` at most) and every camera's view
+    of them is in: ``hold_frames`` behind the newest frame any camera has given."""
+
+    def __init__(self, fps: float, hold_frames: int):
+        self.fps, self.hold_frames = fps, hold_frames
+        self._held: dict[int, dict[str, PersonNow]] = {}
+        self._settled_until = -1  # the last frame settled
+        self._newest = -1  # the newest frame any camera has given
+
+    def newest(self, time_s: float, persons: list[PersonNow], decided: list) -> list[tuple]:
+        """A camera's people now (at ``time_s``) and what tracks saw before who they were was ``decided``, held;
+        the frames settled by them, in order: (frame, its people)."""
+        # The people now are every camera's latest answers: a camera's frame that comes in after another's later
+        # one updates the newest frame (an older one would go back in time for the other camera's people).
+        index = self._newest = max(self._newest, int(round(time_s * self.fps)))
+        self._hold(index, persons)
+        self._hold_decided(decided)
+        return self._settle(index - self.hold_frames)
+
+    def last(self, decided: list) -> list[tuple]:
+        """Every frame held settled, in order, with what was ``decided`` last."""
+        self._hold_decided(decided)
+        return self._settle(np.inf)
+
+    def _hold(self, index: int, persons: list[PersonNow], replace: bool = True) -> None:
+        """``persons`` in frame ``index`` until it is settled (too late for a frame settled already); without
+        ``replace``, only where the frame has not got that person."""
+        if index > self._settled_until:
+            frame = self._held.setdefault(index, {})
+            for person in persons:
+                if replace or person.track not in frame:
+                    frame[person.track] = person
+
+    def _hold_decided(self, decided: list) -> None:
+        """What tracks saw before who they were was decided (``LiveFusion.decided``: (time_s, PersonNow) pairs,
+        taken from the list), into the held frames."""
+        for at, now in decided:
+            self._hold(int(round(at * self.fps)), [now], replace=False)
+        decided.clear()
+
+    def _settle(self, until: float) -> list[tuple]:
+        """The held frames up to ``until``, in order: (frame, its people)."""
+        ready = sorted(index for index in self._held if index <= until)
+        if ready:
+            self._settled_until = ready[-1]
+        return [(index, list(self._held.pop(index).values())) for index in ready]
 
 
 JOINED_FILE = "joined.jsonl"
