@@ -72,6 +72,15 @@ def run_to_end(command: list[str], env: dict | None = None) -> dict:
     return {"exit_code": done.returncode, **closing_figures(done.stderr)}
 
 
+def track_spans(events: list[dict]) -> dict[str, tuple[float, float]]:
+    """Each track's first and last moment (Unix seconds) among a store's ``events``."""
+    spans: dict = {}
+    for event in events:
+        first, last = spans.get(event["track"], (event["at"], event["at"]))
+        spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
+    return spans
+
+
 def fresh_folder(out: Path) -> Path:
     """``out``, made; refused where it holds anything (a store appended to would mix two benchmarks)."""
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
@@ -231,10 +240,7 @@ def rtsp(video: Path, camera: str, out: Path, site: Path | None = None, seconds:
         raise InputError(f"bench live rtsp: ray3d live ended with {follower.returncode} before its store: "
                          f"{''.join(said[-1:]).strip()} (all it said: {out / 'live.log'})")
     record = read_record(out / "live" / "site.db")
-    spans: dict = {}
-    for event in record.events:
-        first, last = spans.get(event["track"], (event["at"], event["at"]))
-        spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
+    spans = track_spans(record.events)
     return {"mode": "rtsp", "command": " ".join(command), "exit_code": follower.returncode,
             **closing_figures("".join(said)),
             "gaps": [{"s": round(g["to_at"] - g["from_at"], 1), "why": g["why"]} for g in record.gaps],

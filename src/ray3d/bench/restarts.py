@@ -19,7 +19,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from ray3d.bench.live import fresh_folder, live_command, run_to_end
+from ray3d.bench.live import fresh_folder, live_command, run_to_end, track_spans
 from ray3d.site.events import LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT
 from ray3d.store import read_record
 
@@ -110,10 +110,7 @@ def _in_view_across_a_gap(reference, record, down: list[dict]) -> dict[str, set]
     """The tracks whose events the gaps hide: in the uninterrupted run, a person seen before and after a kill's
     moment; in the killed store, a person whose track never ended before a kill, or began within
     ``AFTER_RESTART_S`` of a restart (new tracks, followed from a different history)."""
-    spans: dict = {}
-    for event in reference.events:
-        first, last = spans.get(event["track"], (event["at"], event["at"]))
-        spans[event["track"]] = (min(first, event["at"]), max(last, event["at"]))
+    spans = track_spans(reference.events)
     hidden_reference = {t for t, (first, last) in spans.items() for g in down
                         if first <= g["to_at"] and last >= g["from_at"] - 1.0}
     ended = {e["track"] for e in record.events if e["event"] == TRACK_ENDED.name}

@@ -159,21 +159,23 @@ class CameraPeople:
     def _after_gap(self) -> list:
         """The stream was down: everybody followed before it is let go (nobody is followed, or counted, across a
         gap) and the tracks after it are numbered apart."""
-        self.people.close()
-        cut = self.people.in_view()
-        for track in cut:
-            self.finisher.put(track)
+        cut = self._let_go()
         self.gaps += 1
         self.people = LivePeople(**self._following, id_prefix=f"{self.id_prefix}g{self.gaps}-")
         return cut
 
     def finish(self) -> tuple[list[tuple[str, int]], list[Finished]]:
         """Everybody still in view let go: (track, last frame) of each, and every track lifted not yet taken."""
+        in_view = self._let_go()
+        return [(t.id, t.frames[-1]) for t in in_view], self.finisher.close()
+
+    def _let_go(self) -> list:
+        """Everybody in view let go, each track handed to be lifted whole: those tracks."""
         self.people.close()
         in_view = self.people.in_view()
         for track in in_view:
             self.finisher.put(track)
-        return [(t.id, t.frames[-1]) for t in in_view], self.finisher.close()
+        return in_view
 
 
 class LocalCameras:

@@ -169,26 +169,26 @@ class _Outputs:
         return _monitored(self.monitor, settled, self.buckets)
 
     def emit(self, events: list[dict]) -> None:
-        self.log.write(events)
+        self._sent(events)
         if self.recorder is not None:
             self.recorder.events(events)
         if self.buckets is not None:
             self.buckets.add(events)
-        if self.webhook:
-            self.webhook.post(events)
-        if self.mqtt is not None:
-            self.mqtt.publish(events, self.monitor)
         self.latest.extend(events)
         self.count += len(events)
 
     def taken_over(self, closed: list[dict]) -> None:
         """The events that closed what the run before left open (``store.RunRecorder.closed``, in the store
         already) to the event log, the webhook and MQTT; not to this run's counts."""
-        self.log.write(closed)
+        self._sent(closed)
+
+    def _sent(self, events: list[dict]) -> None:
+        """``events`` to the event log, the webhook and MQTT."""
+        self.log.write(events)
         if self.webhook:
-            self.webhook.post(closed)
+            self.webhook.post(events)
         if self.mqtt is not None:
-            self.mqtt.publish(closed, self.monitor)
+            self.mqtt.publish(events, self.monitor)
 
     def close(self) -> dict:
         """Every output closed (the store is closed by the run, with how it ended); the webhook's counts."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -43,11 +44,7 @@ class StoredRecord:
 def read_record(location, from_at: float | None = None, to_at: float | None = None) -> StoredRecord:
     """The store at ``location`` (a file or a ``postgresql://`` URL) over [``from_at``, ``to_at``) (Unix seconds;
     None: from its first record / to its last)."""
-    from pathlib import Path
-
-    if not is_postgresql(location) and not Path(location).is_file():
-        raise InputError(f"store: {location}: no such store", ("store",))
-    database = connect(location)
+    database = _opened(location)
     try:
         low = -math.inf if from_at is None else float(from_at)
         high = math.inf if to_at is None else float(to_at)
@@ -122,11 +119,7 @@ def floor_decisions(location, kept: int = REMEMBERED_PER_CAMERA) -> dict[str, An
     the camera stood last (``observe_ankle_plane`` on its latest ``kept`` people and people seen twice): for its
     detector's keypoints where the store knows them (``AnklePlane.message`` says it), else the floor's own plane
     (contact 0)."""
-    from pathlib import Path
-
-    if not is_postgresql(location) and not Path(location).is_file():
-        raise InputError(f"store: {location}: no such store", ("store",))
-    database = connect(location)
+    database = _opened(location)
     try:
         decided = {}
         for (camera,) in database.rows("SELECT DISTINCT camera FROM floor_evidence ORDER BY camera"):
@@ -160,11 +153,7 @@ COPIED_TABLES = {"runs": ("run", "started_at", "command", "sources", "site", "en
 def copy_record(source, target) -> dict[str, int]:
     """Every row of the store at ``source`` into a new, empty store at ``target`` (say from SQLite to PostgreSQL
     as a site grows), in one transaction; the rows copied per table. A ``target`` holding runs is refused."""
-    from pathlib import Path
-
-    if not is_postgresql(source) and not Path(source).is_file():
-        raise InputError(f"store: {source}: no such store", ("store",))
-    reading, writing = connect(source), connect(target)
+    reading, writing = _opened(source), connect(target)
     try:
         if writing.rows("SELECT COUNT(*) FROM runs")[0][0]:
             raise InputError(f"copy_to: {shown(target)}: holds a record already; copy into an empty store",
@@ -183,3 +172,10 @@ def copy_record(source, target) -> dict[str, int]:
     finally:
         reading.close()
         writing.close()
+
+
+def _opened(location):
+    """The store at ``location`` connected; a file that is not there refused (connecting would make one)."""
+    if not is_postgresql(location) and not Path(location).is_file():
+        raise InputError(f"store: {location}: no such store", ("store",))
+    return connect(location)
