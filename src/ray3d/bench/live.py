@@ -132,10 +132,11 @@ def _read_page(url: str, stop: threading.Event, counter: list) -> None:
 def soak(video: Path, camera: str, out: Path, site: Path | None = None, minutes: float = 30.0,
          sample_s: float = 10.0) -> dict:
     """``ray3d live`` on ``video`` looped at its own rate for ``minutes``, its page read by a client, its memory
-    noted every ``sample_s``: frames dropped, latency, events said / written / stored, store rows lost, the memory
-    after the first minute and its largest rise after that."""
+    noted every ``sample_s`` (thirty times at least): frames dropped, latency, events said / written / stored, store
+    rows lost, the memory after the first minute and its largest rise after that."""
     out = fresh_folder(out)
     seconds = math.ceil(60 * minutes)
+    sample_s = min(sample_s, seconds / 30)
     source = looped(video, seconds, out / f"looped{video.suffix}")
     command = live_command([source], [camera], out / "live", site, "--port", "0", "--quiet", "--until", f"{seconds}s")
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
