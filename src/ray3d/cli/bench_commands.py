@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.cli.arguments import add_data_dir, add_force, add_out
+from ray3d.cli.arguments import add_flags
 from ray3d.cli.printing import write_json
 from ray3d.errors import InputError
 
@@ -232,164 +232,32 @@ def people(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
-    from pathlib import Path
-
-    from ray3d.checkpoints import DETECTOR_MODEL
-    from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
-
     bench_parser = commands.add_parser("bench", help="benchmarks: accuracy, speed, identities, live, fusion")
     bench_commands_parser = bench_parser.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
-    robustness_parser = _subcommand(bench_commands_parser, "robustness", robustness,
-                                    "the paper's robustness sweeps (CSV, markdown, PNG)")
-    add_out(robustness_parser, "folder for the sweep files")
-    robustness_parser.add_argument("--models", nargs="+", default=["ray3d", "videopose3d", "rie", "rfrh"],
-                            help="shipped names, checkpoint paths or rfrh, optionally LABEL=MODEL (default: the "
-                                 "shipped ones and rfrh)")
-    robustness_parser.add_argument("--frame-stride", type=int, default=4, help="score every N-th frame (default 4)")
-    robustness_parser.add_argument("--camera-stride", type=int, default=1, help="use every N-th camera of each set")
-    robustness_parser.add_argument("--clips", type=int, help="use only the first N test clips (quick runs)")
-    add_data_dir(robustness_parser)
-    calibration_parser = _subcommand(bench_commands_parser, "calibration", calibration,
-                                     "camera estimation from a walking person: errors "
-                                     "and their cost to Ray3D (CSV, JSON, markdown)")
-    add_out(calibration_parser, "folder for calibration.{csv,json,md}")
-    calibration_parser.add_argument("--pairs", type=int, default=12, help="random (camera, walking clip) pairs")
-    calibration_parser.add_argument("--bootstrap", type=int, default=30, help="bootstrap resamples per estimate")
-    calibration_parser.add_argument("--people", type=int, default=1,
-                             help="walking clips seen at once by each camera, fitted jointly (default 1)")
-    _checkpoint(calibration_parser, "ray3d")
-    calibration_parser.add_argument("--seed", type=int, default=0)
-    calibration_parser.add_argument("--split", choices=["train", "validation", "test"], default="test",
-                             help="whose walking clips (default: the test performers)")
-    add_data_dir(calibration_parser)
-    real_parser = _subcommand(bench_commands_parser, "real-video", real_video,
-                              "physical checks (feet on the floor, stature, walking speed, "
-                              "bones, skating, jitter) on a video and on emulated "
-                              "detections")
-    add_out(real_parser, "folder for real-video.{json,md}")
-    real_parser.add_argument("--video", type=Path, help="a video of people walking on a floor (needs --camera)")
-    real_parser.add_argument("--keypoints", type=Path,
-                             help="instead of --video: its detections (e.g. ray3d video's keypoints.json)")
-    real_parser.add_argument("--camera", help="the video's camera file")
-    real_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
-    real_parser.add_argument("--fps", type=float, help="the video's or keypoints' frame rate, if they do not say")
-    real_parser.add_argument("--smooth-3d", choices=["savgol", "one-euro"], help="smooth the lifted joints in time")
-    _checkpoint(real_parser, "ray3d")
-    real_parser.add_argument("--pairs", type=int, default=12, help="emulated (test clip, camera) pairs (default 12)")
-    real_parser.add_argument("--emulated-layout", choices=["h36m17", "coco17"],
-                      help="what the emulated detector reports (default: what the model reads, H36M-17 or COCO-17)")
-    real_parser.add_argument("--seed", type=int, default=0)
-    add_data_dir(real_parser)
-    near_parser = _subcommand(bench_commands_parser, "real-near", real_near,
-                              "near, low real cameras against 3D truth: each view of "
-                              "../shared/data/real-near through ray3d video's finder and "
-                              "lifter")
-    near_parser.add_argument("--data", type=Path, default=Path("../shared/data/real-near"),
-                      help="the real-near folder (default ../shared/data/real-near)")
-    add_out(near_parser, "folder for real-near.{json,md}")
-    near_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
-    _checkpoint(near_parser, DETECTOR_MODEL)
-    near_parser.add_argument("--views", nargs="+", help="which cameras (default: cam01 cam02 cam03 cam04)")
-    near_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
-                      help="give each camera with its z = 0 this far above the floor (a calibration board on a "
-                           "table; negative: below), default 0")
-    level_parser = _subcommand(bench_commands_parser, "level", level,
-                               "low, nearly level cameras (the level-test set) through an "
-                               "emulated detector with real detectors' joint offsets, "
-                               "beside the floor guess")
-    add_out(level_parser, "folder for level.{json,md}")
-    _checkpoint(level_parser, DETECTOR_MODEL)
-    level_parser.add_argument("--clips-per-camera", type=int, default=1, help="test clips per camera (default 1)")
-    level_parser.add_argument("--max-frames", type=int, default=300,
-                              help="frames of each clip, at 30 frames/s (default 300)")
-    level_parser.add_argument("--seed", type=int, default=0)
-    level_parser.add_argument("--floor-offset", type=float, default=0.0, metavar="M",
-                       help="give the lifter and the guess each camera with its z = 0 this far above the floor (a "
-                            "calibration board on a table; negative: below), default 0")
-    level_parser.add_argument("--population-scale", type=float, default=1.0, metavar="F",
-                              help="every person's size times F (1.04: a population 4 %% taller than the prior's)")
-    level_parser.add_argument("--camera-step", type=int, default=1, metavar="N",
-                              help="every Nth camera of the set (default 1)")
-    level_parser.add_argument("--floor-z", type=float, metavar="M",
-                              help="tell the lifter the floor lies here in the given camera's frame (0: its z = 0 "
-                                   "assumed to be the floor; default: decided on the people)")
-    add_data_dir(level_parser)
-    speed_bench_parser = _subcommand(bench_commands_parser, "speed", speed,
-                                     "inference and training speed of every model preset")
-    speed_bench_parser.add_argument("--json", type=Path, help="write the results here")
-    speed_bench_parser.add_argument("--models", nargs="+",
-                                    help="presets to measure (default: ray3d ray3d-paper; all: every preset)")
-    speed_bench_parser.add_argument("--rounds", type=int, default=7,
-                             help="interleaved rounds: every figure and bound timed once per round (median)")
-    speed_bench_parser.add_argument("--batch", type=int, default=1024, help="windows per inference batch")
-    speed_bench_parser.add_argument("--train-batch", type=int, default=1024)
-    speed_bench_parser.add_argument("--video", type=Path, help="also time ray3d video on this video (the video extra)")
-    speed_bench_parser.add_argument("--camera", type=Path, help="the video's camera file")
-    speed_bench_parser.add_argument("--video-frames", type=int, default=100, help="frames of --video to time")
-    add_force(speed_bench_parser, "replace --json if it exists")
-    identity_parser = _subcommand(bench_commands_parser, "identity", identity,
-                                  "who is who: ray3d video's tracker, ByteTrack, "
-                                  "OC-SORT, SORT against identities annotated by hand (IDF1)")
-    _video_and_camera(identity_parser, "detections.npz, the trackers' MOT files and identities.json")
-    identity_parser.add_argument("--detections", type=Path, help="an earlier run's detections.npz (default: detect)")
-    identity_parser.add_argument("--annotation", type=Path,
-                                 help="frame, person, x0, y0, x1, y1 per box (default: the shipped one of vtest.avi)")
-    identity_parser.add_argument("--detector", default=DEFAULT_DETECTOR, help=DETECTOR_HELP)
-    identity_parser.add_argument("--min-track-s", type=float, default=1.0,
-                                 help="leave out every tracker's tracks followed for less (default 1, as ray3d video)")
-    people_parser = _subcommand(bench_commands_parser, "people", people,
-                                "everyone in view: the annotated people ray3d "
-                                "video's detector finds, by facing, crowding, hiding, height")
-    _video_and_camera(people_parser, "people.json")
-    people_parser.add_argument("--finders", nargs="+", default=["none", "movenet-384"],
-                               help="full-frame finders: none, or movenet-SIZE[-COLUMNSxROWS] (default: both)")
-    people_parser.add_argument("--finder-every", type=int, default=2, help="the finder every n-th frame (default 2)")
-    people_parser.add_argument("--annotation", type=Path, help="the people (default: the shipped ones of vtest.avi)")
-    add_force(people_parser, "replace people.json if it exists")
-    live_parser = _subcommand(bench_commands_parser, "live", live,
-                              "ray3d live as a service runs it, measured from "
-                              "outside: soak, restarts, rtsp (a stream down), cluster (Ray)")
-    _video_and_camera(live_parser, "the runs and MODE.json (a new folder)")
-    live_parser.add_argument("--mode", choices=["soak", "restarts", "rtsp", "cluster"], required=True)
-    live_parser.add_argument("--site", type=Path, help="a site file: its events (restarts: needed for the counts)")
-    live_parser.add_argument("--minutes", type=float, default=30.0, help="soak: how long, the video looped (30)")
-    live_parser.add_argument("--kills", type=int, default=5, help="restarts: SIGKILLs, each started again (5)")
-    live_parser.add_argument("--seed", type=int, default=0, help="restarts: the kills' moments")
-    live_parser.add_argument("--seconds", type=float, help="rtsp: how long (75); cluster: each paced run (40)")
-    fusion_parser = _subcommand(bench_commands_parser, "fusion", fusion,
-                                "several cameras, one world, against known "
-                                "truth: test walks seen by 2-4 virtual cameras, fused")
-    add_out(fusion_parser, "folder for fusion.json (fusion-live.json)")
-    fusion_parser.add_argument("--live", action="store_true", help="frame by frame, as ray3d live lifts and fuses")
-    fusion_parser.add_argument("--clips", type=int, default=6, help="test walks (default 6)")
-    fusion_parser.add_argument("--cameras", type=int, nargs="+", default=[2, 3, 4],
-                               help="each walk seen by this many of the room's cameras, in turn (default 2 3 4)")
-    fusion_parser.add_argument("--seed", type=int, default=0, help="the noise and the gaps")
-    _checkpoint(fusion_parser, "ray3d")
-    add_data_dir(fusion_parser)
-    add_force(fusion_parser, "replace the JSON if it exists")
-    worlds_parser = _subcommand(bench_commands_parser, "worlds", worlds,
-                                "two world files of one scene, track by track: "
-                                "how far apart they put the same people")
-    worlds_parser.add_argument("first", type=Path, help="a world file; each of its tracks is matched")
-    worlds_parser.add_argument("second", type=Path, help="the world file its tracks are matched in")
-    worlds_parser.add_argument("--min-share", type=float, default=0.5,
-                               help="a partner shares at least this share of the track's frames (default 0.5)")
+    _subcommand(bench_commands_parser, "robustness", robustness, "the paper's robustness sweeps (CSV, markdown, PNG)")
+    _subcommand(bench_commands_parser, "calibration", calibration, "camera estimation from a walking person: errors "
+                "and their cost to Ray3D (CSV, JSON, markdown)")
+    _subcommand(bench_commands_parser, "real-video", real_video, "physical checks (feet on the floor, stature, "
+                "walking speed, bones, skating, jitter) on a video and on emulated detections")
+    _subcommand(bench_commands_parser, "real-near", real_near, "near, low real cameras against 3D truth: each view "
+                "of ../shared/data/real-near through ray3d video's finder and lifter")
+    _subcommand(bench_commands_parser, "level", level, "low, nearly level cameras (the level-test set) through an "
+                "emulated detector with real detectors' joint offsets, beside the floor guess")
+    _subcommand(bench_commands_parser, "speed", speed, "inference and training speed of every model preset")
+    _subcommand(bench_commands_parser, "identity", identity, "who is who: ray3d video's tracker, ByteTrack, OC-SORT, "
+                "SORT against identities annotated by hand (IDF1)")
+    _subcommand(bench_commands_parser, "people", people, "everyone in view: the annotated people ray3d video's "
+                "detector finds, by facing, crowding, hiding, height")
+    _subcommand(bench_commands_parser, "live", live, "ray3d live as a service runs it, measured from outside: soak, "
+                "restarts, rtsp (a stream down), cluster (Ray)")
+    _subcommand(bench_commands_parser, "fusion", fusion, "several cameras, one world, against known truth: test "
+                "walks seen by 2-4 virtual cameras, fused")
+    _subcommand(bench_commands_parser, "worlds", worlds, "two world files of one scene, track by track: how far "
+                "apart they put the same people")
 
 
-def _subcommand(subcommands, name: str, handler, description: str) -> argparse.ArgumentParser:
-    """``ray3d bench NAME``'s parser, bound to ``handler``."""
+def _subcommand(subcommands, name: str, handler, description: str) -> None:
+    """``ray3d bench NAME``'s parser, its flags those of flags.toml's ``[bench.NAME]``, bound to ``handler``."""
     parser = subcommands.add_parser(name, help=description)
+    add_flags(parser, f"bench.{name}")
     parser.set_defaults(handler=handler)
-    return parser
-
-
-def _checkpoint(parser: argparse.ArgumentParser, default: str) -> None:
-    parser.add_argument("--checkpoint", default=default, help=f"the model that lifts (default {default})")
-
-
-def _video_and_camera(parser, outputs: str) -> None:
-    """A video benchmark's video, its camera file and the folder for its ``outputs``."""
-    parser.add_argument("video", type=Path, help="the video (vtest.avi for the shipped annotations)")
-    parser.add_argument("--camera", required=True, help="the video's camera file")
-    add_out(parser, f"folder for {outputs}")

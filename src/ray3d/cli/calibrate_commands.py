@@ -7,6 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ray3d.cli.arguments import add_flags
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
@@ -118,36 +119,9 @@ def _two_views(args: argparse.Namespace, camera) -> tuple[dict, str, float | Non
 
 def add_parser(commands) -> None:
     """``ray3d calibrate``'s flags, bound to ``calibrate``."""
-    from ray3d.body import ADULT_STATURE_M
-    from ray3d.cli.arguments import add_force, add_lens_arguments, add_out
-
     calibrate_parser = commands.add_parser("calibrate",
                                            help="a camera from floor points with known positions, or from a "
                                                 "person walking on the floor; or where a calibrated camera's "
                                                 "floor lies (--floor-of)")
-    calibrate_parser.add_argument("--floor-points", type=Path,
-                           help="CSV (x,y,u,v) or JSON list: floor positions in metres and their pixels, 4 or more")
-    calibrate_parser.add_argument("--from-person", type=Path, metavar="KEYPOINTS",
-                           help="instead of --floor-points: 2D keypoints of one person standing or walking on the "
-                                "floor (any format ray3d lift reads); estimates height, pitch, roll (and focal)")
-    calibrate_parser.add_argument("--person-height", type=float, default=ADULT_STATURE_M,
-                           help=f"with --from-person: the person's stature in metres (default {ADULT_STATURE_M:.2f})")
-    calibrate_parser.add_argument("--track", help="with --from-person: only this track (default: every track, jointly)")
-    calibrate_parser.add_argument("--layout", help="with --from-person or --keypoints: joint layout of the keypoints")
-    calibrate_parser.add_argument("--floor-of", metavar="CAMERA",
-                           help="instead: a calibrated camera whose floor to settle (docs/floor.md), from "
-                                "--lens-height or from two cameras' keypoints; written to --out with floor_z_m set")
-    calibrate_parser.add_argument("--lens-height", type=float, metavar="M",
-                           help="with --floor-of: the lens's height over the floor in metres, measured by tape")
-    calibrate_parser.add_argument("--keypoints", type=Path, metavar="FILE",
-                           help="with --floor-of: 2D keypoints seen by that camera (any format ray3d lift reads)")
-    calibrate_parser.add_argument("--with-camera", metavar="CAMERA",
-                           help="with --keypoints: a second calibrated camera of the same world frame, overlapping")
-    calibrate_parser.add_argument("--with-keypoints", type=Path, metavar="FILE",
-                           help="with --with-camera: its keypoints of the same people, frame ids on the same clock")
-    calibrate_parser.add_argument("--fps", type=float, help="with --keypoints: their frame rate (default: the files')")
-    calibrate_parser.add_argument("--intrinsics", help="a camera file whose intrinsics (and distortion) to keep")
-    add_lens_arguments(calibrate_parser, "instead of --intrinsics (with --from-person: --focal/--hfov if known)")
-    add_out(calibrate_parser, "camera JSON to write")
-    add_force(calibrate_parser, "replace --out if it exists")
+    add_flags(calibrate_parser, "calibrate")
     calibrate_parser.set_defaults(handler=calibrate)

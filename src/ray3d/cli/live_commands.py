@@ -21,6 +21,8 @@ import argparse
 import functools
 import sys
 
+from ray3d.cli.arguments import add_flags
+
 EXIT_CODES = {"ended": 0, "until": 0, "stalled": 3, "broke off": 4}
 
 
@@ -86,61 +88,12 @@ def _print_run(run, site_file) -> None:
 
 def add_parser(commands) -> None:
     """``ray3d live``'s flags, bound to ``live``."""
-    from pathlib import Path
-
-    from ray3d.cli.arguments import (
-        add_camera_arguments,
-        add_lifting_arguments,
-        add_people_arguments,
-        add_time_buckets,
-        until,
-    )
     from ray3d.live.people import LIVE_SMOOTHING
 
     parser = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
                                             "a growing world file, a page on localhost "
                                             "(pip install 'ray3d[video,live]')")
-    parser.add_argument("source", nargs="*", help="a video file (played at its own rate), a camera device number, or a "
-                                                "stream URL OpenCV opens (rtsp://, http://); several: one per "
-                                                "calibrated camera, their people followed as one world")
-    parser.add_argument("--config", type=Path, help="a whole deployment in one YAML or JSON file: its keys are these "
-                        "flags' names (stall-timeout: 5) and cameras (each a source, its camera file and offset); "
-                        "checked against assets/live-config.schema.json; flags given here win (docs/live.md)")
-    add_camera_arguments(parser, image_size_note=" (default: the stream's)", several=True)
-    parser.add_argument("--offsets", help="several sources: seconds each one's clock is ahead of the first's, comma "
-                                        "separated (the first 0; default all 0: sources in step)")
-    parser.add_argument("--out", type=Path, help="folder for events.jsonl, world.csv (several "
-                                                              "sources: camera<k>_<name>/world.csv, then world.json) "
-                                                              "and site/")
-    parser.add_argument("--site", type=Path, help="a site file: its events as they happen, and its report at the end")
-    add_people_arguments(parser, "stay out of the world file")
-    parser.add_argument("--fps", type=float, help="the stream's frame rate where it does not say")
-    parser.add_argument("--unpaced", action="store_true",
-                        help="read a file as fast as it is processed, every frame, not at its rate")
-    parser.add_argument("--stall-timeout", type=float, default=5.0,
-                      help="seconds without a frame before the stream counts as stalled (default 5; exit code 3)")
-    parser.add_argument("--no-page", action="store_true", help="serve no page")
-    parser.add_argument("--host", default="127.0.0.1", help="address the page listens on (default 127.0.0.1; any "
-                      "other needs --token)")
-    parser.add_argument("--port", type=int, default=8765, help="the page's port (default 8765; 0: any free one)")
-    parser.add_argument("--token", help="a token every request to the page (and the webhook's header) carries")
-    parser.add_argument("--webhook", help="POST each event as JSON to this URL (retried; a bounded queue)")
-    parser.add_argument("--store", help="the site's store: every event, position and person, appended by each run, "
-                                      "one run writing it at a time (default OUT/site.db, SQLite; or "
-                                      "postgresql://USER@HOST/DB; docs/live.md)")
-    parser.add_argument("--mqtt", help="publish events and zone occupancy to an MQTT broker, "
-                                       "mqtt://HOST[:PORT]/PREFIX, with Home Assistant discovery")
-    parser.add_argument("--until", type=until, help="end the run on purpose after a duration (8h, 30min) or at a "
-                                                  "date and time (ISO 8601); exit 0")
-    parser.add_argument("--reconnect-max", type=float, default=30.0, help="a network stream that stalls or breaks "
-                      "off is opened again, tries 1 s apart doubling up to this many seconds (default 30; 0: end "
-                      "the run instead, exit 3 / 4)")
-    parser.add_argument("--quiet", action="store_true", help="no events on stdout (they are still in events.jsonl)")
-    add_time_buckets(parser)
-    parser.add_argument("--address", help="run each camera in a Ray actor: local (a local Ray started for the run), "
-                      "auto or ray://HOST:10001 (a running cluster); default: every camera in this process")
-    parser.add_argument("--workers", type=int, help="with --address local: the local Ray's CPUs (default all)")
-    add_lifting_arguments(parser, live_smoothing=live_smoothing_words(*LIVE_SMOOTHING))
+    add_flags(parser, "live", live_smoothing=live_smoothing_words(*LIVE_SMOOTHING))
     parser.set_defaults(handler=live)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ray3d.cli.arguments import add_flags
 from ray3d.cli.printing import write_json
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -110,51 +111,13 @@ def models(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d train``, ``evaluate``, ``models`` and ``export``'s flags, each bound to its handler here."""
-    from pathlib import Path
-
-    from ray3d.cli.arguments import add_data_dir, add_force, add_out, add_precision
-    from ray3d.data.virtual_cameras import SET_NAMES
-
     train_parser = commands.add_parser("train", help="train a model on the training performers with random cameras")
-    train_parser.add_argument("--config", type=Path, help="training config JSON (see configs/); default: Ray3D lite")
-    train_parser.add_argument("--preset",
-                              help="model preset replacing the config's model (ray3d, videopose3d, rie, ...)")
-    add_out(train_parser, "run folder: best.*, last.*, config.json")
-    train_parser.add_argument("--resume", action="store_true", help="continue the run in --out from its last epoch")
-    train_parser.add_argument("--epochs", type=int)
-    train_parser.add_argument("--batches-per-epoch", type=int)
-    train_parser.add_argument("--batch-size", type=int)
-    train_parser.add_argument("--seed", type=int)
-    train_parser.add_argument("--threads", type=int, help="torch CPU threads per process")
-    add_data_dir(train_parser)
-    train_parser.add_argument("--quiet", action="store_true", help="no progress bar or per-epoch lines")
+    add_flags(train_parser, "train")
     train_parser.set_defaults(handler=train)
 
     evaluation_parser = commands.add_parser("evaluate",
                                             help="MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
-    evaluation_parser.add_argument("--checkpoint", default="ray3d",
-                            help="a checkpoint path or a shipped model name (ray3d, videopose3d, rie, ...) or rfrh")
-    evaluation_parser.add_argument("--mocap", type=Path,
-                                   help="a motion npz (default: the shipped mocap's test performers)")
-    evaluation_parser.add_argument("--split", choices=["train", "validation", "test", "all"],
-                            help="clips to use (default: test for the shipped files, all for any other npz)")
-    evaluation_parser.add_argument("--cameras", required=True,
-                                   help=f"a camera set ({', '.join(SET_NAMES)}) or a cameras JSON")
-    evaluation_parser.add_argument("--datasets", help="with the shipped mocap: cmu, hdm05 or cmu,hdm05 (default both)")
-    evaluation_parser.add_argument("--joints", choices=["h36m17", "h36m14"], default="h36m17",
-                            help="joints scored (h36m14: without spine, thorax and neck/nose)")
-    evaluation_parser.add_argument("--noise-px", type=float, default=0.0,
-                            help="Gaussian noise on the 2D input, standard deviation in pixels (a detector's jitter)")
-    evaluation_parser.add_argument("--flip-test", action="store_true",
-                                   help="average with the mirrored input's prediction")
-    evaluation_parser.add_argument("--refine", action="store_true",
-                            help="lift each (camera, clip) as a track with the track-level refinement, as "
-                                 "ray3d lift does")
-    evaluation_parser.add_argument("--frame-stride", type=int, default=1, help="evaluate every N-th frame (default 1)")
-    add_precision(evaluation_parser)
-    evaluation_parser.add_argument("--json", type=Path, help="write the results here")
-    add_force(evaluation_parser, "replace --json if it exists")
-    add_data_dir(evaluation_parser)
+    add_flags(evaluation_parser, "evaluate")
     evaluation_parser.set_defaults(handler=evaluate)
 
     models_parser = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
@@ -162,17 +125,5 @@ def add_parser(commands) -> None:
 
     exporting_parser = commands.add_parser("export",
                                            help="a trained checkpoint -> inference weights (.safetensors + .json)")
-    exporting_parser.add_argument("--checkpoint", default="ray3d",
-                                  help="a shipped model name or e.g. runs/NAME/best.safetensors")
-    add_out(exporting_parser, "target .safetensors (its .json is written beside)")
-    exporting_parser.add_argument("--onnx", action="store_true",
-                                  help="write ONNX to --out instead (pip install 'ray3d[onnx]')")
-    exporting_parser.add_argument("--image-width", type=float, default=1000.0,
-                           help="with --onnx: the image width pixel-input models normalise by (default 1000)")
-    exporting_parser.add_argument("--last-weights", action="store_true",
-                           help="from a run with ema_decay: the last trained weights instead of their moving average")
-    exporting_parser.add_argument("--command-line", help="the training command, recorded with the weights")
-    exporting_parser.add_argument("--time-s", type=float, help="training wall time, recorded with the weights")
-    exporting_parser.add_argument("--machine", help="where it was trained, recorded with the weights")
-    add_force(exporting_parser, "replace --out if it exists")
+    add_flags(exporting_parser, "export")
     exporting_parser.set_defaults(handler=export)

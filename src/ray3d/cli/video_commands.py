@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ray3d.cli.arguments import job_from_args
+from ray3d.cli.arguments import add_flags, job_from_args
 from ray3d.cli.printing import print_notes, print_refinements
 
 
@@ -57,45 +57,9 @@ def _print_video(video, detector: str, result) -> None:
 
 def add_parser(commands) -> None:
     """``ray3d video``'s flags, each bound to its handler here."""
-    from pathlib import Path
-
-    from ray3d.cli.arguments import (
-        add_camera_arguments,
-        add_force,
-        add_lifting_arguments,
-        add_out,
-        add_people_arguments,
-        add_time_buckets,
-    )
-    from ray3d.io.world import WRITTEN_FORMATS
-
     video_parser = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
                                               "viewer and overlay video (pip install 'ray3d[video]'); several "
                                               "videos, one per camera: one world, one track per person")
-    video_parser.add_argument("input", type=Path, nargs="+",
-                              help="the video file(s) (anything OpenCV reads: .mp4, .avi, ...); several: one per "
-                                   "calibrated camera, in step")
-    add_camera_arguments(video_parser, image_size_note=" (default: the video's)", several=True)
-    video_parser.add_argument("--find-offsets", action="store_true", help="several videos: find how far apart they "
-                                                                   "started from the people both see")
-    add_out(video_parser, "folder for world.*, keypoints.json, viewer.html, overlay.mp4")
-    add_people_arguments(video_parser, "are dropped")
-    video_parser.add_argument("--start", type=int, default=0, help="first frame to process (default 0)")
-    video_parser.add_argument("--frames", type=int, help="how many frames to process (default: to the end)")
-    video_parser.add_argument("--rejoin", type=float, default=3.0,
-                       help="take a person up again after a gap of up to this many seconds where their walk led, in "
-                            "the same clothes: one identity (default 3; 0: never)")
-    video_parser.add_argument("--format", choices=WRITTEN_FORMATS, default=".json",
-                       help="world file format (.trc: OpenSim / Pose2Sim markers; .bvh: one skeleton per track)")
-    video_parser.add_argument("--fps", type=float, help="override the frame rate the video reports")
-    video_parser.add_argument("--no-overlay", action="store_true", help="skip the overlay video")
-    video_parser.add_argument("--site", type=Path,
-                              help="also analyse the people on this site file's zones and lines: a report, tables "
-                                   "and plots in OUT/site (as ray3d site does; docs/site.md)")
-    add_time_buckets(video_parser)
-    video_parser.add_argument("--privacy", action="store_true", help="write nothing derived from the pixels but "
-                       "skeletons, tracks and events: no overlay video")
+    add_flags(video_parser, "video")
     # Detector keypoints of real footage: the model trained for them.
-    add_lifting_arguments(video_parser)
-    add_force(video_parser, "replace existing outputs in --out")
     video_parser.set_defaults(handler=video)
