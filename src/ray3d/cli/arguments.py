@@ -48,6 +48,15 @@ def named_values() -> dict:
             "OUTPUT_SMOOTHING": OUTPUT_SMOOTHING}
 
 
+def add_command(commands, name: str, handler, description: str, group: str = "", **words: str) -> None:
+    """The subcommand ``name`` of ``commands`` (argparse's subparsers), ``description`` its line in the parent's
+    help, its flags those of flags.toml's table ``name`` (``group.name`` in a group: ``bench.level``), bound to
+    ``handler``."""
+    parser = commands.add_parser(name, help=description)
+    add_flags(parser, f"{group}.{name}" if group else name, **words)
+    parser.set_defaults(handler=handler)
+
+
 def add_flags(parser: argparse.ArgumentParser, table: str, **words: str) -> None:
     """Adds the flags of flags.toml's ``table`` to ``parser`` in the file's order; ``words`` fill the table's
     "{word}" placeholders (and those of the shared tables it names)."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 
 
 def batch(args: argparse.Namespace) -> int:
@@ -26,8 +26,5 @@ def batch(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d batch``'s flags, bound to ``batch``."""
-    batch_parser = commands.add_parser("batch",
-                                       help="every video and keypoint file of a manifest, each one task on a Ray "
-                                            "cluster or a local Ray (pip install 'ray3d[cluster]')")
-    add_flags(batch_parser, "batch")
-    batch_parser.set_defaults(handler=batch)
+    add_command(commands, "batch", batch, "every video and keypoint file of a manifest, each one task on a Ray "
+                "cluster or a local Ray (pip install 'ray3d[cluster]')")

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
@@ -119,9 +119,5 @@ def _two_views(args: argparse.Namespace, camera) -> tuple[dict, str, float | Non
 
 def add_parser(commands) -> None:
     """``ray3d calibrate``'s flags, bound to ``calibrate``."""
-    calibrate_parser = commands.add_parser("calibrate",
-                                           help="a camera from floor points with known positions, or from a "
-                                                "person walking on the floor; or where a calibrated camera's "
-                                                "floor lies (--floor-of)")
-    add_flags(calibrate_parser, "calibrate")
-    calibrate_parser.set_defaults(handler=calibrate)
+    add_command(commands, "calibrate", calibrate, "a camera from floor points with known positions, or from a person "
+                "walking on the floor; or where a calibrated camera's floor lies (--floor-of)")

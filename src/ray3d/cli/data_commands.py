@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 
 
 def data_info(args: argparse.Namespace) -> int:
@@ -89,24 +89,16 @@ def add_parser(commands) -> None:
     data_parser = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
     data_commands_parser = data_parser.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
 
-    info_parser = data_commands_parser.add_parser("info",
-                                                  help="what motion data is available: clips, frames, minutes, splits")
-    add_flags(info_parser, "data.info")
-    info_parser.set_defaults(handler=data_info)
+    add_command(data_commands_parser, "info", data_info, "what motion data is available: clips, frames, minutes, "
+                "splits", group="data")
 
-    bvh_parser = data_commands_parser.add_parser("import-bvh", help="BVH takes -> a motion npz (H36M-17, metres, z up)")
-    add_flags(bvh_parser, "data.import-bvh")
-    bvh_parser.set_defaults(handler=import_bvh)
+    add_command(data_commands_parser, "import-bvh", import_bvh, "BVH takes -> a motion npz (H36M-17, metres, z up)",
+                group="data")
 
-    amc_parser = data_commands_parser.add_parser("import-amc", help="an ASF skeleton and AMC takes -> a motion npz")
-    add_flags(amc_parser, "data.import-amc")
-    amc_parser.set_defaults(handler=import_amc)
+    add_command(data_commands_parser, "import-amc", import_amc, "an ASF skeleton and AMC takes -> a motion npz",
+                group="data")
 
-    cams_parser = data_commands_parser.add_parser("cameras", help="write a named virtual camera set as JSON")
-    add_flags(cams_parser, "data.cameras")
-    cams_parser.set_defaults(handler=cameras)
+    add_command(data_commands_parser, "cameras", cameras, "write a named virtual camera set as JSON", group="data")
 
-    speed_parser = data_commands_parser.add_parser("samples-speed",
-                                                   help="measure the training-sample generator's throughput")
-    add_flags(speed_parser, "data.samples-speed")
-    speed_parser.set_defaults(handler=samples_speed)
+    add_command(data_commands_parser, "samples-speed", samples_speed, "measure the training-sample generator's "
+                "throughput", group="data")

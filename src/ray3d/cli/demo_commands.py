@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 
 
 def demo(args: argparse.Namespace) -> int:
@@ -16,7 +16,5 @@ def demo(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d demo``'s flags, bound to ``demo``."""
-    demo_parser = commands.add_parser("demo", help="the main job: lift a bundled clip, compare with the truth and "
-                                            "the baselines, write an HTML viewer and a GIF")
-    add_flags(demo_parser, "demo")
-    demo_parser.set_defaults(handler=demo)
+    add_command(commands, "demo", demo, "the main job: lift a bundled clip, compare with the truth and the baselines, "
+                "write an HTML viewer and a GIF")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import add_flags, job_from_args, parse_offsets
+from ray3d.cli.arguments import add_command, job_from_args, parse_offsets
 from ray3d.cli.printing import print_ankle_plane, print_fusion, print_keypoint_notes, print_notes, print_refinements
 from ray3d.io.atomic import check_output
 
@@ -62,12 +62,7 @@ def lift(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d lift`` and ``ray3d fuse``'s flags, each bound to its handler here."""
-    lift_parser = commands.add_parser("lift", help="2D keypoints + a calibrated camera -> 3D joints in world metres")
-    add_flags(lift_parser, "lift")
-    lift_parser.set_defaults(handler=lift)
+    add_command(commands, "lift", lift, "2D keypoints + a calibrated camera -> 3D joints in world metres")
 
-    fuse_parser = commands.add_parser("fuse",
-                                      help="several cameras' world files (ray3d lift / video, one per camera) -> "
-                                           "one world, one track per person, joints fused where cameras overlap")
-    add_flags(fuse_parser, "fuse")
-    fuse_parser.set_defaults(handler=fuse)
+    add_command(commands, "fuse", fuse, "several cameras' world files (ray3d lift / video, one per camera) -> one "
+                "world, one track per person, joints fused where cameras overlap")

@@ -21,7 +21,7 @@ import argparse
 import functools
 import sys
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 
 EXIT_CODES = {"ended": 0, "until": 0, "stalled": 3, "broke off": 4}
 
@@ -90,11 +90,9 @@ def add_parser(commands) -> None:
     """``ray3d live``'s flags, bound to ``live``."""
     from ray3d.live.people import LIVE_SMOOTHING
 
-    parser = commands.add_parser("live", help="a camera stream followed as it arrives: events (JSON lines on stdout), "
-                                            "a growing world file, a page on localhost "
-                                            "(pip install 'ray3d[video,live]')")
-    add_flags(parser, "live", live_smoothing=live_smoothing_words(*LIVE_SMOOTHING))
-    parser.set_defaults(handler=live)
+    add_command(commands, "live", live, "a camera stream followed as it arrives: events (JSON lines on stdout), a "
+                "growing world file, a page on localhost (pip install 'ray3d[video,live]')",
+                live_smoothing=live_smoothing_words(*LIVE_SMOOTHING))
 
 
 def live_smoothing_words(min_cutoff_hz: float, beta: float) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import write_json
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -111,19 +111,10 @@ def models(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d train``, ``evaluate``, ``models`` and ``export``'s flags, each bound to its handler here."""
-    train_parser = commands.add_parser("train", help="train a model on the training performers with random cameras")
-    add_flags(train_parser, "train")
-    train_parser.set_defaults(handler=train)
+    add_command(commands, "train", train, "train a model on the training performers with random cameras")
 
-    evaluation_parser = commands.add_parser("evaluate",
-                                            help="MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
-    add_flags(evaluation_parser, "evaluate")
-    evaluation_parser.set_defaults(handler=evaluate)
+    add_command(commands, "evaluate", evaluate, "MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
 
-    models_parser = commands.add_parser("models", help="the model presets: size, FLOPs per frame, which are shipped")
-    models_parser.set_defaults(handler=models)
+    add_command(commands, "models", models, "the model presets: size, FLOPs per frame, which are shipped")
 
-    exporting_parser = commands.add_parser("export",
-                                           help="a trained checkpoint -> inference weights (.safetensors + .json)")
-    add_flags(exporting_parser, "export")
-    exporting_parser.set_defaults(handler=export)
+    add_command(commands, "export", export, "a trained checkpoint -> inference weights (.safetensors + .json)")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import print_ankle_plane, print_site_doubts, print_site_report
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -71,8 +71,5 @@ def store_report(args: argparse.Namespace, read_site) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d site``'s flags, bound to ``site``."""
-    parser = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
-                                            "(lines crossed, zones entered and left) and per-track and per-place "
-                                            "tables")
-    add_flags(parser, "site")
-    parser.set_defaults(handler=site)
+    add_command(commands, "site", site, "a world file's tracks on a site's zones and counting lines: events (lines "
+                "crossed, zones entered and left) and per-track and per-place tables")

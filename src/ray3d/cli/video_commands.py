@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ray3d.cli.arguments import add_flags, job_from_args
+from ray3d.cli.arguments import add_command, job_from_args
 from ray3d.cli.printing import print_notes, print_refinements
 
 
@@ -57,9 +57,6 @@ def _print_video(video, detector: str, result) -> None:
 
 def add_parser(commands) -> None:
     """``ray3d video``'s flags, each bound to its handler here."""
-    video_parser = commands.add_parser("video", help="a video -> every person's 2D detections and track -> world 3D, "
-                                              "viewer and overlay video (pip install 'ray3d[video]'); several "
-                                              "videos, one per camera: one world, one track per person")
-    add_flags(video_parser, "video")
-    # Detector keypoints of real footage: the model trained for them.
-    video_parser.set_defaults(handler=video)
+    add_command(commands, "video", video, "a video -> every person's 2D detections and track -> world 3D, viewer and "
+                "overlay video (pip install 'ray3d[video]'); several videos, one per camera: one world, one track per "
+                "person")

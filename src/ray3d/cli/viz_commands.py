@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ray3d.cli.arguments import add_flags
+from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
@@ -60,8 +60,5 @@ def viz(args: argparse.Namespace) -> int:
 
 def add_parser(commands) -> None:
     """``ray3d viz``'s flags, bound to ``viz``."""
-    viz_parser = commands.add_parser("viz",
-                                     help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
-                                          "ray3d video): every track, with its id and path on the floor")
-    add_flags(viz_parser, "viz")
-    viz_parser.set_defaults(handler=viz)
+    add_command(commands, "viz", viz, "an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or ray3d "
+                "video): every track, with its id and path on the floor")
