@@ -40,27 +40,19 @@ def named_values() -> dict:
     from ray3d.checkpoints import DETECTOR_MODEL
     from ray3d.data.virtual_cameras import SET_NAMES
     from ray3d.io.world import WRITTEN_FORMATS
+    from ray3d.live.people import LIVE_SMOOTHING
     from ray3d.video.detectors import DEFAULT_DETECTOR, DETECTOR_HELP
 
     return {"ADULT_STATURE_M": ADULT_STATURE_M, "DETECTOR_MODEL": DETECTOR_MODEL, "SET_NAMES": SET_NAMES,
             "SET_NAMES_LISTED": ", ".join(SET_NAMES), "WRITTEN_FORMATS": WRITTEN_FORMATS,
             "DEFAULT_DETECTOR": DEFAULT_DETECTOR, "DETECTOR_HELP": DETECTOR_HELP, "PRECISIONS": PRECISIONS,
-            "OUTPUT_SMOOTHING": OUTPUT_SMOOTHING}
+            "OUTPUT_SMOOTHING": OUTPUT_SMOOTHING, "LIVE_MIN_CUTOFF_HZ": LIVE_SMOOTHING[0],
+            "LIVE_BETA": LIVE_SMOOTHING[1]}
 
 
-def add_command(commands, name: str, handler, description: str, group: str = "", **words: str) -> None:
-    """The subcommand ``name`` of ``commands`` (argparse's subparsers), ``description`` its line in the parent's
-    help, its flags those of flags.toml's table ``name`` (``group.name`` in a group: ``bench.level``), bound to
-    ``handler``."""
-    parser = commands.add_parser(name, help=description)
-    add_flags(parser, f"{group}.{name}" if group else name, **words)
-    parser.set_defaults(handler=handler)
-
-
-def add_flags(parser: argparse.ArgumentParser, table: str, **words: str) -> None:
-    """Adds the flags of flags.toml's ``table`` to ``parser`` in the file's order; ``words`` fill the table's
-    "{word}" placeholders (and those of the shared tables it names)."""
-    _add_table(parser, table, {**named_values(), **words})
+def add_flags(parser: argparse.ArgumentParser, table: str) -> None:
+    """Adds the flags of flags.toml's ``table`` to ``parser`` in the file's order."""
+    _add_table(parser, table, named_values())
 
 
 def _add_table(parser: argparse.ArgumentParser, table: str, names: dict) -> None:

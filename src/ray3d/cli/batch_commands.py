@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import add_command
-
 
 def batch(args: argparse.Namespace) -> int:
     from ray3d.batch import run
@@ -22,9 +20,3 @@ def batch(args: argparse.Namespace) -> int:
         print(f"error: {len(report.failed)} of {len(report.reports)} inputs failed", file=sys.stderr)
         return 1
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d batch``'s flags, bound to ``batch``."""
-    add_command(commands, "batch", batch, "every video and keypoint file of a manifest, each one task on a Ray "
-                "cluster or a local Ray (pip install 'ray3d[cluster]')")

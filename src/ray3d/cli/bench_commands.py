@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import write_json
 from ray3d.errors import InputError
 
@@ -228,31 +227,3 @@ def people(args: argparse.Namespace) -> int:
         print(row_line(rows[-1]), flush=True)
     write_json(args.out / "people.json", {"rows": rows}, args.force)
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d bench`` and its subcommands's flags, each bound to its handler here."""
-    bench_parser = commands.add_parser("bench", help="benchmarks: accuracy, speed, identities, live, fusion")
-    bench_commands_parser = bench_parser.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", required=True)
-    add_command(bench_commands_parser, "robustness", robustness, "the paper's robustness sweeps (CSV, markdown, PNG)",
-                group="bench")
-    add_command(bench_commands_parser, "calibration", calibration, "camera estimation from a walking person: errors "
-                "and their cost to Ray3D (CSV, JSON, markdown)", group="bench")
-    add_command(bench_commands_parser, "real-video", real_video, "physical checks (feet on the floor, stature, "
-                "walking speed, bones, skating, jitter) on a video and on emulated detections", group="bench")
-    add_command(bench_commands_parser, "real-near", real_near, "near, low real cameras against 3D truth: each view "
-                "of ../shared/data/real-near through ray3d video's finder and lifter", group="bench")
-    add_command(bench_commands_parser, "level", level, "low, nearly level cameras (the level-test set) through an "
-                "emulated detector with real detectors' joint offsets, beside the floor guess", group="bench")
-    add_command(bench_commands_parser, "speed", speed, "inference and training speed of every model preset",
-                group="bench")
-    add_command(bench_commands_parser, "identity", identity, "who is who: ray3d video's tracker, ByteTrack, OC-SORT, "
-                "SORT against identities annotated by hand (IDF1)", group="bench")
-    add_command(bench_commands_parser, "people", people, "everyone in view: the annotated people ray3d video's "
-                "detector finds, by facing, crowding, hiding, height", group="bench")
-    add_command(bench_commands_parser, "live", live, "ray3d live as a service runs it, measured from outside: soak, "
-                "restarts, rtsp (a stream down), cluster (Ray)", group="bench")
-    add_command(bench_commands_parser, "fusion", fusion, "several cameras, one world, against known truth: test "
-                "walks seen by 2-4 virtual cameras, fused", group="bench")
-    add_command(bench_commands_parser, "worlds", worlds, "two world files of one scene, track by track: how far "
-                "apart they put the same people", group="bench")

@@ -7,7 +7,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
@@ -115,9 +114,3 @@ def _two_views(args: argparse.Namespace, camera) -> tuple[dict, str, float | Non
     views = {args.keypoints: (files[0].by_track(), camera),
              args.with_keypoints: (files[1].by_track(), read_camera(args.with_camera))}
     return views, files[0].layout, next(iter(rates), None)
-
-
-def add_parser(commands) -> None:
-    """``ray3d calibrate``'s flags, bound to ``calibrate``."""
-    add_command(commands, "calibrate", calibrate, "a camera from floor points with known positions, or from a person "
-                "walking on the floor; or where a calibrated camera's floor lies (--floor-of)")

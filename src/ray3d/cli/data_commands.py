@@ -6,8 +6,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.arguments import add_command
-
 
 def data_info(args: argparse.Namespace) -> int:
     from ray3d.data import motion
@@ -80,25 +78,3 @@ def samples_speed(args: argparse.Namespace) -> int:
         result = measure_throughput(train, config, Window(args.frames), args.batch, args.repeats)
         print(f"  {name:<36}{result['ms_per_batch']:8.1f} ms/batch{result['samples_per_s']:10,.0f} samples/s")
     return 0
-
-
-
-
-def add_parser(commands) -> None:
-    """``ray3d data`` and its subcommands's flags, each bound to its handler here."""
-    data_parser = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
-    data_commands_parser = data_parser.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
-
-    add_command(data_commands_parser, "info", data_info, "what motion data is available: clips, frames, minutes, "
-                "splits", group="data")
-
-    add_command(data_commands_parser, "import-bvh", import_bvh, "BVH takes -> a motion npz (H36M-17, metres, z up)",
-                group="data")
-
-    add_command(data_commands_parser, "import-amc", import_amc, "an ASF skeleton and AMC takes -> a motion npz",
-                group="data")
-
-    add_command(data_commands_parser, "cameras", cameras, "write a named virtual camera set as JSON", group="data")
-
-    add_command(data_commands_parser, "samples-speed", samples_speed, "measure the training-sample generator's "
-                "throughput", group="data")

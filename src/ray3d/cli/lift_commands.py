@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import add_command, job_from_args, parse_offsets
+from ray3d.cli.arguments import job_from_args, parse_offsets
 from ray3d.cli.printing import print_ankle_plane, print_fusion, print_keypoint_notes, print_notes, print_refinements
 from ray3d.io.atomic import check_output
 
@@ -58,11 +58,3 @@ def lift(args: argparse.Namespace) -> int:
         print_fusion(done.fusion, [str(path) for path in args.keypoints])
         print(f"{len(done.world.tracks)} people from {len(job.inputs)} cameras -> {args.out}")
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d lift`` and ``ray3d fuse``'s flags, each bound to its handler here."""
-    add_command(commands, "lift", lift, "2D keypoints + a calibrated camera -> 3D joints in world metres")
-
-    add_command(commands, "fuse", fuse, "several cameras' world files (ray3d lift / video, one per camera) -> one "
-                "world, one track per person, joints fused where cameras overlap")

@@ -21,8 +21,6 @@ import argparse
 import functools
 import sys
 
-from ray3d.cli.arguments import add_command
-
 EXIT_CODES = {"ended": 0, "until": 0, "stalled": 3, "broke off": 4}
 
 
@@ -84,17 +82,3 @@ def _print_run(run, site_file) -> None:
     if summary.webhook:
         print(f"webhook: {summary.webhook['delivered']} delivered, {summary.webhook['failed']} failed, "
               f"{summary.webhook['dropped']} dropped", file=sys.stderr)
-
-
-def add_parser(commands) -> None:
-    """``ray3d live``'s flags, bound to ``live``."""
-    from ray3d.live.people import LIVE_SMOOTHING
-
-    add_command(commands, "live", live, "a camera stream followed as it arrives: events (JSON lines on stdout), a "
-                "growing world file, a page on localhost (pip install 'ray3d[video,live]')",
-                live_smoothing=live_smoothing_words(*LIVE_SMOOTHING))
-
-
-def live_smoothing_words(min_cutoff_hz: float, beta: float) -> str:
-    """How ``ray3d live`` smooths its answers as they happen (``ray3d.live.people.LIVE_SMOOTHING``), in words."""
-    return f"by a One-Euro filter ({min_cutoff_hz:g} Hz at rest, its cutoff {beta:g} Hz higher per m/s)"

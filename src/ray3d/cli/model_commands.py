@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import write_json
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -107,14 +106,3 @@ def models(args: argparse.Namespace) -> int:
     print(f"\nshipped weights (Lifter.load(NAME), --checkpoint NAME): {', '.join(sorted(shipped))}; what each was "
           "trained on: src/ray3d/assets/models/MODELS.md")
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d train``, ``evaluate``, ``models`` and ``export``'s flags, each bound to its handler here."""
-    add_command(commands, "train", train, "train a model on the training performers with random cameras")
-
-    add_command(commands, "evaluate", evaluate, "MPJPE, P-MPJPE, Abs-MPJPE, MRPE of a model on mocap clips")
-
-    add_command(commands, "models", models, "the model presets: size, FLOPs per frame, which are shipped")
-
-    add_command(commands, "export", export, "a trained checkpoint -> inference weights (.safetensors + .json)")

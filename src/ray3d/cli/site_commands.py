@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import print_ankle_plane, print_site_doubts, print_site_report
 from ray3d.io.atomic import check_output, refuse_existing
 
@@ -67,9 +66,3 @@ def store_report(args: argparse.Namespace, read_site) -> int:
     print(f"{len(record.events)} events of {len(record.people)} people over {len(record.runs)} run(s); "
           f"{len(record.gaps)} gap(s) in the record ({down:.1f} s) -> {args.out}: {', '.join(p.name for p in paths)}")
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d site``'s flags, bound to ``site``."""
-    add_command(commands, "site", site, "a world file's tracks on a site's zones and counting lines: events (lines "
-                "crossed, zones entered and left) and per-track and per-place tables")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from ray3d.cli.arguments import add_command, job_from_args
+from ray3d.cli.arguments import job_from_args
 from ray3d.cli.printing import print_notes, print_refinements
 
 
@@ -53,10 +53,3 @@ def _print_video(video, detector: str, result) -> None:
     print_refinements(tracks, result.camera)
     for role, path in result.files.items():
         print(f"  {role:<10}{path}")
-
-
-def add_parser(commands) -> None:
-    """``ray3d video``'s flags, each bound to its handler here."""
-    add_command(commands, "video", video, "a video -> every person's 2D detections and track -> world 3D, viewer and "
-                "overlay video (pip install 'ray3d[video]'); several videos, one per camera: one world, one track per "
-                "person")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ray3d.cli.arguments import add_command
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
 from ray3d.io.atomic import check_output
@@ -56,9 +55,3 @@ def viz(args: argparse.Namespace) -> int:
         if args.keypoints is not None:
             print_keypoint_notes(args.keypoints, keypoints)
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d viz``'s flags, bound to ``viz``."""
-    add_command(commands, "viz", viz, "an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or ray3d "
-                "video): every track, with its id and path on the floor")
