@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from ray3d.cli import arguments
-from ray3d.cli.parser import HANDLERS, build_parser
+from ray3d.cli.parser import build_parser, handlers
 
 
 def _flag_tables(node: dict, name: str = ""):
@@ -52,7 +52,7 @@ def test_every_table_and_command_of_the_file_is_used(monkeypatch):
     build_parser()
     file = {k: v for k, v in arguments.flag_file().items() if k != "commands"}
     assert set(_flag_tables(file)) == set(read)
-    assert list(arguments.flag_file()["commands"]) == list(_commands(HANDLERS))
+    assert list(arguments.flag_file()["commands"]) == list(_commands(handlers()))
 
 
 def test_every_flag_keyword_and_type_in_the_file_is_argparse_s():

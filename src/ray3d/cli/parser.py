@@ -1,5 +1,5 @@
 """The ``ray3d`` argument parser: each command (``cli/flags.toml``'s ``[commands]``: its line in the help; its
-own table: its flags) bound to its handler (``HANDLERS``)."""
+own table: its flags) bound to its handler (``handlers()``)."""
 
 from __future__ import annotations
 
@@ -21,21 +21,24 @@ from ray3d.cli import (
 )
 from ray3d.cli.arguments import add_flags, flag_table
 
-# Each command's handler (a group's, data and bench: each of its commands'), in the order ``ray3d --help`` lists them.
-HANDLERS = {
-    "demo": demo_commands.demo, "batch": batch_commands.batch, "viz": viz_commands.viz,
-    "calibrate": calibrate_commands.calibrate,
-    "data": {"info": data_commands.data_info, "import-bvh": data_commands.import_bvh,
-             "import-amc": data_commands.import_amc, "cameras": data_commands.cameras,
-             "samples-speed": data_commands.samples_speed},
-    "train": model_commands.train, "evaluate": model_commands.evaluate, "models": model_commands.models,
-    "export": model_commands.export, "lift": lift_commands.lift, "fuse": lift_commands.fuse,
-    "video": video_commands.video, "live": live_commands.live, "site": site_commands.site,
-    "bench": {"robustness": bench_commands.robustness, "calibration": bench_commands.calibration,
-              "real-video": bench_commands.real_video, "real-near": bench_commands.real_near,
-              "level": bench_commands.level, "speed": bench_commands.speed, "identity": bench_commands.identity,
-              "people": bench_commands.people, "live": bench_commands.live, "fusion": bench_commands.fusion,
-              "worlds": bench_commands.worlds}}
+
+def handlers() -> dict:
+    """Each command's handler (a group's, data and bench: each of its commands'), in the order ``ray3d --help`` lists
+    them; looked up as each parser is built, so that a handler replaced in its module is the one called."""
+    return {
+        "demo": demo_commands.demo, "batch": batch_commands.batch, "viz": viz_commands.viz,
+        "calibrate": calibrate_commands.calibrate,
+        "data": {"info": data_commands.data_info, "import-bvh": data_commands.import_bvh,
+                 "import-amc": data_commands.import_amc, "cameras": data_commands.cameras,
+                 "samples-speed": data_commands.samples_speed},
+        "train": model_commands.train, "evaluate": model_commands.evaluate, "models": model_commands.models,
+        "export": model_commands.export, "lift": lift_commands.lift, "fuse": lift_commands.fuse,
+        "video": video_commands.video, "live": live_commands.live, "site": site_commands.site,
+        "bench": {"robustness": bench_commands.robustness, "calibration": bench_commands.calibration,
+                  "real-video": bench_commands.real_video, "real-near": bench_commands.real_near,
+                  "level": bench_commands.level, "speed": bench_commands.speed, "identity": bench_commands.identity,
+                  "people": bench_commands.people, "live": bench_commands.live, "fusion": bench_commands.fusion,
+                  "worlds": bench_commands.worlds}}
 
 
 class OneLineErrors(argparse.ArgumentParser):
@@ -51,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="ray3d", description="Absolute 3D human pose in world coordinates from one calibrated camera.")
     parser.add_argument("--version", action="version", version=f"ray3d {ray3d.__version__}")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an internal error")
-    _add_commands(parser, HANDLERS)
+    _add_commands(parser, handlers())
     return parser
 
 
