@@ -77,10 +77,10 @@ def test_every_flag_keyword_and_type_in_the_file_is_argparse_s():
 def test_a_mistake_in_the_file_is_refused_when_the_parser_is_built():
     with pytest.raises(ValueError, match="defualt: not an argparse keyword"):
         arguments.flag_keywords({"defualt": 3}, {})
-    with pytest.raises(KeyError, match="integer"):
+    with pytest.raises(ValueError, match="type integer: not one of int, float"):
         arguments.flag_keywords({"type": "integer"}, {})
-    with pytest.raises(KeyError, match="NOT_A_CONSTANT"):
-        arguments.flag_keywords({"help": "see {NOT_A_CONSTANT}"}, {})
+    with pytest.raises(ValueError, match="NOT_A_CONSTANT: not a named value"):
+        arguments.flag_keywords({"help": "see {NOT_A_CONSTANT} in {json,md}"}, {})
 
 
 def test_placeholders_are_the_values_the_code_names():

@@ -4,13 +4,15 @@ converters their values go through; and reading the shared ones back into what t
 from __future__ import annotations
 
 import argparse
+import datetime
 import functools
 import re
 import tomllib
 from pathlib import Path
 
+from ray3d.errors import InputError
 from ray3d.models.precision import PRECISIONS
-from ray3d.temporal import OUTPUT_SMOOTHING
+from ray3d.temporal import OUTPUT_SMOOTHING, parse_duration
 
 FLAGS_FILE = Path(__file__).with_name("flags.toml")
 SHARED = "shared."  # a key naming a table of shared flags, added where it stands
@@ -70,6 +72,8 @@ def flag_keywords(spec: dict, names: dict) -> dict:
         raise ValueError(f"{FLAGS_FILE.name}: {', '.join(sorted(unknown))}: not an argparse keyword here")
     keywords = {key: filled(value, names) for key, value in spec.items()}
     if "type" in keywords:
+        if keywords["type"] not in CONVERTERS:
+            raise ValueError(f"{FLAGS_FILE.name}: type {keywords['type']}: not one of {', '.join(CONVERTERS)}")
         keywords["type"] = CONVERTERS[keywords["type"]]
         if isinstance(keywords.get("default"), str):  # as argparse reads a default given as text
             keywords["default"] = keywords["type"](keywords["default"])
@@ -83,6 +87,9 @@ def filled(value, names: dict):
         return [filled(item, names) for item in value]
     if not isinstance(value, str):
         return value
+    unknown = {match[1] for match in PLACEHOLDER.finditer(value)} - set(names)
+    if unknown:
+        raise ValueError(f"{FLAGS_FILE.name}: {', '.join(sorted(unknown))}: not a named value or a word given here")
     whole = PLACEHOLDER.fullmatch(value)
     if whole and whole[2] is None:
         return names[whole[1]]
@@ -91,8 +98,6 @@ def filled(value, names: dict):
 
 def duration(text: str) -> float:
     """``--every``'s value (``temporal.parse_duration``) -> seconds."""
-    from ray3d.temporal import parse_duration
-
     try:
         return parse_duration(text)
     except ValueError as err:
@@ -101,8 +106,6 @@ def duration(text: str) -> float:
 
 def until(text: str) -> float:
     """``--until``'s value: a duration (``8h``, ``30min``) or a date and time (ISO 8601) -> seconds from now."""
-    import datetime
-
     try:
         return duration(text)
     except argparse.ArgumentTypeError:
@@ -117,8 +120,6 @@ def until(text: str) -> float:
 
 
 def wall_clock(text: str):
-    import datetime
-
     try:
         return datetime.datetime.fromisoformat(text)
     except ValueError:
@@ -134,7 +135,6 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
     """The ``ray3d.jobs.Job`` a command's arguments ask for: ``inputs`` (``plural`` / ``singular`` name them in a
     refusal), each with its ``--camera`` (one each where there are several; a single input may have none: its
     camera then comes from --camera-height / --pitch), and every lifting, video and output option given."""
-    from ray3d.errors import InputError
     from ray3d.jobs import CameraChoice, Job
     from ray3d.lifting.options import LiftOptions, VideoOptions
 
@@ -164,8 +164,6 @@ def job_from_args(args: argparse.Namespace, inputs: list, plural: str, singular:
 
 def parse_offsets(text: str | None) -> list[float] | None:
     """``--offsets``: seconds separated by commas (None where not given)."""
-    from ray3d.errors import InputError
-
     if not text:
         return None
     try:
