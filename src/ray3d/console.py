@@ -12,6 +12,7 @@ import re
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from typing import Any, Iterable
 
 from tqdm import tqdm
@@ -73,3 +74,16 @@ def native_chatter_dropped():
                 text = b"".join(line for line in lines if not CHATTER.match(line.rstrip(b"\r\n")))
                 while text:
                     text = text[os.write(2, text):]
+
+
+def said_once(report: Callable[[str], None]) -> Callable[[str], None]:
+    """``report``, saying only the first line it is given: a trouble that comes back with every event (a receiver
+    that cannot be reached) is one line in the log, not one an event."""
+    said = threading.Event()
+
+    def say(line: str) -> None:
+        if not said.is_set():
+            said.set()
+            report(line)
+
+    return say

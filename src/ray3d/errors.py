@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable, Mapping
 
 
 class InputError(ValueError):
@@ -51,3 +52,11 @@ def reads_file(what: str):
         return read
 
     return decorate
+
+
+def missing_fields(document, fields: Iterable[str], where: str) -> list[str]:
+    """The ``fields`` a JSON object read from ``where`` lacks (each reader words its own refusal of them); anything
+    but an object refused here, in one line."""
+    if not isinstance(document, Mapping):
+        raise InputError(f"{where}: expected a JSON object, got {type(document).__name__}")
+    return [name for name in fields if name not in document]

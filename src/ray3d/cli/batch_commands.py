@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
-
-from ray3d.cli.arguments import add_out
 
 
 def batch(args: argparse.Namespace) -> int:
@@ -23,23 +20,3 @@ def batch(args: argparse.Namespace) -> int:
         print(f"error: {len(report.failed)} of {len(report.reports)} inputs failed", file=sys.stderr)
         return 1
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d batch``'s flags, bound to ``batch``."""
-    batch_parser = commands.add_parser("batch",
-                                       help="every video and keypoint file of a manifest, each one task on a Ray "
-                                            "cluster or a local Ray (pip install 'ray3d[cluster]')")
-    batch_parser.add_argument("manifest", type=Path, help="CSV or JSON: input, camera (or camera_height, pitch, hfov), "
-                                                   "options (docs/batch.md)")
-    add_out(batch_parser, "output folder: NAME/ per input and summary.csv")
-    batch_parser.add_argument("--address", help="an existing Ray cluster: auto, or ray://HOST:10001 (default: start a "
-                                         "local Ray for this job)")
-    batch_parser.add_argument("--workers", type=int, help="local Ray: its CPUs (default all); on a cluster: most tasks "
-                                                   "at once (default no limit)")
-    batch_parser.add_argument("--retries", type=int, default=2,
-                       help="retries of a task that crashed or raised (default 2; a bad input is not retried)")
-    batch_parser.add_argument("--cpus-per-task", type=float, default=1,
-                              help="CPUs (torch threads) per task (default 1)")
-    batch_parser.add_argument("--gpus-per-task", type=float, default=0, help="GPUs per task (default 0)")
-    batch_parser.set_defaults(handler=batch)

@@ -6,8 +6,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ray3d.cli.arguments import add_force, add_out
-
 
 def data_info(args: argparse.Namespace) -> int:
     from ray3d.data import motion
@@ -80,63 +78,3 @@ def samples_speed(args: argparse.Namespace) -> int:
         result = measure_throughput(train, config, Window(args.frames), args.batch, args.repeats)
         print(f"  {name:<36}{result['ms_per_batch']:8.1f} ms/batch{result['samples_per_s']:10,.0f} samples/s")
     return 0
-
-
-def _import_common(parser: argparse.ArgumentParser) -> None:
-    add_out(parser, "output motion npz (the shipped format)")
-    parser.add_argument("--fps", type=float, default=60.0, help="output frame rate (default 60)")
-    parser.add_argument("--drop-frames", type=int, default=0, metavar="N",
-                        help="leading native frames to discard, e.g. a synthetic T-pose")
-    parser.add_argument("--no-floor", action="store_true", help="keep z as in the file (no floor at z = 0)")
-    parser.add_argument("--subject", default="user", help="performer name stored with the clips")
-    add_force(parser, "replace OUT if it exists")
-
-
-def add_parser(commands) -> None:
-    """``ray3d data`` and its subcommands's flags, each bound to its handler here."""
-    from pathlib import Path
-
-    from ray3d.cli.arguments import add_data_dir, add_force
-    from ray3d.data.virtual_cameras import SET_NAMES
-
-    data_parser = commands.add_parser("data", help="motion data: info, importers, virtual camera sets")
-    data_commands_parser = data_parser.add_subparsers(dest="data_command", metavar="DATA_COMMAND", required=True)
-
-    info_parser = data_commands_parser.add_parser("info",
-                                                  help="what motion data is available: clips, frames, minutes, splits")
-    add_data_dir(info_parser)
-    info_parser.set_defaults(handler=data_info)
-
-    bvh_parser = data_commands_parser.add_parser("import-bvh", help="BVH takes -> a motion npz (H36M-17, metres, z up)")
-    bvh_parser.add_argument("files", nargs="+", type=Path, metavar="FILE")
-    bvh_parser.add_argument("--units", choices=["m", "cm", "mm", "inch", "cmu"],
-                     help="file length units (default: CMU units for cgspeed namings, cm for Daz)")
-    _import_common(bvh_parser)
-    bvh_parser.set_defaults(handler=import_bvh)
-
-    amc_parser = data_commands_parser.add_parser("import-amc", help="an ASF skeleton and AMC takes -> a motion npz")
-    amc_parser.add_argument("asf", type=Path, metavar="ASF")
-    amc_parser.add_argument("amc", nargs="+", type=Path, metavar="AMC")
-    amc_parser.add_argument("--native-fps", type=float, default=120.0, help="the AMC files' frame rate (default 120)")
-    _import_common(amc_parser)
-    amc_parser.set_defaults(handler=import_amc)
-
-    cams_parser = data_commands_parser.add_parser("cameras", help="write a named virtual camera set as JSON")
-    cams_parser.add_argument("--set", required=True, choices=SET_NAMES)
-    cams_parser.add_argument("--out", required=True, type=Path)
-    cams_parser.add_argument("--split", default="test", choices=["train", "validation", "test", "all"],
-                      help="clips the cameras must see entirely (default: test)")
-    cams_parser.add_argument("--no-filter", action="store_true",
-                             help="write the whole grid, without the in-image filter")
-    add_data_dir(cams_parser)
-    add_force(cams_parser, "replace OUT if it exists")
-    cams_parser.set_defaults(handler=cameras)
-
-    speed_parser = data_commands_parser.add_parser("samples-speed",
-                                                   help="measure the training-sample generator's throughput")
-    speed_parser.add_argument("--batch", type=int, default=1024)
-    speed_parser.add_argument("--frames", type=int, default=9)
-    speed_parser.add_argument("--repeats", type=int, default=20)
-    add_data_dir(speed_parser)
-    speed_parser.set_defaults(handler=samples_speed)
-

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from ray3d.cli.printing import print_ankle_plane, print_site_doubts, print_site_report
 from ray3d.io.atomic import check_output, refuse_existing
@@ -67,29 +66,3 @@ def store_report(args: argparse.Namespace, read_site) -> int:
     print(f"{len(record.events)} events of {len(record.people)} people over {len(record.runs)} run(s); "
           f"{len(record.gaps)} gap(s) in the record ({down:.1f} s) -> {args.out}: {', '.join(p.name for p in paths)}")
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d site``'s flags, bound to ``site``."""
-    from ray3d.cli.arguments import add_force, add_out, add_time_buckets, wall_clock
-
-    parser = commands.add_parser("site", help="a world file's tracks on a site's zones and counting lines: events "
-                                            "(lines crossed, zones entered and left) and per-track and per-place "
-                                            "tables")
-    parser.add_argument("world", type=Path, nargs="?", help="a world file (.json/.csv/.npz) of ray3d lift or ray3d "
-                      "video (or --store)")
-    parser.add_argument("--store", help="report on a site's store instead (ray3d live's OUT/site.db, or "
-                                      "postgresql://...): every run, with the record's gaps")
-    parser.add_argument("--copy-to", help="with --store: first copy its whole record into this new store (say "
-                        "postgresql://... as a site grows), then report as asked")
-    parser.add_argument("--from", dest="from_time", type=wall_clock, help="with --store: from this date and time "
-                      "(ISO 8601; default the record's first)")
-    parser.add_argument("--to", dest="to_time", type=wall_clock, help="with --store: to this date and time (ISO 8601; "
-                      "default the record's last)")
-    parser.add_argument("--site", required=True, type=Path,
-                      help="the site file (JSON or YAML: zones and directed lines in world metres; docs/site.md)")
-    add_out(parser, "folder for events.jsonl, events.csv, tracks.csv, "
-                    "places.csv")
-    add_time_buckets(parser)
-    add_force(parser, "replace existing tables")
-    parser.set_defaults(handler=site)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from ray3d.cli.printing import print_keypoint_notes
 from ray3d.errors import InputError
@@ -56,25 +55,3 @@ def viz(args: argparse.Namespace) -> int:
         if args.keypoints is not None:
             print_keypoint_notes(args.keypoints, keypoints)
     return 0
-
-
-def add_parser(commands) -> None:
-    """``ray3d viz``'s flags, bound to ``viz``."""
-    from ray3d.cli.arguments import add_force
-
-    viz_parser = commands.add_parser("viz",
-                                     help="an HTML viewer and/or a GIF/MP4 of lifted 3D (outputs of ray3d lift or "
-                                          "ray3d video): every track, with its id and path on the floor")
-    viz_parser.add_argument("world", nargs="+", type=Path,
-                     help="world files (.json/.csv/.npz): several people, or one per method to compare")
-    viz_parser.add_argument("--camera", help="the camera drawn and projected through (default: the first world file's)")
-    viz_parser.add_argument("--html", type=Path, help="write the interactive viewer here")
-    viz_parser.add_argument("--animation", type=Path,
-                            help="write a .gif or .mp4 here (MP4 for long clips: bounded memory)")
-    viz_parser.add_argument("--track", help="show only this track (default: every track)")
-    viz_parser.add_argument("--keypoints", type=Path,
-                     help="the 2D input (e.g. ray3d video's keypoints.json): drawn under the lifted joints")
-    viz_parser.add_argument("--fps", type=float, help="playback frame rate (default: the world file's)")
-    viz_parser.add_argument("--stride", type=int, default=2, help="animation: every N-th frame (default 2)")
-    add_force(viz_parser, "replace existing outputs")
-    viz_parser.set_defaults(handler=viz)

@@ -11,7 +11,7 @@ from typing import Any, Self
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ray3d.errors import InputError
+from ray3d.errors import InputError, missing_fields
 from ray3d.geometry import transforms as tf
 from ray3d.geometry.arrays import numeric_array
 from ray3d.geometry.intrinsics import parse_image_size, pinhole_intrinsics
@@ -139,9 +139,7 @@ class CameraParameters:
         Keys: ``fx, fy, cx, cy`` (pixels), ``dist`` (k1, k2, p1, p2, k3), ``R`` (3x3 world->camera),
         ``t`` (3, metres), ``width, height`` (pixels); optional ``name``.
         """
-        if not isinstance(d, Mapping):
-            raise InputError(f"camera: expected a JSON object, got {type(d).__name__}")
-        missing = [key for key in DICT_FIELDS if key not in d]
+        missing = missing_fields(d, DICT_FIELDS, "camera")
         if missing:
             label = d.get("name") or name
             raise InputError(f"camera{' ' + label if label else ''}: missing field(s) {', '.join(missing)}")

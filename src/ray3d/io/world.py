@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ray3d.errors import InputError, reads_file
+from ray3d.errors import InputError, missing_fields, reads_file
 from ray3d.geometry import Camera
 from ray3d.geometry.uncertainty import Positioned
 from ray3d.io.atomic import atomic_path
@@ -320,9 +320,7 @@ TRACK_FIELDS = ("frames", "joints")  # what every version wrote; the fields adde
 
 
 def _require(document, fields: tuple[str, ...], where: str) -> None:
-    if not isinstance(document, dict):
-        raise InputError(f"{where}: expected a JSON object")
-    missing = [name for name in fields if name not in document]
+    missing = missing_fields(document, fields, where)
     if missing:
         raise InputError(f"{where}: not a world file written by ray3d: missing field(s) {', '.join(missing)} (every "
                          "version writes them)")

@@ -23,6 +23,7 @@ import threading
 from collections.abc import Callable
 from urllib.parse import urlsplit
 
+from ray3d.console import said_once
 from ray3d.errors import InputError
 from ray3d.site.events import DWELL_ABOVE_LIMIT, FALL, LINE_CROSSED, OCCUPANCY_ABOVE_LIMIT, ZONE_ENTERED, ZONE_LEFT
 from ray3d.site.places import Site
@@ -169,11 +170,10 @@ class MqttPublisher:
             raise InputError("mqtt: needs paho-mqtt (pip install 'ray3d[live]')", ("mqtt",)) from None
         self.host, self.port, self.prefix = parse_mqtt_url(url)
         _one_topic_each(site, self.prefix)
-        self.site, self.report = site, report
+        self.site, self.report_trouble = site, said_once(report)
         self.published = self.dropped = 0
         self._state: dict[str, str] = {}  # retained topic -> the value last published
         self._before: dict[str, dict[str, int]] = {}  # the counts of the runs before this one (the store's)
-        self._reported = False
         self._lock = threading.Lock()
         self._codes = (mqtt.MQTT_ERR_SUCCESS, mqtt.MQTT_ERR_NO_CONN)  # sent, or queued until the broker is back
         self._client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=client_id or "",
@@ -198,10 +198,8 @@ class MqttPublisher:
         if info.rc in self._codes:
             return True
         self.dropped += 1
-        if not self._reported:
-            self._reported = True
-            self.report(f"mqtt {self.host}:{self.port}: the broker is not taking messages; those beyond the queue "
-                        "are dropped (events stay in events.jsonl and the store)")
+        self.report_trouble(f"mqtt {self.host}:{self.port}: the broker is not taking messages; those beyond the queue "
+                            "are dropped (events stay in events.jsonl and the store)")
         return False
 
     def begin(self, monitor, counted: dict[str, dict[str, int]] | None = None) -> None:

@@ -13,6 +13,8 @@ import urllib.error
 import urllib.request
 from collections.abc import Callable
 
+from ray3d.console import said_once
+
 
 class Webhook:
     """POST each event (JSON) to ``url``: ``attempts`` tries ``timeout_s`` each, waiting ``backoff_s`` doubling in
@@ -23,12 +25,12 @@ class Webhook:
     def __init__(self, url: str, queue_size: int = 1000, attempts: int = 3, timeout_s: float = 2.0,
                  backoff_s: float = 0.25, report: Callable[[str], None] = lambda line: print(line, file=sys.stderr),
                  token: str | None = None):
-        self.url, self.attempts, self.timeout_s, self.backoff_s, self.report = (url, attempts, timeout_s,
-                                                                                 backoff_s, report)
+        self.url, self.attempts, self.timeout_s, self.backoff_s = url, attempts, timeout_s, backoff_s
+        self.report_trouble = said_once(report)
         self.headers = {"Content-Type": "application/json", **({"Authorization": f"Bearer {token}"} if token else {})}
         self.delivered = self.failed = self.dropped = 0
         self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
-        self._reported = self._sending = False
+        self._sending = False
         self._counting = threading.Lock()
         self._stop = threading.Event()
         self._sender = threading.Thread(target=self._send_all, name="webhook", daemon=True)
@@ -84,10 +86,8 @@ class Webhook:
                     break
                 if attempt + 1 < self.attempts:
                     time.sleep(self.backoff_s * 2 ** attempt)
-        if not self._reported:
-            self._reported = True
-            self.report(f"webhook {self.url}: not delivered after {self.attempts} attempts ({why}); events stay "
-                        "in events.jsonl")
+        self.report_trouble(f"webhook {self.url}: not delivered after {self.attempts} attempts ({why}); events stay "
+                            "in events.jsonl")
         return False
 
     def close(self, wait_s: float = 3.0) -> None:
