@@ -15,12 +15,13 @@ from ray3d.bench.fusion import offline, walking_clips
 from ray3d.jobs import load_lifter
 
 
-def main() -> None:
+def main(measure=offline) -> None:
+    """The scenes measured by ``measure`` (``ray3d.bench.fusion.offline`` or ``.live``), printed as JSON."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--clips", type=int, default=6)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
-    print(json.dumps(offline(load_lifter(), walking_clips(args.clips), args.seed), indent=1))
+    print(json.dumps(measure(load_lifter(), walking_clips(args.clips), args.seed), indent=1))
 
 
 if __name__ == "__main__":

@@ -6,22 +6,9 @@ command the history's figures name, kept running.
     python benchmarks/history/live_fusion_mocap.py --clips 8
 """
 
-from __future__ import annotations
+from fusion_mocap import main
 
-import argparse
-import json
-
-from ray3d.bench.fusion import live, walking_clips
-from ray3d.jobs import load_lifter
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--clips", type=int, default=6)
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
-    print(json.dumps(live(load_lifter(), walking_clips(args.clips), args.seed), indent=1))
-
+from ray3d.bench.fusion import live
 
 if __name__ == "__main__":
-    main()
+    main(live)
