@@ -250,6 +250,28 @@ def test_a_live_job_that_fails_closes_what_it_opened(tmp_path):
     assert source.next() is None  # closed
     assert (out / "events.jsonl").read_text() == ""
 
+    # A failure once the streams are open and before they are followed (here: what the run says as it begins)
+    # closes them too, and the signal handlers it set are the caller's again.
+    import signal
+
+    source = FrameSource(_frames(len(people), people=people), FPS, "scene", waits=True)
+    handlers = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)}
+
+    def broken(line: str) -> None:
+        raise BrokenPipeError("stderr closed")
+
+    with pytest.raises(BrokenPipeError):
+        live_job(job, tmp_path / "third", LiveOptions(page=False), lambda job, recorder: local_inputs(
+            job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)], recorder.id_prefix),
+                 store=tmp_path / "third" / "site.db", said=broken, signals=True)
+    assert source.next() is None  # closed
+    assert set(threading.enumerate()) <= before
+    source = FrameSource(_frames(len(people), people=people), FPS, "scene", paced=False)
+    run = live_job(job, tmp_path / "fourth", LiveOptions(page=False), lambda job, recorder: local_inputs(
+        job, SourceGroup([source]), [CAMERA], [_ScriptedDetector(people)]), signals=True)
+    assert run.summary.ending == "ended" and run.signal is None
+    assert {number: signal.getsignal(number) for number in handlers} == handlers
+
 
 def test_events_reach_an_mqtt_broker_in_order_with_the_occupancy_retained_and_home_assistant_discovery(tmp_path):
     import jsonschema

@@ -3,7 +3,7 @@ sustains when its stream comes at 10 and at 25 frames/s, its memory) measured on
 and the cost of the one process that joins every camera's people, finds the site's events and writes the outputs
 (per camera-frame, measured on synthetic people), from which the number of cameras a cluster follows is modelled.
 
-    python benchmarks/live_cluster_scale.py VIDEO --camera CAMERA.json [--seconds 40] [--out results.json]
+    python benchmarks/history/live_cluster_scale.py VIDEO --camera CAMERA.json [--seconds 40] [--out results.json]
 
 Each row plays VIDEO at the given rate (the file at that rate, as a camera would deliver it) to as many camera
 actors as the local Ray has workers (one CPU each) for ``--seconds``, and reports per camera the frames read,

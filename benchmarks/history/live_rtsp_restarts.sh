@@ -2,7 +2,7 @@
 # A real camera stream that goes down and comes back: vtest.avi served over RTSP on 127.0.0.1 (rtsp-server-perl fed
 # by FFmpeg, Debian packages), followed by `ray3d live` (its real detector) for 75 s while the publisher is stopped
 # for 4 s and started again three times. Prints the run's summary, the lines it said and the store's gaps.
-#   bash benchmarks/live_rtsp_restarts.sh ../shared/data/real-video OUT_DIR [RAY3D]
+#   bash benchmarks/history/live_rtsp_restarts.sh ../shared/data/real-video OUT_DIR [RAY3D]
 set -euo pipefail
 data=$1; out=$2; ray3d=${3:-ray3d}
 rm -rf "$out"; mkdir -p "$out"

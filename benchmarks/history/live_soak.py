@@ -4,7 +4,7 @@ live path's queues; at the end it checks that every event was written (the log's
 count, and the store's rows: OUT/site.db, SQLite, as ``ray3d live`` writes it) and reports the memory after the first
 minute, its largest rise after that, and the frames dropped.
 
-    python benchmarks/live_soak.py ../shared/data/real-video/vtest.avi \\
+    python benchmarks/history/live_soak.py ../shared/data/real-video/vtest.avi \\
         --camera ../shared/data/real-video/vtest_camera.json --site benchmarks/vtest_site.json \\
         --minutes 30 --out DIR
 """

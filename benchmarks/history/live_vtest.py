@@ -8,7 +8,7 @@ seen) and statures
 in both world files, and for each live track the offline track it is (most shared frames, pelvis within 1 m) with
 the median distance between their pelvis floor points.
 
-    python benchmarks/live_vtest.py ../shared/data/real-video/vtest.avi \\
+    python benchmarks/history/live_vtest.py ../shared/data/real-video/vtest.avi \\
         --camera ../shared/data/real-video/vtest_camera.json --offline OUT/world.json --out DIR [--site F]
 """
 

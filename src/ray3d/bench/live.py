@@ -31,7 +31,6 @@ from ray3d.site.events import TRACK_STARTED
 from ray3d.store import read_record
 from ray3d.video import read_video_info
 
-MODES = ("soak", "restarts", "rtsp", "cluster")
 # The command line's closing line (cli/live_commands.py): what the process itself counted.
 CLOSING = re.compile(r"(?P<processed>\d+) of (?P<read>\d+) frames processed \((?P<dropped>\d+) dropped.*?latency "
                      r"median (?P<median>\S+) ms, 99th percentile (?P<p99>\S+) ms; (?P<events>\d+) events; "

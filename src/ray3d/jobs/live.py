@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import signal
 import sys
 import threading
 from collections.abc import Callable
@@ -143,7 +144,8 @@ def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions()
              stop: threading.Event | None = None, started: Callable[[str], None] = lambda url: None,
              said: Callable[[str], None] = lambda line: None, signals: bool = False) -> LiveRun:
     """``job``'s streams followed into ``out_dir`` until they end, stall, break off, ``options.until_s`` comes or
-    ``stop`` is set (with ``signals``, SIGINT and SIGTERM set it: ``live.runner.stop_on_signals``); then the tail:
+    ``stop`` is set (with ``signals``, SIGINT and SIGTERM set it, ``live.runner.stop_on_signals``, until the run's
+    outputs are complete, when the caller's handlers are put back); then the tail:
     several cameras' world files fused into ``out_dir``/world.json, the site's report in ``out_dir``/site (a run
     continuing a store's record: in ``out_dir``/run<N>/, nothing written before is replaced).
 
@@ -161,13 +163,20 @@ def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions()
     site = job.site_plan() if site is None else site
     recorder = start_record(job, store, command, site, options.start_time) if store is not None else None
     publisher = inputs = summary = None
+    handlers = {number: signal.getsignal(number) for number in (signal.SIGINT, signal.SIGTERM)} if signals else {}
     try:
         publisher = MqttPublisher(mqtt, site or Site()) if mqtt else None
         inputs = streams(job, recorder=recorder)
-        for line in _said_at_the_start(inputs, recorder, len(job.inputs)):
-            said(line)
         stop = stop or threading.Event()
-        caught = stop_on_signals(stop, inputs.followed) if signals else []
+        try:
+            for line in _said_at_the_start(inputs, recorder, len(job.inputs)):
+                said(line)
+            caught = stop_on_signals(stop, inputs.followed) if signals else []
+        except BaseException:  # the streams are open and not followed yet: let them go
+            _let_go(inputs.followed)
+            if inputs.ray is not None:
+                inputs.ray.shutdown()
+            raise
 
         def page(url: str) -> None:
             said(f"live page: {url}")
@@ -182,6 +191,8 @@ def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions()
                 recorder.close("not started")
             if publisher is not None:
                 publisher.close(wait_s=0.0)  # closing it again (once followed) does nothing
+        for number, handler in handlers.items():  # the caller's own again, once the outputs are complete
+            signal.signal(number, handler)
     return LiveRun(summary, recorder, publisher, caught[0] if caught else None)
 
 
@@ -205,6 +216,12 @@ def _said_at_the_start(inputs: LiveInputs, recorder: RunRecorder | None, cameras
     return lines
 
 
+def _let_go(followed) -> None:
+    """Cameras whose streams are open but will not be followed: closed, their threads ended."""
+    followed.close()
+    followed.finish()
+
+
 def _followed_to_the_end(inputs: LiveInputs, out_dir: Path, site: Site | None, options: LiveOptions,
                          stop: threading.Event, started, offsets_s: list[float] | None, recorder: RunRecorder | None,
                          mqtt: MqttPublisher | None) -> LiveSummary:
@@ -213,8 +230,7 @@ def _followed_to_the_end(inputs: LiveInputs, out_dir: Path, site: Site | None, o
     ends_in = out_dir / f"run{recorder.run}" if recorder is not None and recorder.continues else out_dir
     try:
         if len(inputs.followed.cameras) > 1 and (ends_in / "world.json").exists():
-            inputs.followed.close()
-            inputs.followed.finish()
+            _let_go(inputs.followed)
             raise InputError(f"{ends_in / 'world.json'}: exists; ray3d live never writes over an output", ("out",))
         summary = follow(inputs.followed, out_dir, site, options, stop, started, offsets_s, recorder, mqtt)
     finally:
