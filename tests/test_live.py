@@ -161,6 +161,23 @@ def test_a_stalled_stream_is_reported_after_its_timeout_with_what_came_before_ke
     source.close()
 
 
+def test_a_file_taken_up_past_its_end_says_nothing_is_left_not_that_it_is_not_a_video(tmp_path):
+    """A store's record may take a file up where an earlier run left it; where that run had taken every frame, the
+    refusal says so (a restart after the file ended), not that the file is no video."""
+    import cv2
+
+    path = tmp_path / "five.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (64, 48))
+    for k in range(5):
+        writer.write(np.full((48, 64, 3), 40 * k, np.uint8))
+    writer.release()
+    assert FrameSource.open(path, first_index=4).next().index == 4
+    for first in (5, 9):
+        with pytest.raises(InputError, match=r"five.avi: nothing left to follow: its 5 frames were all taken by an "
+                                             rf"earlier run \(the store's record takes it up at frame {first}\)"):
+            FrameSource.open(path, first_index=first)
+
+
 def test_what_is_not_a_video_is_refused_in_one_line(tmp_path, capsys):
     from ray3d.cli import main
 

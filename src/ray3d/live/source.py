@@ -59,12 +59,15 @@ def _opened(source: str, skip: int = 0, read_timeout_s: float | None = None) -> 
     if not capture.isOpened():
         capture.release()
         raise InputError(f"{source}: cannot be opened as a video file, camera device or stream", ("source",))
-    for _ in range(skip):  # frame by frame: seeking a compressed file lands on key frames only
-        if not capture.grab():
-            break
+    grabbed = 0
+    while grabbed < skip and capture.grab():  # frame by frame: seeking a compressed file lands on key frames only
+        grabbed += 1
     ok, first = capture.read()
     if not ok:
         capture.release()
+        if skip and grabbed > 0:
+            raise InputError(f"{source}: nothing left to follow: its {grabbed} frames were all taken by an earlier "
+                             f"run (the store's record takes it up at frame {skip})", ("source",))
         raise InputError(f"{source}: no frame could be read: not a video, or an empty one", ("source",))
     return capture, first, float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
 
