@@ -22,9 +22,14 @@ def _show(files: list[Path], what: str = "") -> int:
     return 0
 
 
-def robustness(args: argparse.Namespace) -> int:
-    import numpy as np
+def _print_and_write(result: dict, path: Path, overwrite: bool, left_out: tuple[str, ...] = ()) -> int:
+    """Print a benchmark's JSON answer (less its long series ``left_out``) and write it whole to ``path``."""
+    print(json.dumps({k: v for k, v in result.items() if k not in left_out}, indent=1))
+    write_json(path, result, overwrite)
+    return 0
 
+
+def robustness(args: argparse.Namespace) -> int:
     from ray3d.bench.robustness import run, write
     from ray3d.data import motion as motion_data
 
@@ -152,11 +157,10 @@ def speed(args: argparse.Namespace) -> int:
                                                        for k, v in r.items() if k.startswith("stream_ms_")))
     if result["video"]:
         v = result["video"]
-        print(f"ray3d video, {v['frames']} frames of {v['video']} ({v['people']} people): people "
-              f"{v['people_frames_per_s']:.1f} f/s, lifting {v['lifting_frames_per_s']:.1f} f/s, writing "
-              f"{v['writing_frames_per_s']:.1f} f/s, end to end {v['end_to_end_frames_per_s']:.1f} f/s")
-    if args.json:
-        write_json(args.json, result, args.force)
+        print(f"ray3d video, {v['frames']} frames of {v['video']} ({v['people']} people): " + ", ".join(
+            f"{stage.replace('_', ' ')} {v[stage + '_frames_per_s']:.1f} f/s"
+            for stage in ("people", "lifting", "writing", "end_to_end")))
+    write_json(args.json, result, args.force)
     return 0
 
 
@@ -183,9 +187,7 @@ def live(args: argparse.Namespace) -> int:
         result = bench_live.rtsp(args.video, camera, args.out, args.site, args.seconds or 75.0)
     else:
         result = bench_live.cluster(args.video, camera, args.out, args.seconds or 40.0)
-    print(json.dumps({k: v for k, v in result.items() if k != "rss_mb_samples"}, indent=1))
-    write_json(args.out / f"{args.mode}.json", result, False)
-    return 0
+    return _print_and_write(result, args.out / f"{args.mode}.json", False, left_out=("rss_mb_samples",))
 
 
 def fusion(args: argparse.Namespace) -> int:
@@ -199,9 +201,7 @@ def fusion(args: argparse.Namespace) -> int:
     walks = bench_fusion.walking_clips(args.clips, args.data_dir)
     measure = bench_fusion.live if args.live else bench_fusion.offline
     result = measure(load_lifter(args.checkpoint), walks, args.seed, tuple(args.cameras))
-    print(json.dumps(result, indent=1))
-    write_json(args.out / ("fusion-live.json" if args.live else "fusion.json"), result, args.force)
-    return 0
+    return _print_and_write(result, args.out / ("fusion-live.json" if args.live else "fusion.json"), args.force)
 
 
 def worlds(args: argparse.Namespace) -> int:

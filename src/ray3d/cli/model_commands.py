@@ -63,8 +63,7 @@ def evaluate(args: argparse.Namespace) -> int:
         print(f"the true root within the reported sd along its ray: {100 * result['within_1sd']:.1f} % of frames "
               f"within 1 sd, {100 * result['within_2sd']:.1f} % within 2; across it: "
               f"{100 * result['across_within_1sd']:.1f} % / {100 * result['across_within_2sd']:.1f} %")
-    if args.json:
-        write_json(args.json, result, args.force)
+    write_json(args.json, result, args.force)
     return 0
 
 

@@ -17,9 +17,12 @@ HIP_HEIGHT_M = AXIS_HEIGHTS["pelvis"] * ADULT_STATURE_M
 SMALL_STATURE_M = ADULT_STATURE_M - 4 * ADULT_STATURE_SD_M
 
 
-def write_json(path: Path, document: dict, overwrite: bool) -> None:
+def write_json(path: Path | None, document: dict, overwrite: bool) -> None:
+    """``document`` written to ``path`` (None: not asked for, nothing written), and a line saying so."""
     from ray3d.io.atomic import atomic_path
 
+    if path is None:
+        return
     with atomic_path(path, overwrite=overwrite) as temporary:
         temporary.write_text(json.dumps(document, indent=1))
     print(f"wrote {path}")

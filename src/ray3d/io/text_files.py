@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -12,19 +14,25 @@ from ray3d.errors import InputError
 
 def read_text(path: str | Path) -> str:
     """A user's text file's contents; a file that cannot be read, or is not text, refused in one line."""
-    path = Path(path)
-    try:
-        return path.read_text()
-    except OSError as err:
-        raise InputError(f"{path}: cannot read ({err.strerror})") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file") from None
+    with _refused(path):
+        return Path(path).read_text()
 
 
 def read_json(path: str | Path) -> Any:
     text = read_text(path)
-    try:
+    with _refused(path):
         return json.loads(text)
+
+
+@contextlib.contextmanager
+def _refused(path: str | Path) -> Iterator[None]:
+    """What reading ``path`` as text or JSON raises, turned into its one-line refusal."""
+    try:
+        yield
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file") from None
+    except OSError as err:
+        raise InputError(f"{path}: cannot read ({err.strerror})") from None
     except json.JSONDecodeError as err:
         raise InputError(f"{path}: not valid JSON ({err.msg} at line {err.lineno})") from None
     except RecursionError:
