@@ -19,7 +19,7 @@ from ray3d.site import CountingLine, Site, site_events
 from ray3d.site.analytics import zone_summaries
 from ray3d.video.identities import REJOIN_WITHIN_S, rejoin_tracks
 from ray3d.video.pipeline import follow_people
-from ray3d.video.tracking import Track
+from ray3d.video.track import Track
 
 FPS = 10.0
 RED, BLUE = np.eye(32)[0], np.eye(32)[9]  # two clothes colours with nothing in common
@@ -194,7 +194,7 @@ def test_a_line_counts_a_rejoined_person_once_and_the_world_file_keeps_the_rejoi
 def test_one_rule_says_a_track_is_too_short_offline_and_live():
     """``Track.too_short``: kept from exactly ``shortest_s`` on, otherwise the reason both ``ray3d video`` and
     ``ray3d live`` give."""
-    from ray3d.video.tracking import Track
+    from ray3d.video.track import Track
 
     second = Track("7", list(range(10)))  # 10 frames at 10 frames/s: 1.0 s
     assert second.too_short(10.0, 1.0) is None

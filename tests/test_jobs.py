@@ -193,7 +193,7 @@ def test_one_pair_of_camera_files_gets_the_same_floors_offline_and_live(tmp_path
     from ray3d.jobs.run import lift_cameras_together
     from ray3d.live.source import FrameSource, SourceGroup
     from ray3d.video.detectors import Detection
-    from ray3d.video.tracking import Track
+    from ray3d.video.track import Track
 
     other = cameras.h36m("S9", "55011271")
     walk = demo_clip()[:120]

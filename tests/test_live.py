@@ -18,7 +18,7 @@ from ray3d.demo import demo_clip
 from ray3d.io.world import LiftResult, World, append_world_csv, read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.live.source import FrameSource, SourceGroup, StreamStalled
-from ray3d.site import CountingLine, Site, Zone, line_crossings, site_events
+from ray3d.site import CountingLine, Site, SiteMonitor, Zone, line_crossings, site_events
 
 CAMERA = cameras.h36m("S9", "54138969")
 FPS = 10.0
@@ -312,6 +312,44 @@ def test_the_detector_is_given_the_time_until_the_frame_is_due_and_a_person_unse
     assert len(unseen) == 1
     track = next(t for t in live.in_view() if t.id == unseen[0].track)
     assert 8 not in track.frames and {7, 9} <= set(track.frames)  # the world track has only what was seen
+
+
+def test_a_person_hidden_for_a_second_keeps_their_id_live_and_is_counted_once():
+    """The first person is not found for 1 s (twice the tracker's gap): found again where their walk led, in
+    their clothes, they are taken up under their own id (``rejoin_s``, the default): one "track started" each,
+    no "track ended" until the stream ends, their track's frames with the gap unseen and its re-join. With
+    ``rejoin_s`` 0 they come back as a third person, their first track let go during the gap."""
+    from ray3d.lifting.lifter import Lifter
+    from ray3d.live.people import LivePeople
+    from ray3d.live.source import LiveFrame
+
+    people = _scene(50)
+    hidden = set(range(15, 25))
+    lifter = Lifter.load()
+    for rejoin_s in (3.0, 0.0):
+        detector = _ScriptedDetector(people)
+        detector.unseen = {(t, 0) for t in hidden}
+        live = LivePeople(CAMERA, detector, lifter, FPS, deadline_frames=None, rejoin_s=rejoin_s)
+        monitor = SiteMonitor(Site((ROOM,), (DOOR,)), FPS)
+        events, let_go = [], []
+        for index, image in enumerate(_frames(len(people), people=people)):
+            now, finished = live.update(LiveFrame(index, image, time.monotonic()))
+            events += monitor.update(index, {p.track: p.joints for p in now})
+            let_go += [(index, track) for track in finished]
+            for track in finished:
+                events += monitor.ended(track.id)
+        live.close()
+        started = [e["track"] for e in events if e["event"] == "track started"]
+        if rejoin_s:
+            assert len(started) == 2 and not let_go and not [e for e in events if e["event"] == "track ended"]
+            (first,) = [t for t in live.in_view() if 15 not in t.frames]
+            assert first.frames == [t for t in range(50) if t not in hidden]
+            (rejoin,) = first.rejoins
+            assert rejoin.identity == first.id and rejoin.gap_s == pytest.approx(1.1)
+        else:
+            assert len(started) == 3
+            ((at, first),) = let_go
+            assert first.frames[-1] == 14 and at < 25
 
 
 def test_a_camera_too_slow_for_every_frame_takes_them_evenly_and_follows_everybody_in_one_track(tmp_path):

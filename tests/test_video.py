@@ -329,6 +329,38 @@ def test_tracker_counts_dropped_frames_as_time_passing():
     assert [t.frames for t in tracker.finished()] == [seen]
 
 
+def test_live_the_tracker_takes_a_person_up_again_as_it_goes_and_lets_them_go_only_after():
+    """Live, where no later pass can re-join whole tracks: a walker hidden for 0.8 s (longer than the tracker
+    waits) is taken up again where their walk led, under their own id, the frames between unseen; what was let go
+    is handed over as finished only once nobody can take it up any more. Somebody starting across the room is
+    somebody else; and without ``rejoin_s`` the walker comes back as a second person, as before."""
+    walker = CAMERA.project(_walker((6.0, -2.0), (0.0, 1.2), 100))
+    elsewhere = CAMERA.project(_walker((9.0, 3.0), (0.0, -1.2), 100))
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    seen = [t for t in range(100) if not 30 <= t < 46]
+    for rejoin_s in (0.0, 3.0):
+        tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.25, rejoin_s=rejoin_s)
+        finished = []
+        for t in range(100 + 80):
+            people = [Detection(walker[t], np.ones(17), 0.9)] if t in seen else []
+            if rejoin_s and 40 <= t < 70:
+                people.append(Detection(elsewhere[t], np.ones(17), 0.9))
+            tracker.update(t, people, frame)
+            finished += [(t, track) for track in tracker.finished()]
+        if not rejoin_s:
+            assert [track.frames for _, track in finished] == [seen[:30], seen[30:]]
+            assert [track.id for _, track in finished] == ["0", "1"]
+            continue
+        (let_go_walker, walked), (let_go_other, other) = sorted(finished, key=lambda pair: pair[1].frames[0])
+        assert walked.id == "0" and walked.frames == seen and len(walked.detections) == len(seen)
+        (rejoin,) = walked.rejoins
+        assert rejoin.identity == "0" and rejoin.after_frame == 29 and rejoin.gap_s == pytest.approx(17 / FPS)
+        assert rejoin.miss_m < 0.5 and rejoin.unlike == pytest.approx(0.0, abs=1e-6)
+        assert other.frames == list(range(40, 70)) and other.id not in ("0", rejoin.joined) and not other.rejoins
+        # Handed over once a track starting after them could no longer be them: 3 s after their last frame.
+        assert let_go_walker == 99 + int(3.0 * FPS) + 1 and let_go_other == 69 + int(3.0 * FPS) + 1
+
+
 def test_the_detector_leaves_people_for_the_next_frame_only_when_time_is_short(monkeypatch):
     """Live use gives the detector the time it may take: the crops that do not fit are the last frame's people,
     smallest first, looked at first in the next frame (nobody is left out twice running); without a time

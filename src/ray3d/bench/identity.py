@@ -65,9 +65,10 @@ def load_detections(path: Path) -> tuple[dict[int, list[Detection]], float, int,
 
 
 def floor_tracks(by_frame: dict[int, list[Detection]], frame_count: int, fps: float, layout: str, camera,
-                 video: Path) -> list:
-    """``ray3d video``'s floor tracker's tracks of these detections (before its re-joins)."""
-    tracker = FloorTracker(camera, fps, layout, VideoOptions().max_gap_s, CONFIRM_FRAMES)
+                 video: Path, rejoin_s: float = 0.0) -> list:
+    """The floor tracker's tracks of these detections: ``ray3d video``'s before its re-joins, or with ``rejoin_s``
+    ``ray3d live``'s (re-joined as it goes)."""
+    tracker = FloorTracker(camera, fps, layout, VideoOptions().max_gap_s, CONFIRM_FRAMES, rejoin_s=rejoin_s)
     for index, frame in read_frames(video, 0, frame_count):
         tracker.update(index, by_frame[index], frame)
     return tracker.tracks()
@@ -114,14 +115,18 @@ def write_truth(by_frame: dict[int, list[Detection]], annotated: dict, path: Pat
 
 def run_trackers(by_frame, frame_count: int, fps: float, layout: str, camera, video: Path,
                  min_track_s: float) -> dict[str, dict[int, list]]:
-    """{tracker: {frame: [(track id, box)]}}: the floor tracker with and without its re-joins, and the
-    ``trackers`` package's ByteTrack, OC-SORT and SORT at their defaults (given the video's frame rate), all on
-    the same detections (boxes of the confident joints, the person score); every tracker's tracks followed for less
-    than ``min_track_s`` left out, as ``ray3d video`` leaves out its own."""
+    """{tracker: {frame: [(track id, box)]}}: the floor tracker with and without its re-joins (``ray3d video``'s
+    after the whole tracks, ``ray3d live``'s as it goes), and the ``trackers`` package's ByteTrack, OC-SORT and
+    SORT at their defaults (given the video's frame rate), all on the same detections (boxes of the confident
+    joints, the person score); every tracker's tracks followed for less than ``min_track_s`` left out, as ``ray3d
+    video`` leaves out its own."""
     sv, maintained, _ = trackers_package()
     results: dict[str, dict[int, list]] = {}
-    tracks = floor_tracks(by_frame, frame_count, fps, layout, camera, video)
-    for name, rejoin_s in (("floor tracker + re-join", VideoOptions().rejoin_s), ("floor tracker", 0.0)):
+    whole = floor_tracks(by_frame, frame_count, fps, layout, camera, video)
+    as_it_goes = floor_tracks(by_frame, frame_count, fps, layout, camera, video, VideoOptions().rejoin_s)
+    for name, tracks, rejoin_s in (("floor tracker + re-join", whole, VideoOptions().rejoin_s),
+                                   ("floor tracker + re-join as it goes", as_it_goes, 0.0),
+                                   ("floor tracker", whole, 0.0)):
         found = results[name] = {}
         options = VideoOptions(rejoin_s=rejoin_s, min_track_s=min_track_s)
         for number, track in enumerate(follow_people(tracks, fps, frame_count, options).kept):

@@ -55,7 +55,7 @@ def local_inputs(job: Job, group, cameras: list, detectors: list, id_prefix: str
     the store's run before was cut off, ``RunRecorder.carried``)."""
     options = [job.lift_options(k) for k in range(len(cameras))]  # each camera on its own floor, as on Ray
     return LiveInputs(LocalCameras(group, cameras, detectors, job.lifter(detectors[0].layout), options,
-                                   job.video.max_gap_s, job.video.min_track_s, id_prefix, carried))
+                                   job.video, id_prefix, carried))
 
 
 def start_record(job: Job, store, command: str, site=None, start_time=None) -> RunRecorder:
@@ -108,8 +108,7 @@ def open_live(job: Job, paced: bool | None = None, stall_timeout_s: float = 10.0
         arguments = [dict(opened=functools.partial(open_stream, job, k, paced, stall_timeout_s,
                                                    reconnect_max_s=reconnect_max_s),
                           lifter=job.lifter, lift_options=job.lift_options(k), first_index=firsts[k],
-                          id_prefix=prefix, max_gap_s=job.video.max_gap_s, min_track_s=job.video.min_track_s,
-                          carried=carried)
+                          id_prefix=prefix, following=job.video, carried=carried)
                      for k in range(len(job.inputs))]
         played = [paced is not False] * len(job.inputs)  # an unpaced file waits for its reader; the rest play on
         try:

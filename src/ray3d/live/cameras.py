@@ -17,12 +17,12 @@ from ray3d.geometry.uncertainty import PersonNow
 from ray3d.io.world import World
 from ray3d.lifting.inputs import prepare_track
 from ray3d.lifting.lifter import Lifter
-from ray3d.lifting.options import LiftOptions
+from ray3d.lifting.options import LiftOptions, VideoOptions
 from ray3d.lifting.tracks import LiftedTracks
 from ray3d.live.floor import CROSSED_JOINTS, FloorPool, TrackFloor
 from ray3d.live.people import LivePeople, below_the_stream
 from ray3d.live.source import LiveFrame, SourceGroup
-from ray3d.video.tracking import Track
+from ray3d.video.track import Track
 
 
 @dataclasses.dataclass
@@ -110,7 +110,9 @@ class Finisher:
             return Finished(track.id, None, err.message)
         except Exception as err:  # one person's failure must not stop the others being written
             return Finished(track.id, None, f"could not be lifted ({type(err).__name__}: {err})")
-        return Finished(track.id, World(lifted, self.camera, self.lifter.name).in_frame("world"), floor=floor)
+        rejoined = {track.id: [rejoin.to_dict() for rejoin in track.rejoins]} if track.rejoins else {}
+        return Finished(track.id, World(lifted, self.camera, self.lifter.name, rejoined=rejoined).in_frame("world"),
+                        floor=floor)
 
     def _track_floor(self, track: Track, lifted: LiftedTracks, evidence: tuple) -> TrackFloor | None:
         """What the track showed of the floor, with the rays of its pelvis and ankles, to be crossed with another
@@ -129,19 +131,20 @@ class CameraPeople:
     """One camera: its frames -> its people (``LivePeople``), the tracks it lets go lifted (``Finisher``)."""
 
     def __init__(self, camera: Camera, detector, lifter: Lifter, fps: float, keep: int | None,
-                 lift_options: LiftOptions, max_gap_s: float, min_track_s: float, id_prefix: str = "",
+                 lift_options: LiftOptions, following: VideoOptions, id_prefix: str = "",
                  floor: FloorPool | None = None, carried=()):
         """``keep``: the frames its stream keeps (the detector's deadline), None for a stream that waits for it;
-        ``id_prefix``: written before each of its track ids (a run's number); ``floor``: the run's floor pool
-        (``Finisher``); ``carried``: the people in view when the run before was cut off, whose ids its first
-        tracks may take up (``FloorTracker``). The lifter's small-batch path is made here, before the first frame is
-        taken (it pauses 0.2 s; the stream may be running)."""
+        ``following``: how its people are followed (``max_gap_s``, ``rejoin_s``, ``min_track_s``); ``id_prefix``:
+        written before each of its track ids (a run's number); ``floor``: the run's floor pool (``Finisher``);
+        ``carried``: the people in view when the run before was cut off, whose ids its first tracks may take up
+        (``FloorTracker``). The lifter's small-batch path is made here, before the first frame is taken (it pauses
+        0.2 s; the stream may be running)."""
         lifter.prepare_small_batches()
         self._following = dict(camera=camera, detector=detector, lifter=lifter, fps=fps, floor=lift_options.floor,
-                               max_gap_s=max_gap_s, deadline_frames=keep)
+                               max_gap_s=following.max_gap_s, rejoin_s=following.rejoin_s, deadline_frames=keep)
         self.id_prefix, self.gaps = id_prefix, 0
         self.people = LivePeople(**self._following, id_prefix=id_prefix, carried=carried)
-        self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, min_track_s, floor)
+        self.finisher = Finisher(lifter, camera, detector.layout, fps, lift_options, following.min_track_s, floor)
         self.detector = detector
 
     def postponed(self) -> int:
@@ -182,8 +185,8 @@ class LocalCameras:
     """Every camera in this process: the frames of all taken from one ``SourceGroup`` in the order they arrived."""
 
     def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter,
-                 lift_options: LiftOptions | list[LiftOptions], max_gap_s: float, min_track_s: float,
-                 id_prefix: str = "", carried=()):
+                 lift_options: LiftOptions | list[LiftOptions], following: VideoOptions, id_prefix: str = "",
+                 carried=()):
         """``lift_options``: one for every camera, or each camera's own (its floor), as on Ray; ``id_prefix``:
         before every track id (a run's number: ids unique across the runs of a store); ``carried``: the people in
         view of the one camera when the run before was cut off (``CameraPeople``)."""
@@ -194,8 +197,8 @@ class LocalCameras:
         options = lift_options if isinstance(lift_options, list) else [lift_options] * len(cameras)
         # One site, one world frame, one floor: every camera's lifts draw on every camera's people.
         self.floor = FloorPool()
-        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, max_gap_s, min_track_s,
-                                   id_prefix, self.floor, carried if len(cameras) == 1 else ())
+        self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, following, id_prefix,
+                                   self.floor, carried if len(cameras) == 1 else ())
                       for c, d, source, o in zip(cameras, detectors, group.sources, options)]
 
     def next(self) -> tuple[int, FrameResult] | None:

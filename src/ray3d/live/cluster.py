@@ -35,14 +35,14 @@ class CameraWorker:
     ``step()`` -> its next frame's ``FrameResult`` (``arrived``: the frame's age in seconds; ``counts``: frames read,
     dropped and people postponed so far), or ``(ending, why)`` once its stream has ended, stalled or broken off."""
 
-    def __init__(self, opened: Callable, lifter: Callable, lift_options, max_gap_s: float, min_track_s: float,
+    def __init__(self, opened: Callable, lifter: Callable, lift_options, following,
                  first_index: int = 0, id_prefix: str = "", floor: RemoteFloorPool | None = None, carried=()):
         import torch
 
         torch.set_num_threads(1)
         self.source, self.camera, detector = opened(first_index=first_index)
         self.people = CameraPeople(self.camera, detector, lifter(detector.layout), self.source.fps,
-                                   self.source.deadline_frames, lift_options, max_gap_s, min_track_s, id_prefix,
+                                   self.source.deadline_frames, lift_options, following, id_prefix,
                                    floor, carried)
 
     def describe(self) -> tuple:

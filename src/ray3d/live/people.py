@@ -29,7 +29,9 @@ from ray3d.live.source import LiveFrame
 from ray3d.refine import RefineConfig, network_position_sd, refine_track, scale_about
 from ray3d.temporal import OneEuro
 from ray3d.video.detectors import PoseDetector
-from ray3d.video.tracking import CONFIRM_FRAMES, FloorTracker, Track
+from ray3d.video.identities import REJOIN_WITHIN_S
+from ray3d.video.track import Track
+from ray3d.video.tracking import CONFIRM_FRAMES, FloorTracker
 
 RUNNER_SHARE = 0.1  # of a frame's period, kept for the events, the outputs and the page after the people
 # Under load (a busy machine, a crowded moment) a paced stream's frames are taken evenly, every k-th (``Pacing``),
@@ -99,12 +101,12 @@ class LivePeople:
     def __init__(self, camera: Camera, detector: PoseDetector, lifter: Lifter, fps: float,
                  floor: Floor = FLAT_FLOOR, max_gap_s: float = 0.5, refine_every_s: float = 3.0,
                  refine_window_s: float = 20.0, deadline_frames: float | None = 2.0, id_prefix: str = "",
-                 carried=()):
+                 carried=(), rejoin_s: float = REJOIN_WITHIN_S):
         self.deadline_frames = deadline_frames
         self.pacing = None if deadline_frames is None else Pacing(fps)
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
         self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES, id_prefix=id_prefix,
-                                    carried=carried)
+                                    carried=carried, rejoin_s=rejoin_s)
         self.config = RefineConfig.for_model(lifter.document, detector.layout)
         self.refine_every = max(1, int(round(refine_every_s * fps)))
         self.window = max(2, int(round(refine_window_s * fps)))

@@ -29,7 +29,7 @@ import numpy as np
 from ray3d.fusion.tracks import handover_reach_m
 from ray3d.temporal import velocity
 from ray3d.video.clothes import COLOUR_GATE, colour_distance
-from ray3d.video.tracking import Track
+from ray3d.video.track import Track
 
 REJOIN_WITHIN_S = 3.0   # the longest gap across which a person is taken up again
 WALK_WINDOW_S = 1.0     # a track's walk (its velocity) at its end and start, over this much of it
@@ -100,6 +100,63 @@ def _mahalanobis_squared(difference: np.ndarray, covariance: np.ndarray) -> floa
     return float(difference @ np.linalg.solve(covariance, difference))
 
 
+def continuation(identity: Track, track: Track, fps: float, within_s: float = REJOIN_WITHIN_S
+                 ) -> tuple[float, Rejoin] | None:
+    """Whether ``track`` continues ``identity`` (it starts after the identity's last frame, within ``within_s``):
+    (its score, the lower the likelier: how far from where the walk led, in gates, plus how unlike the clothes;
+    the re-join) or None where a gate says they are two people."""
+    gap_s = (track.frames[0] - identity.frames[-1]) / fps
+    start = _walk(track, fps, at_end=False)
+    end = _walk(identity, fps, at_end=True)
+    if not 0 < gap_s <= within_s or start is None or end is None:
+        return None
+    # Each gate is the walk's own allowance widened by how uncertain the floor points make its reading.
+    turned = _mahalanobis_squared(start.velocity - end.velocity, start.velocity_noise + end.velocity_noise
+                                  + np.eye(2) * ((HEADING_GATE_M_S + TURN_M_S2 * gap_s) / _SIGMAS) ** 2)
+    if _steady(start) and _steady(end) and turned > _SIGMAS ** 2:
+        return None
+    # Unseen, they walked at the mean of the two walks (a steady turn), of those read long enough to be walks.
+    walks = [walk for walk in (end, start) if _steady(walk)] or [end]
+    mean_velocity = sum(walk.velocity for walk in walks) / len(walks)
+    mean_velocity_noise = sum(walk.velocity_noise for walk in walks) / len(walks) ** 2
+    miss_vector = start.point - (end.point + mean_velocity * gap_s)
+    reach = handover_reach_m(gap_s)
+    spread = end.point_noise + mean_velocity_noise * gap_s ** 2 + start.point_noise
+    missed = _mahalanobis_squared(miss_vector, spread + np.eye(2) * (reach / _SIGMAS) ** 2)
+    unlike = 0.5 if identity.colour is None or track.colour is None else colour_distance(identity.colour, track.colour)
+    if missed > _SIGMAS ** 2 or unlike >= COLOUR_GATE:
+        return None
+    miss = float(np.linalg.norm(miss_vector))
+    # The gate's reach along the miss: how far that way the start could have been and still be them.
+    reach_along = _SIGMAS * miss / np.sqrt(missed) if missed > 0 else reach
+    return (float(np.sqrt(missed) / _SIGMAS + unlike),
+            Rejoin(identity.id, track.id, identity.frames[-1], gap_s, miss, float(reach_along), unlike))
+
+
+def likeliest_continued(identities: list[Track], track: Track, fps: float, within_s: float = REJOIN_WITHIN_S
+                        ) -> tuple[Track, Rejoin] | None:
+    """The identity ``track`` continues (``continuation``'s likeliest of ``identities``) and the re-join, or None."""
+    scored = [(found, identity) for identity in identities
+              if (found := continuation(identity, track, fps, within_s)) is not None]
+    if not scored:
+        return None
+    (_, rejoin), identity = min(scored, key=lambda pair: pair[0][0])
+    return identity, rejoin
+
+
+def join(identity: Track, track: Track, rejoin: Rejoin) -> None:
+    """``track``'s frames appended to ``identity``'s, its clothes' colours averaged in by frames, the re-join kept."""
+    if track.colour is not None:
+        seen, now = len(identity.frames), len(track.frames)
+        identity.colour = track.colour if identity.colour is None else \
+            (identity.colour * seen + track.colour * now) / (seen + now)
+    identity.frames += track.frames
+    identity.detections += track.detections
+    identity.floor += track.floor
+    identity.floor_noise += track.floor_noise
+    identity.rejoins.append(rejoin)
+
+
 def rejoin_tracks(tracks: list[Track], fps: float,
                   within_s: float = REJOIN_WITHIN_S) -> tuple[list[Track], list[Rejoin]]:
     """``tracks`` (a tracker's, each in frame order) -> one track per identity (the first track's id, its
@@ -107,52 +164,12 @@ def rejoin_tracks(tracks: list[Track], fps: float,
     identities: list[Track] = []
     rejoins: list[Rejoin] = []
     for track in sorted(tracks, key=lambda t: t.frames[0]):
-        start = _walk(track, fps, at_end=False)
-        best = None
-        for identity in identities:
-            gap_s = (track.frames[0] - identity.frames[-1]) / fps
-            if not 0 < gap_s <= within_s or start is None:
-                continue
-            end = _walk(identity, fps, at_end=True)
-            if end is None:
-                continue
-            # Each gate is the walk's own allowance widened by how uncertain the floor points make its reading.
-            turned = _mahalanobis_squared(start.velocity - end.velocity, start.velocity_noise + end.velocity_noise
-                                          + np.eye(2) * ((HEADING_GATE_M_S + TURN_M_S2 * gap_s) / _SIGMAS) ** 2)
-            if _steady(start) and _steady(end) and turned > _SIGMAS ** 2:
-                continue
-            # Unseen, they walked at the mean of the two walks (a steady turn), of those read long enough to be walks.
-            walks = [walk for walk in (end, start) if _steady(walk)] or [end]
-            mean_velocity = sum(walk.velocity for walk in walks) / len(walks)
-            mean_velocity_noise = sum(walk.velocity_noise for walk in walks) / len(walks) ** 2
-            miss_vector = start.point - (end.point + mean_velocity * gap_s)
-            reach = handover_reach_m(gap_s)
-            spread = end.point_noise + mean_velocity_noise * gap_s ** 2 + start.point_noise
-            missed = _mahalanobis_squared(miss_vector, spread + np.eye(2) * (reach / _SIGMAS) ** 2)
-            unlike = 0.5 if identity.colour is None or track.colour is None else \
-                colour_distance(identity.colour, track.colour)
-            if missed > _SIGMAS ** 2 or unlike >= COLOUR_GATE:
-                continue
-            miss = float(np.linalg.norm(miss_vector))
-            # The gate's reach along the miss: how far that way the start could have been and still be them.
-            reach_along = _SIGMAS * miss / np.sqrt(missed) if missed > 0 else reach
-            score = np.sqrt(missed) / _SIGMAS + unlike
-            if best is None or score < best[0]:
-                best = (score, identity, Rejoin(identity.id, track.id, identity.frames[-1], gap_s, miss,
-                                                float(reach_along), unlike))
-        if best is None:
+        continued = likeliest_continued(identities, track, fps, within_s)
+        if continued is None:
             identities.append(dataclasses.replace(track, frames=list(track.frames),
                                                   detections=list(track.detections), floor=list(track.floor),
-                                                  floor_noise=list(track.floor_noise)))
+                                                  floor_noise=list(track.floor_noise), rejoins=list(track.rejoins)))
             continue
-        _, identity, rejoin = best
-        if track.colour is not None:
-            seen, now = len(identity.frames), len(track.frames)
-            identity.colour = track.colour if identity.colour is None else \
-                (identity.colour * seen + track.colour * now) / (seen + now)
-        identity.frames += track.frames
-        identity.detections += track.detections
-        identity.floor += track.floor
-        identity.floor_noise += track.floor_noise
-        rejoins.append(rejoin)
+        join(continued[0], track, continued[1])
+        rejoins.append(continued[1])
     return identities, rejoins

@@ -28,7 +28,8 @@ from ray3d.video.detectors import PoseDetector
 from ray3d.video.frames import VideoInfo, camera_for_video, read_frames, read_video_info, spread_frames
 from ray3d.video.identities import Rejoin, rejoin_tracks
 from ray3d.video.overlay import write_overlay
-from ray3d.video.tracking import CONFIRM_FRAMES, FloorTracker, Track
+from ray3d.video.track import Track
+from ray3d.video.tracking import CONFIRM_FRAMES, FloorTracker
 from ray3d.viz.html_viewer import write_viewer
 
 SHORT_CLIP_SHARE = 0.5   # a track as long as this share of the clip is kept, however short the clip

@@ -7,23 +7,24 @@ colour of their clothes, so that two people crossing in the image, at different 
 clothes, keep their ids. One box for two people walking side by side or passing each other (the detector merged
 them for a few frames) is given to neither: they coast until they part. A person unseen for longer than
 ``max_gap_s`` has left: their track ends, and whoever appears later starts a new one (a track never bridges a long
-gap, so it never joins two people).
+gap, so it never joins two people) unless ``rejoin_s`` is given: live, where no later pass over the whole tracks
+can, a person let go is kept that long for a track confirmed after it to continue (``video.identities``: where
+their walk led, in their clothes), and only then handed over as ``finished``.
 """
 
 from __future__ import annotations
-
-import dataclasses
 
 import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ray3d.geometry import Camera
-from ray3d.io.detections import TrackDetections
 from ray3d.video.boxes import box_inside, box_overlap
 from ray3d.video.clothes import COLOUR_GATE, colour_distance
 from ray3d.video.detectors import Detection
 from ray3d.video.floor_points import FloorPoint, FloorPoints
+from ray3d.video.identities import join, likeliest_continued
+from ray3d.video.track import Track
 
 _GATE = 13.8  # chi-square, 2 degrees of freedom, 99.9 %: beyond it a detection cannot be that person
 _APPEARANCE_WEIGHT = 15.0  # cost of entirely different clothes, in squared standard deviations of position
@@ -41,35 +42,6 @@ CLAIM_S = 3.0
 CLAIM_GATE_M = 0.8
 CLAIM_SPEED_M_S = 2.0
 TOGETHER_M = 3.0  # two people one box may hold: side by side, or one passing a few metres behind the other
-
-
-@dataclasses.dataclass
-class Track:
-    """One person: the frame indices they were detected in, their detections there, where each put them on the
-    floor (x, y metres; NaN where the camera could not) with that point's covariance (2, 2), and their clothes'
-    colours (hue-saturation histograms of the torso and the legs)."""
-
-    id: str  # the one type of a track id, from here to the world file and the events
-    frames: list[int] = dataclasses.field(default_factory=list)
-    detections: list[Detection] = dataclasses.field(default_factory=list)
-    floor: list[np.ndarray] = dataclasses.field(default_factory=list)
-    colour: np.ndarray | None = None
-    floor_noise: list[np.ndarray] = dataclasses.field(default_factory=list)
-
-    def seconds(self, fps: float) -> float:
-        """How long the person was followed, first to last frame."""
-        return (self.frames[-1] - self.frames[0] + 1) / fps
-
-    def too_short(self, fps: float, shortest_s: float) -> str | None:
-        """Why the track is left out of the people reported (followed for less than ``shortest_s``: a box on two
-        people or on part of one as often as a person), or None when it is kept. The one rule, offline and live."""
-        seconds = self.seconds(fps)
-        return f"seen for {seconds:.2f} s (under {shortest_s:.2f} s)" if seconds < shortest_s else None
-
-    def as_detections(self) -> TrackDetections:
-        """The frames, pixels and confidences as one record (what lifting reads)."""
-        return TrackDetections(np.array(self.frames), np.stack([d.pixels for d in self.detections]),
-                               np.stack([d.confidences for d in self.detections]))
 
 
 class _Person:
@@ -162,12 +134,14 @@ class FloorTracker:
         carried: people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``:
             id, last place and its stream time): a track confirmed within ``CLAIM_S`` of the first frame where one of
             them could have walked to takes up their id (the nearest), the others are numbered as usual.
+        rejoin_s: how long a person let go may be taken up again by a track confirmed after them (the re-join
+            rule of ``video.identities``); 0: never (offline, where the whole tracks are re-joined after).
     """
 
     def __init__(self, camera: Camera, fps: float, layout: str, max_gap_s: float = 0.5,
                  confirm_hits: int = CONFIRM_FRAMES,
-                 acceleration: float = 2.0, id_prefix: str = "", carried=()):
-        self.confirm_hits, self.acceleration = confirm_hits, acceleration
+                 acceleration: float = 2.0, id_prefix: str = "", carried=(), rejoin_s: float = 0.0):
+        self.confirm_hits, self.acceleration, self.rejoin_s = confirm_hits, acceleration, rejoin_s
         self.floor_points = FloorPoints(camera, layout)
         self.dt, self.max_gap = 1.0 / fps, max(1, int(np.floor(max_gap_s * fps)))
         # Every how many frames it is given (a live camera under load takes every k-th): a person may be missed in
@@ -250,12 +224,20 @@ class FloorTracker:
         return list(self._tracks)
 
     def finished(self) -> list[Track]:
-        """The tracks whose person has left (unseen for longer than ``max_gap_s``), handed over and forgotten:
-        live use keeps only the people in view."""
-        following = {id(person.track) for person in self._active}
-        done = [track for track in self._tracks if id(track) not in following]
-        self._tracks = [track for track in self._tracks if id(track) in following]
+        """The tracks whose person has left (unseen for longer than ``max_gap_s``, and not taken up again within
+        ``rejoin_s``), handed over and forgotten: live use keeps only the people in view."""
+        done = [track for track in self._tracks if not self._kept(track)]
+        self._tracks = [track for track in self._tracks if self._kept(track)]
         return done
+
+    def _kept(self, track: Track) -> bool:
+        """Whether a track is still followed, or may still be taken up by a track confirmed later (one that
+        starts within ``rejoin_s`` of its last frame: begun already, or yet to begin)."""
+        if any(person.track is track for person in self._active):
+            return True
+        horizon = track.frames[-1] + self.rejoin_s / self.dt
+        return self.rejoin_s > 0 and (self._last_frame <= horizon or any(
+            person.track is None and person.waiting[0][0] <= horizon for person in self._active))
 
     def _record(self, person: _Person, frame_index: int, detection: Detection, floor: np.ndarray,
                 noise: np.ndarray) -> None:
@@ -271,11 +253,20 @@ class FloorTracker:
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
             track_id = self._carried.claim(person.filter.statePost[:2, 0], frame_index)
-            if track_id is None:
+            carried = track_id is not None
+            if not carried:
                 track_id = f"{self.id_prefix}{self._confirmed}"
                 self._confirmed += 1
             person.track = Track(track_id, frames, detections, floor, person.colour, noise)
-            self._tracks.append(person.track)
+            let_go = [track for track in self._tracks if not any(p.track is track for p in self._active)]
+            continued = None if carried or not self.rejoin_s else \
+                likeliest_continued(let_go, person.track, 1 / self.dt, self.rejoin_s)
+            if continued is None:
+                self._tracks.append(person.track)
+            else:  # somebody let go, taken up again: their track goes on
+                identity, rejoin = continued
+                join(identity, person.track, rejoin)
+                person.track = identity
 
 
 def _assignment_cost(people: list[_Person], detections: list[Detection], measured: list[FloorPoint]) -> np.ndarray:
