@@ -67,4 +67,6 @@ def test_a_run_killed_and_started_again_on_its_store_records_nothing_twice(clip,
     assert len(result["kills after s"]) == 1 and result["runs"] == 2
     assert result["ended"] == ["cut off", "ended"] and result["duplicated"] == 0
     assert set(result["counts"]) == {"uninterrupted", "uninterrupted again", "killed and restarted"}
+    recorded, tracks = result["people recorded"], result["tracks"]
+    assert set(recorded) == set(tracks) and all(0 < recorded[run] <= tracks[run] for run in tracks)
     assert all((out / run / "site.db").is_file() for run in ("uninterrupted", "uninterrupted-again", "killed"))

@@ -3,6 +3,7 @@ read as fast as it is processed (``--unpaced``), once uninterrupted (twice: the 
 killed with SIGKILL at random moments and started again each time with the same command on the same store until the
 video ends (``restarts``); then (``restarts_figures``):
 
+- the tracks (each "track started") and the people recorded (the tracks followed for ``--min-track``) of each store;
 - duplicates: events recorded twice (the same kind, place and moment, across the runs);
 - events lost: what each killed run handed over (its events.jsonl) that the store lacks, and the uninterrupted run's
   events before the first kill's last second that the killed store lacks;
@@ -140,6 +141,10 @@ def restarts_figures(whole: Path, again: Path, killed: Path) -> dict:
             "events": {name: len(events) for name, events in seen.items()},
             "tracks": {name: len({e["track"] for e in events if e["event"] == TRACK_STARTED.name})
                        for name, events in seen.items()},
+            # The tracks followed long enough to be people (``--min-track``): the store's people and world file.
+            "people recorded": {name: len({p["person"] for p in store.people}) for name, store in
+                                (("uninterrupted", reference), ("uninterrupted again", second),
+                                 ("killed and restarted", record))},
             "taken up at a restart": sum(len(runs) > 1 for runs in runs_of.values()),
             "duplicated": len(signatures) - len(set(signatures)),
             "lost at each kill": _lost_at_each_kill(record, killed),
