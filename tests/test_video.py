@@ -398,35 +398,6 @@ def test_the_detector_leaves_people_for_the_next_frame_only_when_time_is_short(m
     assert len(detector(frame)) == 5 and sorted(looked_at[-1]) == sorted(people[:, 0])  # no time given: all
 
 
-def test_offline_motion_where_crops_found_nobody_is_looked_at_every_second_frame(monkeypatch):
-    """A moving shadow the landmark network finds nobody in: offline, looked at in the first two frames, then in
-    every second one (where the finder looks too); a blob somewhere else, never empty, in every frame."""
-    import ray3d.video.detectors as detectors
-    from ray3d.video.landmarks import as_regions
-
-    monkeypatch.setattr(detectors, "BlazePoseLandmarks", lambda threads: None)  # the network is not needed
-    detector = detectors.PeopleDetector(CAMERA)
-    shadow, person = [300.0, 300.0, 80.0, 0.0], [100.0, 300.0, 80.0, 0.0]
-    blobs = np.array([shadow, person])
-    detector._proposals = SimpleNamespace(blobs=lambda frame: blobs, split_blobs=lambda found: found,
-                                          unexplained=lambda found, explained: np.zeros((0, 4)))
-    looked: list[list[float]] = []
-
-    def landmarks(frame, regions):  # somebody in the person's blob, nobody in the shadow
-        regions = as_regions(regions)
-        looked.append([float(r[0]) for r in regions])
-        scores = (regions[:, 0] == person[0]).astype(float)
-        return np.zeros((len(regions), 33, 2)), np.zeros((len(regions), 33)), scores, regions.copy()
-
-    detector._landmarks = landmarks
-    detector._person_sized = lambda detection, vouched: False  # found, then left out: the blob stays motion's
-    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
-    for _ in range(7):
-        detector(frame)
-    assert [300.0 in frame_looks for frame_looks in looked] == [True, True, False, True, False, True, False]
-    assert all(100.0 in frame_looks for frame_looks in looked)
-
-
 def test_person_height_follows_the_camera_geometry():
     near, far = person_height_px(CAMERA, [[320.0, 400.0], [320.0, 260.0]])
     assert near > far > 0

@@ -89,8 +89,7 @@ class PeopleDetector:
     Called with ``time_left_s`` (live use), the crops that would not fit in that time are left out: first
     motion's proposals where crops lately found nobody, then people followed from the last frame, who are
     looked at first in the next (everybody at least every other frame; the nearest, the largest, who move
-    most in the picture, kept first); new people always. Without it every crop is looked at in every frame but
-    motion's proposals where crops lately found nobody, looked at in every second frame (the finder's).
+    most in the picture, kept first); new people always. Without it every crop is looked at in every frame.
     """
 
     layout = BLAZEPOSE33.name
@@ -139,14 +138,9 @@ class PeopleDetector:
         vouched = np.concatenate([_near(known, whole), np.ones(len(new), bool), np.zeros(len(fresh), bool)])
         regions = np.concatenate([known, new, fresh])
         looked = np.ones(len(regions), bool)
-        doubtful = len(known) + len(new) + self._doubtful(fresh)
         if time_left_s is not None:
-            looked[self._left_for_later(regions, doubtful, time_left_s - (time.perf_counter() - started))] = False
-        elif self._frames_seen % 2:
-            # Motion where crops lately found nobody (a shadow, a swaying sign, the legs of somebody posed
-            # already) is looked at every second frame: six crops in seven of it held nobody on vtest.avi, and
-            # a person who walks into it is found a frame later.
-            looked[doubtful] = False
+            looked[self._left_for_later(regions, len(known), len(new), fresh,
+                                        time_left_s - (time.perf_counter() - started))] = False
         found = self._look(frame, regions[looked], vouched[looked])
         if self._finder is not None and not looks_whole and time_left_s is None and len(known):
             # Somebody followed was not found again where they were (close up, swaying, turning): offline, where
@@ -168,18 +162,16 @@ class PeopleDetector:
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
         return self._previous
 
-    def _doubtful(self, fresh: np.ndarray) -> np.ndarray:
-        """The indices of motion's ``fresh`` proposals (N, 4) near where crops lately found nobody."""
-        recently_empty = np.concatenate(list(self._empty)) if self._empty else np.zeros((0, 4))
-        return np.flatnonzero(_near(fresh, recently_empty))
-
-    def _left_for_later(self, regions: np.ndarray, doubtful: np.ndarray, seconds: float) -> np.ndarray:
-        """The indices of ``regions`` (N, 4: the last frame's people's, the new ones', then motion's proposals) not
-        to look at, for the crops to fit in ``seconds`` at their measured time. Looked at always: the people left
-        out last time, the new ones, and proposals away from where crops lately found nobody; the others as time
-        allows: the last frame's people, largest first, then the ``doubtful`` proposals (where crops lately found
-        nobody)."""
+    def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
+                        seconds: float) -> np.ndarray:
+        """The indices of ``regions`` (N, 4: the ``known`` people's, the ``new`` ones', then the ``fresh``
+        proposals) not to look at, for the crops to fit in ``seconds`` at their measured time. Looked at always:
+        the people left out last time, the new ones, and proposals away from where crops lately found nobody;
+        the others as time allows: the last frame's people, largest first, then the proposals where crops
+        lately found nobody."""
         previous = np.arange(len(self._previous))
+        recently_empty = np.concatenate(list(self._empty)) if self._empty else np.zeros((0, 4))
+        doubtful = known + new + np.flatnonzero(_near(fresh, recently_empty))
         optional = np.concatenate([previous[np.argsort(-regions[previous, 2], kind="stable")], doubtful])
         room = max(0, int(seconds / self.crop_s) - (len(regions) - len(optional)))
         return optional[room:]
