@@ -68,5 +68,5 @@ def test_a_run_killed_and_started_again_on_its_store_records_nothing_twice(clip,
     assert result["ended"] == ["cut off", "ended"] and result["duplicated"] == 0
     assert set(result["counts"]) == {"uninterrupted", "uninterrupted again", "killed and restarted"}
     recorded, tracks = result["people recorded"], result["tracks"]
-    assert set(recorded) == set(tracks) and all(0 < recorded[run] <= tracks[run] for run in tracks)
+    assert set(recorded) == set(tracks) and all(recorded[run] <= tracks[run] for run in tracks)  # a subset
     assert all((out / run / "site.db").is_file() for run in ("uninterrupted", "uninterrupted-again", "killed"))
