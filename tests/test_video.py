@@ -398,6 +398,24 @@ def test_the_detector_leaves_people_for_the_next_frame_only_when_time_is_short(m
     assert len(detector(frame)) == 5 and sorted(looked_at[-1]) == sorted(people[:, 0])  # no time given: all
 
 
+def test_one_pose_stands_for_one_of_the_people_the_finder_found():
+    """Two people the finder found, the one behind partly hidden, and one pose (both crops framed the one in
+    front): the pose is the front person's, the one behind is not posed (the finder's keypoints stand in for them).
+    Two poses for the two: both posed; no pose near a person: not posed."""
+    from ray3d.video.boxes import whole_person
+    from ray3d.video.detectors import UNPOSED_OVERLAP, posed_by
+
+    front, behind, away = [100.0, 100.0, 160.0, 300.0], [112.0, 105.0, 170.0, 295.0], [400.0, 100.0, 460.0, 300.0]
+    pose_of_front = [110.0, 120.0, 150.0, 290.0]  # the joints' box, inside the whole person's
+    pose_of_behind = [120.0, 122.0, 162.0, 286.0]
+    finder = np.array([front, behind, away])
+    overlap = box_overlap(finder[:2], whole_person(np.array([pose_of_front])))[:, 0]
+    assert (overlap >= UNPOSED_OVERLAP).all()  # either could be the pose's, by overlap alone
+    assert posed_by(finder, np.array([pose_of_front])).tolist() == [True, False, False]
+    assert posed_by(finder[::-1], np.array([pose_of_front])).tolist() == [False, False, True]
+    assert posed_by(finder, np.array([pose_of_behind, pose_of_front])).tolist() == [True, True, False]
+
+
 def test_person_height_follows_the_camera_geometry():
     near, far = person_height_px(CAMERA, [[320.0, 400.0], [320.0, 260.0]])
     assert near > far > 0

@@ -23,6 +23,7 @@ from collections import deque
 from typing import Protocol
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
@@ -198,7 +199,7 @@ class PeopleDetector:
         if not len(boxes):
             return []
         if posed:
-            covered = box_overlap(boxes, whole_person(np.stack([d.box for d in posed]))).max(axis=1) >= UNPOSED_OVERLAP
+            covered = posed_by(boxes, np.stack([d.box for d in posed]))
             boxes, keypoints, scores = boxes[~covered], keypoints[~covered], scores[~covered]
         pixels, confidences = as_blazepose(keypoints)
         regions = person_regions(boxes, keypoints)
@@ -252,6 +253,18 @@ def _inside_regions(regions: np.ndarray, others: np.ndarray) -> np.ndarray:
         return np.zeros(len(regions), dtype=bool)
     half_sides = others[None, :, 2:3] / 4
     return (np.abs(regions[:, None, :2] - others[None, :, :2]) <= half_sides).all(axis=-1).any(axis=1)
+
+
+def posed_by(finder_boxes: np.ndarray, pose_boxes: np.ndarray) -> np.ndarray:
+    """(N,) whether each of the finder's people (N, 4 boxes) is one the landmark network posed (M, 4: the poses'
+    joint boxes): one pose for one person, each pose given to the finder's box it overlaps most as a whole person
+    (at ``UNPOSED_OVERLAP`` at least). Of two people where one pose was found (the one behind partly hidden,
+    both crops framing the one in front), the one it fits less is not posed: the finder's keypoints stand in."""
+    overlap = box_overlap(finder_boxes, whole_person(pose_boxes))
+    finders, poses = linear_sum_assignment(-overlap)
+    posed = np.zeros(len(finder_boxes), bool)
+    posed[finders[overlap[finders, poses] >= UNPOSED_OVERLAP]] = True
+    return posed
 
 
 def _without_duplicates(detections: list[Detection], overlap: float = 0.5) -> list[Detection]:
