@@ -515,3 +515,14 @@ def test_the_site_command_counts_per_time_bucket_in_wall_clock_time_and_refuses_
         except SystemExit as stopped:  # argparse's refusal of a value
             code = stopped.code
         assert code == 2 and len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_a_place_line_says_how_many_of_its_counts_people_taken_up_again_made(capsys):
+    """One line per place, the same for a world's report and a store's (``ray3d site --store``, where live runs now
+    re-join people too): the counts, and the share re-joined people made where there is one."""
+    from ray3d.cli.printing import print_places
+
+    print_places([{"place": "room", "kind": "zone", "entries": 3, "exits": 2, "by_rejoined_tracks": 2},
+                  {"place": "door", "kind": "line", "forward": 4, "back": 1, "by_rejoined_tracks": 0}])
+    assert capsys.readouterr().out.splitlines() == [
+        "zone room: 3 entries, 2 exits (2 by people taken up again after a gap)", "line door: 4 forward, 1 back"]

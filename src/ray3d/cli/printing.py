@@ -99,14 +99,20 @@ def print_fusion(fusion, sources: list[str]) -> None:
               f"of {' and '.join(fusion.suspects())}", file=sys.stderr)
 
 
-def print_site_report(report, world) -> None:
-    """A site's report (``jobs.SiteReport``) of ``world``'s people: the counts per place and the events by kind."""
-    for row in report.places:
+def print_places(places: list[dict]) -> None:
+    """A line per place (``site.analytics.zone_summaries``' rows): its counts, and how many of them people taken
+    up again after a gap made."""
+    for row in places:
         tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
                  else f"{row['forward']} forward, {row['back']} back")
         joined = f" ({row['by_rejoined_tracks']} by people taken up again after a gap)" if row["by_rejoined_tracks"] \
             else ""
         print(f"{row['kind']} {row['place']}: {tally}{joined}")
+
+
+def print_site_report(report, world) -> None:
+    """A site's report (``jobs.SiteReport``) of ``world``'s people: the counts per place and the events by kind."""
+    print_places(report.places)
     kinds: dict[str, int] = {}
     for event in report.events:
         kinds[event["event"]] = kinds.get(event["event"], 0) + 1

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ray3d.cli.printing import print_ankle_plane, print_site_doubts, print_site_report
+from ray3d.cli.printing import print_ankle_plane, print_places, print_site_doubts, print_site_report
 from ray3d.io.atomic import check_output, refuse_existing
 
 
@@ -58,10 +58,7 @@ def store_report(args: argparse.Namespace, read_site) -> int:
         print(f"note: {line}", file=sys.stderr)
     places, paths = analyse_record(record, plan, args.out, args.every, f"{record.location} on {args.site.name}",
                                    args.force)
-    for row in places:
-        tally = (f"{row['entries']} entries, {row['exits']} exits" if row["kind"] == "zone"
-                 else f"{row['forward']} forward, {row['back']} back")
-        print(f"{row['kind']} {row['place']}: {tally}")
+    print_places(places)
     down = sum(g["to_at"] - g["from_at"] for g in record.gaps)
     print(f"{len(record.events)} events of {len(record.people)} people over {len(record.runs)} run(s); "
           f"{len(record.gaps)} gap(s) in the record ({down:.1f} s) -> {args.out}: {', '.join(p.name for p in paths)}")
