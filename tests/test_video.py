@@ -22,7 +22,7 @@ from ray3d.io.world import read_world
 from ray3d.lifting.options import VideoOptions
 from ray3d.skeleton import H36M17
 from ray3d.video import DETECTORS, Detection, FloorTracker, lift_video, read_video_info
-from ray3d.video.boxes import box_overlap
+from ray3d.video.boxes import box_inside, box_overlap
 from ray3d.video.clothes import clothes_boxes, clothes_colour, colour_distance
 from ray3d.video.proposals import ForegroundProposals, median_background, person_height_px
 
@@ -190,17 +190,24 @@ def test_tracker_keeps_ids_through_an_occluded_crossing_and_ends_tracks_after_th
     assert sorted(len(t.frames) for t in tracks) == [41, 60]
 
 
-@pytest.mark.parametrize("second_xy", [(7.0, -2.5), (9.0, -2.0)], ids=["side by side", "2 m behind, crossing"])
-def test_one_box_for_two_people_is_given_to_neither(second_xy):
+@pytest.mark.parametrize("second_xy, squeezed", [((7.0, -2.5), 0.0), ((9.0, -2.0), 0.0), ((7.0, -2.5), 0.55)],
+                         ids=["side by side", "2 m behind, crossing", "side by side, a box short of one"])
+def test_one_box_for_two_people_is_given_to_neither(second_xy, squeezed):
     """Two people walking side by side, 0.5 m apart, or one 2 m behind the other and to the side, that the detector
     sees as one box for 6 frames: neither track takes it (whichever did would carry on as the other when they
-    part); both skip those frames and keep their own person before and after. One of them alone, the other
-    missed, is still followed."""
+    part); both skip those frames and keep their own person before and after. Also where the box is a compromise
+    that leaves more than half of one of them outside (``squeezed``: its edge on that side moved in by that share
+    of the gap between their edges). One of them alone, the other missed, is still followed."""
     people = [_walker((7.0, -3.0), (0.0, 1.2), 50), _walker(second_xy, (0.0, 1.2), 50)]
     pixels = [CAMERA.project(p) for p in people]
     tracker = FloorTracker(CAMERA, FPS, "h36m17", max_gap_s=0.5)
     frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
-    both = np.concatenate([pixels[0][:, :9], pixels[1][:, 9:]], axis=1)  # a box around the two of them
+    near_edge = pixels[1][..., 0].min(axis=-1) - pixels[0][..., 0].min(axis=-1)  # (T,) how far left of the first
+    squeezed_second = pixels[1] - np.stack([squeezed * near_edge[:, None], np.zeros_like(near_edge)[:, None]], -1)
+    both = np.concatenate([pixels[0][:, :9], squeezed_second[:, 9:]], axis=1)  # a box around the two of them
+    if squeezed:
+        last = [Detection(p[19], np.ones(17), 0.9).box for p in pixels]
+        assert 0.4 <= box_inside(last[1], Detection(both[20], np.ones(17), 0.9).box) < 0.5  # less than half inside
     for t in range(50):
         found = [pixels[0][t]] if 34 <= t < 37 else [both[t]] if 20 <= t < 26 else [pixels[0][t], pixels[1][t]]
         tracker.update(t, [Detection(p, np.ones(17), 0.9) for p in found], frame)
