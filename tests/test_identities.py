@@ -200,3 +200,5 @@ def test_one_rule_says_a_track_is_too_short_offline_and_live():
     assert second.too_short(10.0, 1.0) is None
     assert second.too_short(10.0, 1.5) == "seen for 1.00 s (under 1.50 s)"
     assert Track("8", [4]).too_short(25.0, 0.04) is None  # one frame is one frame period
+    # A person taken up from a run cut off was followed before the cut: their part here is kept however short.
+    assert Track("9", [0, 1], carried=True).too_short(10.0, 1.0) is None

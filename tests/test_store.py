@@ -85,9 +85,12 @@ def test_a_run_started_again_appends_and_takes_a_file_up_where_it_was_left(tmp_p
     assert second.resumes[1].first_index == 0  # a stream starts again now
     second.events([_event("track started", f"{second.id_prefix}0", 4.2)])
     second.progress("a.avi", 42, 4.2)
+    # The first run's person, followed on and lifted from what this run saw of them: first seen in the first run.
+    second.person("1-3", 4.2, 4.4, 1.7, "adult", 0, "cam")
     second.close("ended")
     record = read_record(store)
     assert [e["track"] for e in record.events] == ["1-3", "2-0"]  # nothing replaced, ids apart
+    assert [(p["person"], p["first_at"], p["last_at"]) for p in record.people] == [("1-3", 501.0, 504.4)]
     down = [g for g in record.gaps if g["why"] == "the service was down"]
     assert sorted(g["camera"] for g in down) == ["a.avi", "rtsp://cam"]
     file_gap = next(g for g in down if g["camera"] == "a.avi")

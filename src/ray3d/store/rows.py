@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 
 from ray3d.refine.ankle_plane import SeenTwice
-from ray3d.site.events import TRACK_ENDED
+from ray3d.site.events import TRACK_ENDED, TRACK_STARTED
 from ray3d.store.database import Database
 
 # The tables a run's rows wait for; "carried": the carried people whose tracks ended (their rows are deleted).
@@ -64,10 +64,15 @@ def write_rows(database: Database, run: int, origin: float, first_at: float | No
                   rows["events"])
     database.many("INSERT INTO positions (run, person, at, x, y, sd_along, sd_across, camera) "
                   "VALUES (?, ?, ?, ?, ?, ?, ?, ?)", rows["positions"])
+    # A person followed across a cut-off run is lifted from the part the run that ends them saw: they were first
+    # seen when their track started, in the run that began it.
     database.many("INSERT INTO people (person, run, first_at, last_at, stature_m, stature_class, rejoins, camera) "
-                  "VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (person) DO UPDATE SET last_at = excluded.last_at, "
-                  "stature_m = excluded.stature_m, stature_class = excluded.stature_class, "
-                  "rejoins = excluded.rejoins", rows["people"])
+                  "SELECT ?, ?, MIN(started), ?, ?, ?, ?, ? FROM (SELECT ? AS started UNION ALL SELECT at FROM events "
+                  "WHERE person = ? AND kind = ?) AS starts WHERE true ON CONFLICT (person) DO UPDATE SET "
+                  "last_at = excluded.last_at, stature_m = excluded.stature_m, stature_class = excluded.stature_class, "
+                  "rejoins = excluded.rejoins",
+                  [(person, run, last_at, stature, stature_class, rejoins, camera, first_at, person, TRACK_STARTED.name)
+                   for person, run, first_at, last_at, stature, stature_class, rejoins, camera in rows["people"]])
     database.many("INSERT INTO gaps (run, camera, from_at, to_at, why) VALUES (?, ?, ?, ?, ?)", rows["gaps"])
     database.many("DELETE FROM carried WHERE person = ?", rows["carried"])
     database.many("INSERT INTO behind (run, camera, from_at, to_at, dropped_share) VALUES (?, ?, ?, ?, ?)",

@@ -25,6 +25,7 @@ class Track:
     colour: np.ndarray | None = None
     floor_noise: list[np.ndarray] = dataclasses.field(default_factory=list)
     rejoins: list = dataclasses.field(default_factory=list)  # the ``identities.Rejoin``s that made it, in order
+    carried: bool = False  # a person in view when an earlier run on the stream was cut off, taken up by this track
 
     def seconds(self, fps: float) -> float:
         """How long the person was followed, first to last frame."""
@@ -32,9 +33,12 @@ class Track:
 
     def too_short(self, fps: float, shortest_s: float) -> str | None:
         """Why the track is left out of the people reported (followed for less than ``shortest_s``: a box on two
-        people or on part of one as often as a person), or None when it is kept. The one rule, offline and live."""
+        people or on part of one as often as a person), or None when it is kept. The one rule, offline and live. A
+        ``carried`` track is kept whatever its length: the person was followed before the cut, and the run cut off
+        never finished them (their only record is this part)."""
         seconds = self.seconds(fps)
-        return f"seen for {seconds:.2f} s (under {shortest_s:.2f} s)" if seconds < shortest_s else None
+        return f"seen for {seconds:.2f} s (under {shortest_s:.2f} s)" if seconds < shortest_s and not self.carried \
+            else None
 
     def as_detections(self) -> TrackDetections:
         """The frames, pixels and confidences as one record (what lifting reads)."""

@@ -260,7 +260,7 @@ class FloorTracker:
             if not carried:
                 track_id = f"{self.id_prefix}{self._confirmed}"
                 self._confirmed += 1
-            person.track = Track(track_id, frames, detections, floor, person.colour, noise)
+            person.track = Track(track_id, frames, detections, floor, person.colour, noise, carried=carried)
             let_go = [track for track in self._tracks if not any(p.track is track for p in self._active)]
             continued = None if carried or not self.rejoin_s else \
                 likeliest_continued(let_go, person.track, 1 / self.dt, self.rejoin_s)
