@@ -106,9 +106,10 @@ def continuation(identity: Track, track: Track, fps: float, within_s: float = RE
     (its score, the lower the likelier: how far from where the walk led, in gates, plus how unlike the clothes;
     the re-join) or None where a gate says they are two people."""
     gap_s = (track.frames[0] - identity.frames[-1]) / fps
-    start = _walk(track, fps, at_end=False)
-    end = _walk(identity, fps, at_end=True)
-    if not 0 < gap_s <= within_s or start is None or end is None:
+    if not 0 < gap_s <= within_s:
+        return None
+    start, end = _walk(track, fps, at_end=False), _walk(identity, fps, at_end=True)
+    if start is None or end is None:
         return None
     # Each gate is the walk's own allowance widened by how uncertain the floor points make its reading.
     turned = _mahalanobis_squared(start.velocity - end.velocity, start.velocity_noise + end.velocity_noise

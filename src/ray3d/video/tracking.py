@@ -229,8 +229,9 @@ class FloorTracker:
     def finished(self) -> list[Track]:
         """The tracks whose person has left (unseen for longer than ``max_gap_s``, and not taken up again within
         ``rejoin_s``), handed over and forgotten: live use keeps only the people in view."""
-        done = [track for track in self._tracks if not self._kept(track)]
-        self._tracks = [track for track in self._tracks if self._kept(track)]
+        kept = [self._kept(track) for track in self._tracks]
+        done = [track for track, keep in zip(self._tracks, kept) if not keep]
+        self._tracks = [track for track, keep in zip(self._tracks, kept) if keep]
         return done
 
     def _kept(self, track: Track) -> bool:
@@ -261,9 +262,9 @@ class FloorTracker:
                 track_id = f"{self.id_prefix}{self._confirmed}"
                 self._confirmed += 1
             person.track = Track(track_id, frames, detections, floor, person.colour, noise, carried=carried)
-            let_go = [track for track in self._tracks if not any(p.track is track for p in self._active)]
-            continued = None if carried or not self.rejoin_s else \
-                likeliest_continued(let_go, person.track, 1 / self.dt, self.rejoin_s)
+            continued = None if carried or not self.rejoin_s else likeliest_continued(
+                [track for track in self._tracks if not any(p.track is track for p in self._active)], person.track,
+                1 / self.dt, self.rejoin_s)
             if continued is None:
                 self._tracks.append(person.track)
             else:  # somebody let go, taken up again: their track goes on
