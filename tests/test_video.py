@@ -405,6 +405,52 @@ def test_the_detector_leaves_people_for_the_next_frame_only_when_time_is_short(m
     assert len(detector(frame)) == 5 and sorted(looked_at[-1]) == sorted(people[:, 0])  # no time given: all
 
 
+def test_motion_where_nobody_was_found_for_a_while_is_looked_at_less_often_until_somebody_is(monkeypatch):
+    """A car drives slowly through the picture: motion proposes it frame after frame and its crops find nobody.
+    After ``EMPTY_RUN`` empty frames it is looked at only every ``EMPTY_EVERY``-th frame; a person walking out
+    where it was is looked at within that many frames and followed (looked at in every frame) from then on. Without
+    a finder to look in between, motion is looked at in every frame."""
+    import ray3d.video.detectors as detectors
+
+    monkeypatch.setattr(detectors, "BlazePoseLandmarks", lambda threads: None)
+    feet, margin, person_from = np.array([400.0, 380.0]), 1.2, 20  # a crop holds somebody from frame 20 on
+    tall = float(person_height_px(CAMERA, feet))
+
+    def run(finder) -> tuple[list[int], list[int]]:
+        """The frames in which the region was looked at, and the people found in each of 40 frames."""
+        detector, looked = detectors.PeopleDetector(CAMERA, finder=finder), []
+
+        def network(frame, regions):
+            index = int(frame[0, 0, 0])
+            looked.extend([index] * len(regions))
+            corners = np.array([[-0.2, -0.4], [0.2, 0.4]])
+            pixels = np.array([np.repeat(r[:2] + corners * r[2] / margin, [17, 16], axis=0)
+                               for r in regions]).reshape(-1, 33, 2)
+            score = 0.9 if index >= person_from else 0.0
+            return pixels, np.ones((len(regions), 33)), np.full(len(regions), score), regions.copy()
+
+        detector._landmarks = network
+        proposals = detector._proposals
+        monkeypatch.setattr(proposals, "blobs", lambda frame: np.zeros((1, 4)))
+        monkeypatch.setattr(proposals, "unexplained", lambda blobs, people: np.zeros((0, 4)))
+        monkeypatch.setattr(proposals, "split_blobs", lambda blobs: np.array(  # moving slowly
+            [[feet[0] + 2 * detector._frames_seen, feet[1] - tall / 2, margin * tall]]))
+        found = [len(detector(np.full((SIZE[1], SIZE[0], 3), index, np.uint8))) for index in range(40)]
+        return sorted(set(looked)), found
+
+    nobody = SimpleNamespace(found=lambda frame: (np.zeros((0, 4)), np.zeros((0, 17, 3)), np.zeros(0)))
+    looked, found = run(nobody)  # a finder that misses the person too
+    empty_looks = [index for index in looked if index < person_from]
+    assert empty_looks[:detectors.EMPTY_RUN] == list(range(detectors.EMPTY_RUN))
+    later = empty_looks[detectors.EMPTY_RUN:]
+    assert later and np.all(np.diff(later) == detectors.EMPTY_EVERY)  # every EMPTY_EVERY-th frame while empty
+    first_seen = found.index(1)
+    assert person_from <= first_seen < person_from + detectors.EMPTY_EVERY
+    assert all(found[first_seen:]) and set(range(first_seen, 40)) <= set(looked)
+    looked, found = run(None)
+    assert looked == list(range(40)) and found.index(1) == person_from
+
+
 def test_one_pose_stands_for_one_of_the_people_the_finder_found():
     """Two people the finder found, the one behind partly hidden, and one pose (both crops framed the one in
     front): the pose is the front person's, the one behind is not posed (the finder's keypoints stand in for them).

@@ -16,12 +16,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from ray3d.errors import InputError
 from ray3d.jobs import CameraChoice, Job, video_input
 from ray3d.video import read_frames
-from ray3d.video.boxes import box_inside, box_overlap, whole_person
+from ray3d.video.boxes import box_inside, box_overlap, matched_one_to_one, whole_person
 from ray3d.video.detectors import PeopleDetector
 from ray3d.video.frames import spread_frames
 from ray3d.video.movenet import MoveNetPeople
@@ -70,10 +69,7 @@ def found(people: list[dict], detections: list, loose: bool = False) -> np.ndarr
         inside = ((centre[None] >= truth[:, None, :2]) & (centre[None] <= truth[:, None, 2:])).all(-1)
         ratio = (boxes[None, :, 3] - boxes[None, :, 1]) / (truth[:, None, 3] - truth[:, None, 1])
         overlap = np.where(inside & (ratio >= LOOSE_HEIGHTS[0]) & (ratio <= LOOSE_HEIGHTS[1]), 1.0, 0.0)
-    rows, columns = linear_sum_assignment(-overlap)
-    hit = np.zeros(len(people), bool)
-    hit[rows[overlap[rows, columns] >= MATCH_IOU]] = True
-    return hit
+    return matched_one_to_one(overlap, MATCH_IOU)
 
 
 def finder_named(name: str) -> MoveNetPeople | None:

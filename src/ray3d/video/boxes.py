@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 
 def outside_picture(pixels: np.ndarray, image_size: tuple[int, int]) -> np.ndarray:
@@ -38,3 +39,12 @@ def whole_person(box: np.ndarray) -> np.ndarray:
 def box_inside(inner: np.ndarray, outer: np.ndarray) -> float:
     """The share of box ``inner`` (4,) that lies inside box ``outer`` (4,)."""
     return float(_intersection(inner, outer) / max(float(np.prod(inner[2:] - inner[:2])), 1e-9))
+
+
+def matched_one_to_one(overlap: np.ndarray, at_least: float) -> np.ndarray:
+    """(N,) whether each row of ``overlap`` (N, M) is matched: rows and columns paired one to one where they overlap
+    most in all (the Hungarian assignment), a row matched where its pair's overlap reaches ``at_least``."""
+    rows, columns = linear_sum_assignment(-overlap)
+    matched = np.zeros(len(overlap), bool)
+    matched[rows[overlap[rows, columns] >= at_least]] = True
+    return matched

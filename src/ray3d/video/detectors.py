@@ -23,18 +23,21 @@ from collections import deque
 from typing import Protocol
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from ray3d.console import native_chatter_dropped
 from ray3d.errors import InputError
 from ray3d.geometry import Camera
 from ray3d.skeleton import BLAZEPOSE33
-from ray3d.video.boxes import box_overlap, whole_person
+from ray3d.video.boxes import box_overlap, matched_one_to_one, whole_person
 from ray3d.video.landmarks import BlazePoseLandmarks, as_regions
 from ray3d.video.movenet import MoveNetPeople, as_blazepose, person_regions
 from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_background
 
-EMPTY_MEMORY = 10  # looks (about five frames) over which a region that held nobody is remembered
+# With a full-frame finder, motion where crops found nobody in each of the last EMPTY_RUN frames (a car, a flag, a
+# shadow) is looked at only every EMPTY_EVERY-th frame while it goes on: a person who steps out of it is looked at
+# within that many frames (the finder looks in between), and followed from then on.
+EMPTY_RUN = 8
+EMPTY_EVERY = 4
 # A person the finder found counts as posed by the landmark network where a pose's whole-person box overlaps theirs
 # this much; one not posed needs this many of the finder's own keypoints seen to stand in.
 UNPOSED_OVERLAP = 0.4
@@ -90,7 +93,9 @@ class PeopleDetector:
     Called with ``time_left_s`` (live use), the crops that would not fit in that time are left out: first
     motion's proposals where crops lately found nobody, then people followed from the last frame, who are
     looked at first in the next (everybody at least every other frame; the nearest, the largest, who move
-    most in the picture, kept first); new people always. Without it every crop is looked at in every frame.
+    most in the picture, kept first); new people always. Without it every crop is looked at in every frame, but,
+    with a finder, motion that crops found nobody in for ``EMPTY_RUN`` frames running (a passing car) is looked at
+    every ``EMPTY_EVERY``-th frame while it lasts (the finder looks there in the others).
     """
 
     layout = BLAZEPOSE33.name
@@ -107,7 +112,8 @@ class PeopleDetector:
         self._previous: list[Detection] = []
         self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
         self.crop_s = 0.015                     # the landmark network's time per crop, as measured
-        self._empty: deque = deque(maxlen=EMPTY_MEMORY)  # regions where crops found nobody, by look
+        self._empty: deque = deque(maxlen=EMPTY_RUN)  # regions where crops found nobody, by frame
+        self._empty_now: list[np.ndarray] = []
         self.postponed = 0                      # people left for the next frame so far (with ``time_left_s``)
 
     def prepare(self, frames: list[np.ndarray]) -> None:
@@ -134,6 +140,9 @@ class PeopleDetector:
         boxes = np.array([d.box for d in followed]).reshape(-1, 4)
         fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes) & ~_near(proposed, new)
                          & ~_inside_regions(proposed, new)]
+        stale = self._still_empty(fresh) & (self._frames_seen % EMPTY_EVERY != 0) & (self._finder is not None)
+        self._empty_now = [fresh[stale]]  # not looked at: presumed empty still, until the next look tells
+        fresh = fresh[~stale]
         # A region the full-frame detector found one person in may hold a person wider than motion's
         # proposals allow (arms and legs spread).
         vouched = np.concatenate([_near(known, whole), np.ones(len(new), bool), np.zeros(len(fresh), bool)])
@@ -161,7 +170,15 @@ class PeopleDetector:
         self._previous = _without_duplicates(found)
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
+        self._empty.append(np.concatenate(self._empty_now))
         return self._previous
+
+    def _still_empty(self, regions: np.ndarray) -> np.ndarray:
+        """(N,) whether each of ``regions`` (N, 4) is near a region crops found nobody in, in each of the last
+        ``EMPTY_RUN`` frames."""
+        if len(self._empty) < EMPTY_RUN:
+            return np.zeros(len(regions), bool)
+        return np.logical_and.reduce([_near(regions, empty) for empty in list(self._empty)[-EMPTY_RUN:]])
 
     def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
                         seconds: float) -> np.ndarray:
@@ -185,7 +202,7 @@ class PeopleDetector:
         if len(regions):  # the time per crop, followed slowly: one busy moment (a new batch size) does not decide it
             per_crop = min((time.perf_counter() - started) / len(regions), 2 * self.crop_s)
             self.crop_s += 0.1 * (per_crop - self.crop_s)
-        self._empty.append(as_regions(regions)[scores < self.min_score])
+        self._empty_now.append(as_regions(regions)[scores < self.min_score])
         vouched = np.zeros(len(regions), bool) if vouched is None else vouched
         found = [(Detection(p, c, float(s), f if self._finder is not None else None), v)
                  for p, c, s, f, v in zip(pixels, confidences, scores, following, vouched) if s >= self.min_score]
@@ -260,11 +277,7 @@ def posed_by(finder_boxes: np.ndarray, pose_boxes: np.ndarray) -> np.ndarray:
     joint boxes): one pose for one person, each pose given to the finder's box it overlaps most as a whole person
     (at ``UNPOSED_OVERLAP`` at least). Of two people where one pose was found (the one behind partly hidden,
     both crops framing the one in front), the one it fits less is not posed: the finder's keypoints stand in."""
-    overlap = box_overlap(finder_boxes, whole_person(pose_boxes))
-    finders, poses = linear_sum_assignment(-overlap)
-    posed = np.zeros(len(finder_boxes), bool)
-    posed[finders[overlap[finders, poses] >= UNPOSED_OVERLAP]] = True
-    return posed
+    return matched_one_to_one(box_overlap(finder_boxes, whole_person(pose_boxes)), UNPOSED_OVERLAP)
 
 
 def _without_duplicates(detections: list[Detection], overlap: float = 0.5) -> list[Detection]:

@@ -21,6 +21,8 @@ from ray3d.viz.animation import PALETTE
 # The viewer's colours, in OpenCV's BGR: a person has the same colour in the overlay and the viewer.
 TRACK_COLOURS = tuple(tuple(int(h[i:i + 2], 16) for i in (5, 3, 1)) for h in PALETTE)
 _FILLED, _DETECTED = (150, 150, 150), (255, 255, 255)
+_CHILDREN = np.flatnonzero(np.asarray(H36M17.parents) >= 0)
+_PARENTS = np.asarray(H36M17.parents)[_CHILDREN]
 
 
 def write_overlay(video: VideoInfo, target: Path, keypoints: Keypoints, world: World, start: int, frames: int,
@@ -54,11 +56,10 @@ def write_overlay(video: VideoInfo, target: Path, keypoints: Keypoints, world: W
 
 
 def _draw_skeleton(canvas: np.ndarray, points: np.ndarray, colour, width: int) -> None:
-    for child, parent in enumerate(H36M17.parents):
-        if parent < 0 or not np.isfinite(points[[child, parent]]).all():
-            continue
-        start, end = (tuple(int(round(v)) for v in points[i]) for i in (child, parent))
-        cv2.line(canvas, start, end, colour, width, cv2.LINE_AA)
+    """The bones of ``points`` (17, 2: H36M17 pixels) whose two ends are known, in one drawing call."""
+    bones = np.stack([points[_CHILDREN], points[_PARENTS]], axis=1)
+    bones = bones[np.isfinite(bones).all(axis=(1, 2))]
+    cv2.polylines(canvas, np.round(bones).astype(np.int32), False, colour, width, cv2.LINE_AA)
 
 
 def _label(canvas: np.ndarray, points: np.ndarray, text: str, colour) -> None:
