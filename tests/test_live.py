@@ -985,3 +985,38 @@ def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_droppe
     assert said[lines:] == ["camera door: the machine cannot follow every frame: 1 frame in 2 taken from 10.0 s "
                             "(5.0 frames/s), everybody still followed",
                             "camera door: every frame taken again from 20.0 s"]
+
+
+def test_people_followed_for_less_than_the_shortest_track_make_no_event_and_the_others_keep_their_order():
+    """Live, as offline: a person followed for less than ``min_track_s`` (a false detection confirmed, a fragment)
+    never counts. Frames are held until everybody in them is decided, then go on in order with only those who
+    count; who left goes on in its place; a person a killed run left in view counts from their first frame; at the
+    end the undecided are short; nothing is kept of people gone. Without ``min_track_s`` nothing is held."""
+    from ray3d.live.runner import HeldUntilFollowed
+
+    def frame(index, *tracks):
+        return index, [types.SimpleNamespace(track=t) for t in tracks]
+
+    held = HeldUntilFollowed(fps=10.0, min_track_s=1.0, counted={"carried"})
+    out = []
+    for index in range(40):
+        here = ["a"] + (["short"] if 5 <= index <= 8 else []) + (["late"] if index >= 35 else []) \
+            + (["carried"] if index < 3 else [])
+        out += held.add([frame(index, *here)], ["short"] if index == 12 else ["carried"] if index == 4 else [])
+        if index == 3:  # "a" followed for 4 frames of the 10 it needs: everything waits
+            assert out == []
+        if index == 9:  # "a" counts now; frames with "short" wait for them to be decided
+            assert [item[0] for kind, item in out if kind == "frame"] == [0, 1, 2, 3, 4]
+    out += held.add([], ["a", "late"]) + held.finish()  # everybody still in view leaves at the end
+    frames = [item for kind, item in out if kind == "frame"]
+    assert [index for index, _ in frames] == list(range(40))
+    assert {p.track for _, people in frames for p in people} == {"a", "carried"}
+    assert [item for kind, item in out if kind == "left"] == ["carried", "a"]
+    assert out.index(("left", "carried")) == 5 and out[-1] == ("left", "a")  # in its place, after frame 4
+    assert [len(people) for index, people in frames if index >= 35] == [1] * 5  # "late": short at the end
+    assert [len(people) for index, people in frames if index < 3] == [2, 2, 2]
+    assert not held._held and not held._first and not held._counted and not held._short
+
+    passing = HeldUntilFollowed(fps=10.0, min_track_s=0.0)
+    assert passing.add([frame(0, "x")], []) == [("frame", (0, [types.SimpleNamespace(track="x")]))]
+    assert passing.add([], ["x"]) == [("left", "x")]
