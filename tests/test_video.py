@@ -451,6 +451,52 @@ def test_motion_where_nobody_was_found_for_a_while_is_looked_at_less_often_until
     assert looked == list(range(40)) and found.index(1) == person_from
 
 
+def test_the_detector_looks_where_people_were_left_until_it_finds_them(monkeypatch):
+    """A run cut off left somebody standing still: no motion proposes them and no finder finds them. Told where
+    they stood (``expect``), the detector looks there from the first frame and follows them from then on; a place
+    where nobody is any more is looked at for ``EXPECTED_FRAMES`` frames, then no longer; a place out of the
+    picture never."""
+    import ray3d.video.detectors as detectors
+    from ray3d.video.landmarks import as_regions
+
+    monkeypatch.setattr(detectors, "BlazePoseLandmarks", lambda threads: None)
+    standing = np.array([6.0, 0.5])  # metres on the floor, in view
+    foot = CAMERA.project(np.array([[*standing, 0.0]]))[0]
+    tall = float(person_height_px(CAMERA, foot))
+
+    def network(frame, regions):  # somebody where a crop frames the standing person
+        regions = as_regions(regions)
+        looked.append(len(regions))
+        here = (np.abs(regions[:, 0] - foot[0]) < 0.2 * tall) & (np.abs(regions[:, 1] - (foot[1] - tall / 2))
+                                                                  < 0.2 * tall)
+        box = np.array([[foot[0] - 0.2 * tall, foot[1] - tall], [foot[0] + 0.2 * tall, foot[1]]])
+        pixels = np.repeat(np.repeat(box[None], len(regions), 0), [17, 16], axis=1)
+        following = np.column_stack([np.full(len(regions), foot[0]), np.full(len(regions), foot[1] - tall / 2),
+                                     np.full(len(regions), detectors.ROI_MARGIN * tall), np.zeros(len(regions))])
+        return pixels, np.ones((len(regions), 33)), np.where(here, 0.9, 0.0), np.where(here[:, None], following,
+                                                                                      regions)
+
+    def detector_told(places):
+        detector = detectors.PeopleDetector(CAMERA)
+        detector._landmarks = network
+        monkeypatch.setattr(detector._proposals, "blobs", lambda frame: np.zeros((0, 4)))
+        monkeypatch.setattr(detector._proposals, "split_blobs", lambda blobs: np.zeros((0, 4)))
+        if places is not None:
+            detector.expect(places)
+        return detector
+
+    frame = np.zeros((SIZE[1], SIZE[0], 3), np.uint8)
+    looked: list[int] = []
+    assert [len(detector_told(None)(frame)) for _ in range(3)] == [0, 0, 0]  # nothing tells where to look
+    detector = detector_told([standing, [-40.0, 6.0], [6.0, 40.0]])  # behind the camera, out to the side
+    assert [len(detector(frame)) for _ in range(5)] == [1] * 5
+    assert len(detector._expected) == 0
+    looked.clear()
+    gone = detector_told([standing + [0.0, 1.5]])  # nobody stands there any more
+    assert [len(gone(frame)) for _ in range(detectors.EXPECTED_FRAMES + 5)] == [0] * (detectors.EXPECTED_FRAMES + 5)
+    assert looked == [1] * detectors.EXPECTED_FRAMES + [0] * 5
+
+
 def test_one_pose_stands_for_one_of_the_people_the_finder_found():
     """Two people the finder found, the one behind partly hidden, and one pose (both crops framed the one in
     front): the pose is the front person's, the one behind is not posed (the finder's keypoints stand in for them).
