@@ -394,7 +394,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                 for person in leaving:
                     trails.pop(person, None)
                 outputs.emit(events)
-                views.recorded(view, result)
+                if views.several or outputs.last_index >= 0:  # a camera's frames held: recorded once handed over
+                    views.recorded(view, result.index if views.several else min(result.index, outputs.last_index))
                 for person in persons:
                     trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * views.fps))))
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
