@@ -990,8 +990,9 @@ def test_falling_behind_is_a_stretch_with_more_than_its_share_of_a_window_droppe
 def test_people_followed_for_less_than_the_shortest_track_make_no_event_and_the_others_keep_their_order():
     """Live, as offline: a person followed for less than ``min_track_s`` (a false detection confirmed, a fragment)
     never counts. Frames are held until everybody in them is decided, then go on in order with only those who
-    count; who left goes on in its place; a person a killed run left in view counts from their first frame; at the
-    end the undecided are short; nothing is kept of people gone. Without ``min_track_s`` nothing is held."""
+    count; who left goes on in its place; one unseen for as long lets the frames go on without them; a person a
+    killed run left in view counts from their first frame; at the end the undecided are short; nothing is kept of
+    people gone. Without ``min_track_s`` nothing is held."""
     from ray3d.live.runner import HeldUntilFollowed
 
     def frame(index, *tracks):
@@ -1001,13 +1002,17 @@ def test_people_followed_for_less_than_the_shortest_track_make_no_event_and_the_
     out = []
     for index in range(40):
         here = ["a"] + (["short"] if 5 <= index <= 8 else []) + (["late"] if index >= 35 else []) \
-            + (["carried"] if index < 3 else [])
+            + (["carried"] if index < 3 else []) + (["lost"] if 20 <= index <= 23 else [])
         out += held.add([frame(index, *here)], ["short"] if index == 12 else ["carried"] if index == 4 else [])
         if index == 3:  # "a" followed for 4 frames of the 10 it needs: everything waits
             assert out == []
         if index == 9:  # "a" counts now; frames with "short" wait for them to be decided
             assert [item[0] for kind, item in out if kind == "frame"] == [0, 1, 2, 3, 4]
-    out += held.add([], ["a", "late"]) + held.finish()  # everybody still in view leaves at the end
+        if index == 32:  # "lost", unseen since frame 23, not yet decided (not told gone: they may be taken up)
+            assert [item[0] for kind, item in out if kind == "frame"][-1] == 19
+        if index == 33:  # unseen for as long as a track must last: their frames go on without them
+            assert [item[0] for kind, item in out if kind == "frame"][-1] == 33
+    out += held.add([], ["a", "late", "lost"]) + held.finish()  # everybody still in view leaves at the end
     frames = [item for kind, item in out if kind == "frame"]
     assert [index for index, _ in frames] == list(range(40))
     assert {p.track for _, people in frames for p in people} == {"a", "carried"}

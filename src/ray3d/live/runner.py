@@ -148,14 +148,17 @@ def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) ->
 
 class HeldUntilFollowed:
     """Settled frames held until everybody in them has been followed for ``min_track_s`` (their first settled frame
-    to their latest) or has left short of it: those never count, as ``ray3d video`` and the world files leave out
-    tracks shorter than that (no event of theirs, no place in the store); who left keeps their place among the frames.
-    ``counted``: people who count from their first frame (those a run cut off left in view, taken up). With
-    ``min_track_s`` 0 nothing is held."""
+    to their latest), or has left short of it, or has been unseen for that long: those do not count in those frames,
+    as ``ray3d video`` and the world files leave out tracks shorter than that (no event of theirs, no place in the
+    store; one taken up again later counts from then on); who left keeps their place among the frames. ``counted``:
+    people who count from their first frame (those a run cut off left in view, taken up). With ``min_track_s`` 0
+    nothing is held."""
 
     def __init__(self, fps: float, min_track_s: float, counted=()):
         self.frames_needed = min_track_s * fps
         self._first: dict[str, int] = {}
+        self._last: dict[str, int] = {}
+        self._latest = -1
         self._counted, self._short = set(counted), set()
         self._held: deque = deque()  # ("frame", (index, people)) and ("left", person), in order
 
@@ -164,6 +167,7 @@ class HeldUntilFollowed:
         in it who count)) and ("left", a person who counted)."""
         for index, people in settled:
             for person in people:
+                self._last[person.track] = self._latest = index
                 if index - self._first.setdefault(person.track, index) + 1 >= self.frames_needed:
                     self._counted.add(person.track)
             self._held.append(("frame", (index, people)))
@@ -184,7 +188,9 @@ class HeldUntilFollowed:
         out = []
         while self._held:
             kind, item = self._held[0]
-            if kind == "frame" and not all(p.track in self._counted or p.track in self._short for p in item[1]):
+            if kind == "frame" and not all(p.track in self._counted or p.track in self._short
+                                           or self._latest - self._last[p.track] >= self.frames_needed
+                                           for p in item[1]):
                 break
             self._held.popleft()
             if kind == "frame":
@@ -193,6 +199,7 @@ class HeldUntilFollowed:
                 if item in self._counted:
                     out.append((kind, item))
                 self._first.pop(item, None)
+                self._last.pop(item, None)
                 self._counted.discard(item)
                 self._short.discard(item)
         return out
