@@ -322,6 +322,27 @@ def test_tracker_gives_a_person_where_a_cut_off_run_left_somebody_their_id_in_it
     assert sorted(t.id for t in tracker.tracks()) == ["1-4", "2-0", "2-1"]
 
 
+def test_a_carried_person_is_reached_by_as_far_as_the_new_floor_point_is_uncertain():
+    """Far from the camera a floor point is known to a metre along the ray, and a new run's first places differ
+    from the last one's by that much: a person found 1.8 m from where they were left, 0.3 s later, takes up their
+    id where the point is known to 0.6 m, not where it is known to 0.1 m; the nearest of two is taken, once."""
+    from ray3d.site.events import CarriedPerson
+    from ray3d.video.tracking import _CarriedIds
+
+    def carried():
+        ids = _CarriedIds([CarriedPerson("1-6", (-4.2, -9.6), 10.2, 10.2),
+                           CarriedPerson("1-4", (-3.6, -7.3), 10.2, 10.2)], 0.1)
+        ids.start(102)
+        return ids
+
+    here = np.array([-2.5, -9.3])
+    assert carried().claim(here, 105, here_sd_m=0.1) is None
+    ids = carried()
+    assert ids.claim(here, 105, here_sd_m=0.6) == "1-6"
+    assert ids.claim(here, 105, here_sd_m=0.6) == "1-4"  # 2.3 m away: reached too, once 1-6 is taken
+    assert ids.claim(here, 105, here_sd_m=0.6) is None
+
+
 def test_tracker_counts_dropped_frames_as_time_passing():
     """Live use drops frames: the filter moves people on for every frame since the last update, and a person
     unseen for longer than the gap in time (not in updates) has left."""
