@@ -146,65 +146,6 @@ def stop_on_signals(stop: threading.Event, source: FrameSource | SourceGroup) ->
     return caught
 
 
-class HeldUntilFollowed:
-    """Settled frames held until everybody in them has been followed for ``min_track_s`` (their first settled frame
-    to their latest), or has left short of it, or has been unseen for that long: those do not count in those frames,
-    as ``ray3d video`` and the world files leave out tracks shorter than that (no event of theirs, no place in the
-    store; one taken up again later counts from then on); who left keeps their place among the frames. ``counted``:
-    people who count from their first frame (those a run cut off left in view, taken up). With ``min_track_s`` 0
-    nothing is held."""
-
-    def __init__(self, fps: float, min_track_s: float, counted=()):
-        self.frames_needed = min_track_s * fps
-        self._first: dict[str, int] = {}
-        self._last: dict[str, int] = {}
-        self._latest = -1
-        self._counted, self._short = set(counted), set()
-        self._held: deque = deque()  # ("frame", (index, people)) and ("left", person), in order
-
-    def add(self, settled: list[tuple[int, list[PersonNow]]], leaving: list[str]) -> list[tuple[str, object]]:
-        """Frames settled and people who left -> those that can go on now, in order: ("frame", (index, the people
-        in it who count)) and ("left", a person who counted)."""
-        for index, people in settled:
-            for person in people:
-                self._last[person.track] = self._latest = index
-                if index - self._first.setdefault(person.track, index) + 1 >= self.frames_needed:
-                    self._counted.add(person.track)
-            self._held.append(("frame", (index, people)))
-        for person in leaving:
-            if person not in self._counted:
-                self._short.add(person)
-            self._held.append(("left", person))
-        return self._released()
-
-    def finish(self) -> list[tuple[str, object]]:
-        """The end of the run: whoever has not been followed long enough by now never will be."""
-        for kind, item in self._held:
-            if kind == "frame":
-                self._short.update(p.track for p in item[1] if p.track not in self._counted)
-        return self._released()
-
-    def _released(self) -> list[tuple[str, object]]:
-        out = []
-        while self._held:
-            kind, item = self._held[0]
-            if kind == "frame" and not all(p.track in self._counted or p.track in self._short
-                                           or self._latest - self._last[p.track] >= self.frames_needed
-                                           for p in item[1]):
-                break
-            self._held.popleft()
-            if kind == "frame":
-                out.append((kind, (item[0], [p for p in item[1] if p.track in self._counted])))
-            else:  # gone for good: forgotten, so that months of people are not kept
-                if item in self._counted:
-                    out.append((kind, item))
-                self._first.pop(item, None)
-                self._last.pop(item, None)
-                self._counted.discard(item)
-                self._short.discard(item)
-        return out
-
-
 class _Outputs:
     """Where a run's events go as they are found: the event log (and stdout), the store, the time buckets, the
     webhook, MQTT and the page's latest events; and the settled frames' people, to the store."""
@@ -328,14 +269,13 @@ def _refused(cameras, error: InputError):
 
 def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),
            stop: threading.Event | None = None, started=lambda url: None,
-           offsets_s: list[float] | None = None, recorder=None, mqtt=None, min_track_s: float = 0.0) -> LiveSummary:
+           offsets_s: list[float] | None = None, recorder=None, mqtt=None) -> LiveSummary:
     """The live loop over cameras already following their streams (``live.cameras.LocalCameras`` in
     this process, ``live.cluster.RayCameras`` on Ray): their people joined, the site's events, the event log,
     the webhook, MQTT (``mqtt``: a ``live.mqtt.MqttPublisher``), the page, each camera's world file and the
     site's store (``recorder``: a ``store.RunRecorder``; a run that continues a store's record appends to the
     event log and the world files its earlier runs wrote, first the events that closed what a killed run left open,
-    and MQTT's running counts go on from the store's). People followed for less than ``min_track_s`` make no event
-    and no place in the store (``HeldUntilFollowed``: the events come that much later)."""
+    and MQTT's running counts go on from the store's)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     events_path = out_dir / "events.jsonl"
@@ -351,7 +291,6 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
     # first seconds (and a margin for the frames held before they settle) are ended where they were left.
     monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else ())
     giving_up_frames, first_settled = int(round((CLAIM_S + 2.0) * views.fps)), None
-    held = HeldUntilFollowed(views.fps, min_track_s, monitor.carrying)
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
                        "lines": [{"name": line.name, "start": line.start.tolist(), "end": line.end.tolist()}
@@ -390,19 +329,16 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                 if mqtt is not None:
                     mqtt.health(keeping.state())
                 settled, persons, leaving = views.take(view, result)
-                released = held.add(settled, leaving)
-                events = [event for kind, item in released
-                          for event in (outputs.settle(item) if kind == "frame" else monitor.ended(item))]
-                settled = [item for kind, item in released if kind == "frame"]
+                events = [event for frame in settled for event in outputs.settle(frame)]
                 if settled and monitor.carrying:
                     first_settled = settled[0][0] if first_settled is None else first_settled
                     if settled[-1][0] > first_settled + giving_up_frames:
                         events += monitor.give_up()
                 for person in leaving:
+                    events += monitor.ended(person)
                     trails.pop(person, None)
                 outputs.emit(events)
-                if views.several or outputs.last_index >= 0:  # a camera's frames held: recorded once handed over
-                    views.recorded(view, result.index if views.several else min(result.index, outputs.last_index))
+                views.recorded(view, result)
                 for person in persons:
                     trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * views.fps))))
                     trail.append((round(float(person.joints[0, 0]), 2), round(float(person.joints[0, 1]), 2)))
@@ -417,9 +353,11 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
             ending, why = "until", f"{cameras.name}: ended after {options.until_s:g} s, as asked"
         cameras.close()
         settled, leaving = views.finish()
-        for kind, item in held.add(settled, [person for person, _ in leaving]) + held.finish():
-            outputs.emit(outputs.settle(item) if kind == "frame" else monitor.ended(item))
+        for frame in settled:
+            outputs.emit(outputs.settle(frame))
         outputs.emit(monitor.give_up())
+        for person, _ in leaving:
+            outputs.emit(monitor.ended(person))
         keeping.finish()
         if mqtt is not None:
             mqtt.health(keeping.state())

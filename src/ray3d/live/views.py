@@ -78,11 +78,11 @@ class Views:
         settled = self.held.newest(time_s, persons, self.fusion.decided)
         return settled, persons, self._ended(time_s)
 
-    def recorded(self, view: int, index: int) -> None:
-        """This camera's frame ``index`` recorded, once its events are handed to the store: a run cut off after
+    def recorded(self, view: int, result: FrameResult) -> None:
+        """This camera's processed frame recorded, once its events are handed to the store: a run cut off after
         the store's commit is taken up at the next frame, with every event of this one."""
         if self.recorder is not None:
-            self.recorder.progress(self.cameras.sources[view], index, self.time_s(view, index))
+            self.recorder.progress(self.cameras.sources[view], result.index, self.time_s(view, result.index))
 
     def finish(self) -> tuple[list[tuple], list[tuple[str, int]]]:
         """Everybody still in view handed over: the frames not settled yet, in order, and who leaves (person, the
