@@ -322,27 +322,6 @@ def test_tracker_gives_a_person_where_a_cut_off_run_left_somebody_their_id_in_it
     assert sorted(t.id for t in tracker.tracks()) == ["1-4", "2-0", "2-1"]
 
 
-def test_a_carried_person_is_reached_by_as_far_as_the_new_floor_point_is_uncertain():
-    """Far from the camera a floor point is known to a metre along the ray, and a new run's first places differ
-    from the last one's by that much: a person found 1.8 m from where they were left, 0.3 s later, takes up their
-    id where the point is known to 0.6 m, not where it is known to 0.1 m; the nearest of two is taken, once."""
-    from ray3d.site.events import CarriedPerson
-    from ray3d.video.tracking import _CarriedIds
-
-    def carried():
-        ids = _CarriedIds([CarriedPerson("1-6", (-4.2, -9.6), 10.2, 10.2),
-                           CarriedPerson("1-4", (-3.6, -7.3), 10.2, 10.2)], 0.1)
-        ids.start(102)
-        return ids
-
-    here = np.array([-2.5, -9.3])
-    assert carried().claim(here, 105, here_sd_m=0.1) is None
-    ids = carried()
-    assert ids.claim(here, 105, here_sd_m=0.6) == "1-6"
-    assert ids.claim(here, 105, here_sd_m=0.6) == "1-4"  # 2.3 m away: reached too, once 1-6 is taken
-    assert ids.claim(here, 105, here_sd_m=0.6) is None
-
-
 def test_tracker_counts_dropped_frames_as_time_passing():
     """Live use drops frames: the filter moves people on for every frame since the last update, and a person
     unseen for longer than the gap in time (not in updates) has left."""
@@ -470,52 +449,6 @@ def test_motion_where_nobody_was_found_for_a_while_is_looked_at_less_often_until
     assert all(found[first_seen:]) and set(range(first_seen, 40)) <= set(looked)
     looked, found = run(None)
     assert looked == list(range(40)) and found.index(1) == person_from
-
-
-def test_the_detector_looks_where_people_were_left_until_it_finds_them(monkeypatch):
-    """A run cut off left somebody standing still: no motion proposes them and no finder finds them. Told where
-    they stood (``expect``), the detector looks there from the first frame and follows them from then on; a place
-    where nobody is any more is looked at for ``EXPECTED_FRAMES`` frames, then no longer; a place out of the
-    picture never."""
-    import ray3d.video.detectors as detectors
-    from ray3d.video.landmarks import as_regions
-
-    monkeypatch.setattr(detectors, "BlazePoseLandmarks", lambda threads: None)
-    standing = np.array([6.0, 0.5])  # metres on the floor, in view
-    foot = CAMERA.project(np.array([[*standing, 0.0]]))[0]
-    tall = float(person_height_px(CAMERA, foot))
-
-    def network(frame, regions):  # somebody where a crop frames the standing person
-        regions = as_regions(regions)
-        looked.append(len(regions))
-        here = (np.abs(regions[:, 0] - foot[0]) < 0.2 * tall) & (np.abs(regions[:, 1] - (foot[1] - tall / 2))
-                                                                  < 0.2 * tall)
-        box = np.array([[foot[0] - 0.2 * tall, foot[1] - tall], [foot[0] + 0.2 * tall, foot[1]]])
-        pixels = np.repeat(np.repeat(box[None], len(regions), 0), [17, 16], axis=1)
-        following = np.column_stack([np.full(len(regions), foot[0]), np.full(len(regions), foot[1] - tall / 2),
-                                     np.full(len(regions), detectors.ROI_MARGIN * tall), np.zeros(len(regions))])
-        return pixels, np.ones((len(regions), 33)), np.where(here, 0.9, 0.0), np.where(here[:, None], following,
-                                                                                      regions)
-
-    def detector_told(places):
-        detector = detectors.PeopleDetector(CAMERA)
-        detector._landmarks = network
-        monkeypatch.setattr(detector._proposals, "blobs", lambda frame: np.zeros((0, 4)))
-        monkeypatch.setattr(detector._proposals, "split_blobs", lambda blobs: np.zeros((0, 4)))
-        if places is not None:
-            detector.expect(places)
-        return detector
-
-    frame = np.zeros((SIZE[1], SIZE[0], 3), np.uint8)
-    looked: list[int] = []
-    assert [len(detector_told(None)(frame)) for _ in range(3)] == [0, 0, 0]  # nothing tells where to look
-    detector = detector_told([standing, [-40.0, 6.0], [6.0, 40.0]])  # behind the camera, out to the side
-    assert [len(detector(frame)) for _ in range(5)] == [1] * 5
-    assert len(detector._expected) == 0
-    looked.clear()
-    gone = detector_told([standing + [0.0, 1.5]])  # nobody stands there any more
-    assert [len(gone(frame)) for _ in range(detectors.EXPECTED_FRAMES + 5)] == [0] * (detectors.EXPECTED_FRAMES + 5)
-    assert looked == [1] * detectors.EXPECTED_FRAMES + [0] * 5
 
 
 def test_one_pose_stands_for_one_of_the_people_the_finder_found():

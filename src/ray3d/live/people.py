@@ -107,9 +107,6 @@ class LivePeople:
         self.camera, self.detector, self.lifter, self.fps, self.floor = camera, detector, lifter, fps, floor
         self.tracker = FloorTracker(camera, fps, detector.layout, max_gap_s, CONFIRM_FRAMES, id_prefix=id_prefix,
                                     carried=carried, rejoin_s=rejoin_s)
-        places = [person.place for person in carried if person.place is not None]
-        if places and hasattr(detector, "expect"):  # looked for where they were left (a user's detector may not)
-            detector.expect(places)
         self.config = RefineConfig.for_model(lifter.document, detector.layout)
         self.refine_every = max(1, int(round(refine_every_s * fps)))
         self.window = max(2, int(round(refine_window_s * fps)))

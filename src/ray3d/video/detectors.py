@@ -38,7 +38,6 @@ from ray3d.video.proposals import ROI_MARGIN, ForegroundProposals, median_backgr
 # within that many frames (the finder looks in between), and followed from then on.
 EMPTY_RUN = 8
 EMPTY_EVERY = 4
-EXPECTED_FRAMES = 20  # frames in which people expected where a run cut off left them are looked for there
 # A person the finder found counts as posed by the landmark network where a pose's whole-person box overlaps theirs
 # this much; one not posed needs this many of the finder's own keypoints seen to stand in.
 UNPOSED_OVERLAP = 0.4
@@ -115,29 +114,12 @@ class PeopleDetector:
         self.crop_s = 0.015                     # the landmark network's time per crop, as measured
         self._empty: deque = deque(maxlen=EMPTY_RUN)  # regions where crops found nobody, by frame
         self._empty_now: list[np.ndarray] = []
-        self._expected, self._expected_frames = np.zeros((0, 4)), 0  # regions looked at as if followed (``expect``)
         self.postponed = 0                      # people left for the next frame so far (with ``time_left_s``)
 
     def prepare(self, frames: list[np.ndarray]) -> None:
         self._proposals = ForegroundProposals(self.camera, median_background(frames) if frames else None)
         self._previous, self._left_out = [], []
         self._empty.clear()
-        self._expected, self._expected_frames = np.zeros((0, 4)), 0
-
-    def expect(self, places_m) -> None:
-        """Look for people where they stood, ``places_m`` ((N, 2) floor points, metres), in the next
-        ``EXPECTED_FRAMES`` frames as at people followed from the frame before, until somebody is found there: the
-        people a run cut off left in view, whom a background model that starts cold and a finder that misses the
-        small may not find again at once (a person standing still makes no motion)."""
-        places = np.asarray(places_m, dtype=np.float64).reshape(-1, 2)
-        feet = self.camera.project(np.column_stack([places, np.zeros(len(places))]))
-        width, height = self.camera.image_size
-        feet = feet[np.isfinite(feet).all(axis=1) & (feet[:, 0] >= 0) & (feet[:, 0] < width) & (feet[:, 1] >= 0)
-                    & (feet[:, 1] < height)]  # behind the camera: not finite
-        tall = np.asarray(self._proposals.person_height(feet), dtype=np.float64).reshape(-1)
-        self._expected = np.column_stack([feet[:, 0], feet[:, 1] - tall / 2, ROI_MARGIN * tall,
-                                          np.zeros(len(feet))])[np.isfinite(tall)]
-        self._expected_frames = EXPECTED_FRAMES
 
     def __call__(self, frame: np.ndarray, time_left_s: float | None = None) -> list[Detection]:
         # The people of the last frame are looked for where they were (also when they stopped, or merged with
@@ -147,7 +129,6 @@ class PeopleDetector:
         started = time.perf_counter()
         followed = self._previous + self._left_out
         known = as_regions([self._region_around(d) for d in followed])
-        known = np.concatenate([known, self._expected[~_near(self._expected, known)]])
         looks_whole = self._finder is not None and self._frames_seen % self.full_frame_every == 0
         self._frames_seen += 1
         seen_whole = self._finder.found(frame) if looks_whole else (np.zeros((0, 4)), np.zeros((0, 17, 3)),
@@ -190,10 +171,6 @@ class PeopleDetector:
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
         self._empty.append(np.concatenate(self._empty_now))
-        self._expected_frames -= 1
-        found_at = as_regions([self._region_around(d) for d in self._previous])
-        self._expected = self._expected[~_near(self._expected, found_at)] if self._expected_frames > 0 \
-            else np.zeros((0, 4))
         return self._previous
 
     def _still_empty(self, regions: np.ndarray) -> np.ndarray:

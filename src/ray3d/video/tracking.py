@@ -109,16 +109,13 @@ class _CarriedIds:
         if self._claim_until is None:
             self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
 
-    def claim(self, here: np.ndarray, frame_index: int, here_sd_m: float = 0.0) -> str | None:
-        """The id of the carried person nearest ``here`` (x, y metres, known to ``here_sd_m`` at worst), if they could
-        have walked there since they were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``, and twice that
-        uncertainty: far from the camera a floor point is known to a metre along the ray) and it is still early
-        enough; taken."""
+    def claim(self, here: np.ndarray, frame_index: int) -> str | None:
+        """The id of the carried person nearest ``here`` (x, y metres), if they could have walked there since they
+        were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``) and it is still early enough; taken."""
         if not self._carried or frame_index > self._claim_until:
             return None
         now = frame_index * self.dt
-        reach = [CLAIM_GATE_M + 2.0 * here_sd_m + CLAIM_SPEED_M_S * max(0.0, now - carried.place_s)
-                 for carried in self._carried]
+        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - carried.place_s) for carried in self._carried]
         distance = [float(np.hypot(*(here - np.asarray(carried.place)))) for carried in self._carried]
         within = [k for k in range(len(self._carried)) if distance[k] <= reach[k]]
         if not within:
@@ -259,8 +256,7 @@ class FloorTracker:
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            track_id = self._carried.claim(person.filter.statePost[:2, 0], frame_index,
-                                           float(np.sqrt(np.linalg.eigvalsh(noise[-1]).max())))
+            track_id = self._carried.claim(person.filter.statePost[:2, 0], frame_index)
             carried = track_id is not None
             if not carried:
                 track_id = f"{self.id_prefix}{self._confirmed}"
