@@ -792,9 +792,10 @@ def test_a_run_that_cannot_keep_up_says_so_on_stderr_the_page_mqtt_and_in_the_st
     assert re.search(r"keeping up again after \d+ s falling behind \(\d+ % of its frames dropped, \d+ people left for "
                      r"the next frame, from [\d.]+ s to [\d.]+ s of the stream\); counts in that time are uncertain",
                      err)
-    # The slow stretch; a busy machine may add a short hiccup of its own (two or three frames), said the same way.
-    stretch = next(s for s in summary.behind if 1.0 < s.from_s < 2.5)
-    assert 2.5 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
+    # The slow stretch, where the most frames were dropped; a busy machine may add a short hiccup of its own (two or
+    # three frames), said the same way, and one just before the slow frames may run into their stretch.
+    stretch = max(summary.behind, key=lambda s: s.dropped)
+    assert 0.5 < stretch.from_s < 2.5 and 2.5 < stretch.to_s < 6.9 and stretch.share > 0.3  # frames 15-35
     assert all(s.dropped <= 3 for s in summary.behind if s is not stretch)
     # the page's state: a warning while it lasted, the stretch kept after
     states = [s for s in states if "health" in s]  # those before the first frame have none
