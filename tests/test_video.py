@@ -418,7 +418,8 @@ def test_motion_where_nobody_was_found_for_a_while_is_looked_at_less_often_until
 
     def run(finder) -> tuple[list[int], list[int]]:
         """The frames in which the region was looked at, and the people found in each of 40 frames."""
-        detector, looked = detectors.PeopleDetector(CAMERA, finder=finder), []
+        every = detectors.EMPTY_EVERY if finder is not None else 1  # as combined_detector and the people detector
+        detector, looked = detectors.PeopleDetector(CAMERA, finder=finder, empty_every=every), []
 
         def network(frame, regions):
             index = int(frame[0, 0, 0])

@@ -21,7 +21,7 @@ from ray3d.errors import InputError
 from ray3d.jobs import CameraChoice, Job, video_input
 from ray3d.video import read_frames
 from ray3d.video.boxes import box_inside, box_overlap, matched_one_to_one, whole_person
-from ray3d.video.detectors import PeopleDetector
+from ray3d.video.detectors import EMPTY_EVERY, PeopleDetector
 from ray3d.video.frames import spread_frames
 from ray3d.video.movenet import MoveNetPeople
 
@@ -87,8 +87,10 @@ def finder_named(name: str) -> MoveNetPeople | None:
 def run(video: Path, camera: str, finder: str, annotated: dict[int, list[dict]], every: int = 1) -> dict:
     """``video`` (seen by ``camera``) through ``ray3d video``'s detector with the full-frame ``finder`` on every
     ``every``-th frame: {"finder", "every", "frames_per_s" (the detector's), "recall": {split: (found, people)}}."""
-    job = Job((video,), (CameraChoice(camera),),
-              detector=lambda made: PeopleDetector(made, finder=finder_named(finder), full_frame_every=every))
+    found_whole = finder_named(finder)
+    job = Job((video,), (CameraChoice(camera),),  # stale motion looked at less where a finder looks in between
+              detector=lambda made: PeopleDetector(made, finder=found_whole, full_frame_every=every,
+                                                   empty_every=1 if found_whole is None else EMPTY_EVERY))
     info, _, detector = video_input(job, 0)
     detector.prepare(spread_frames(info, 0, info.frames))
     tally: dict[str, list[int]] = {}

@@ -89,22 +89,23 @@ class PeopleDetector:
             None: motion and the previous frame only (``people``).
         full_frame_every: run the finder on every n-th frame only (the people it found are followed from frame
             to frame anyway; somebody new who stands still is found up to n - 1 frames later).
-        empty_every: with a finder, look at motion that crops found nobody in for ``EMPTY_RUN`` frames running on
-            every n-th frame only while it lasts (1: every frame, as ``ray3d live`` does).
+        empty_every: look at motion that crops found nobody in for ``EMPTY_RUN`` frames running on every n-th
+            frame only while it lasts (1: every frame; ``combined_detector`` offline: ``EMPTY_EVERY``, its finder
+            looking in between).
 
     Called with ``time_left_s`` (live use), the crops that would not fit in that time are left out: first
     motion's proposals where crops lately found nobody, then people followed from the last frame, who are
     looked at first in the next (everybody at least every other frame; the nearest, the largest, who move
-    most in the picture, kept first); new people always. Without it every crop is looked at in every frame, but,
-    with a finder, motion that crops found nobody in for ``EMPTY_RUN`` frames running (a passing car) is looked at
-    every ``empty_every``-th frame while it lasts (the finder looks there in the others).
+    most in the picture, kept first); new people always. Without it every crop is looked at in every frame, but
+    motion that crops found nobody in for ``EMPTY_RUN`` frames running (a passing car) is looked at every
+    ``empty_every``-th frame while it lasts.
     """
 
     layout = BLAZEPOSE33.name
 
     def __init__(self, camera: Camera, min_score: float = 0.5, threads: int = 2,
                  finder: MoveNetPeople | None = None,
-                 full_frame_every: int = 1, empty_every: int = EMPTY_EVERY):
+                 full_frame_every: int = 1, empty_every: int = 1):
         self.camera, self.min_score, self.full_frame_every = camera, min_score, max(1, int(full_frame_every))
         self.empty_every = max(1, int(empty_every))
         self._frames_seen = 0
@@ -143,7 +144,7 @@ class PeopleDetector:
         boxes = np.array([d.box for d in followed]).reshape(-1, 4)
         fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes) & ~_near(proposed, new)
                          & ~_inside_regions(proposed, new)]
-        stale = self._still_empty(fresh) & (self._frames_seen % self.empty_every != 0) & (self._finder is not None)
+        stale = self._still_empty(fresh) if self._frames_seen % self.empty_every else np.zeros(len(fresh), bool)
         self._empty_now = [fresh[stale]]  # not looked at: presumed empty still, until the next look tells
         fresh = fresh[~stale]
         # A region the full-frame detector found one person in may hold a person wider than motion's
@@ -343,10 +344,11 @@ OFFLINE_FULL_FRAME_EVERY = 2
 
 
 def combined_detector(camera: Camera, threads: int = 2, full_frame_every: int = OFFLINE_FULL_FRAME_EVERY,
-                      **options) -> PeopleDetector:
-    """``PeopleDetector`` with MoveNet as its full-frame finder, run every ``full_frame_every``-th frame."""
+                      empty_every: int = EMPTY_EVERY, **options) -> PeopleDetector:
+    """``PeopleDetector`` with MoveNet as its full-frame finder, run every ``full_frame_every``-th frame; motion where
+    crops found nobody for a while looked at every ``empty_every``-th frame (the finder looking in between)."""
     return PeopleDetector(camera, threads=threads, finder=MoveNetPeople(threads), full_frame_every=full_frame_every,
-                          **options)
+                          empty_every=empty_every, **options)
 
 
 DETECTORS = {"combined": combined_detector, "people": PeopleDetector, "mediapipe": MediaPipeDetector}
