@@ -12,9 +12,11 @@ import pytest
 import test_live
 
 from ray3d.bench.live import closing_figures
+from ray3d.bench.restarts import kill_moments
 from ray3d.cli import main
 
 CAMERA = "h36m:S9:54138969"
+CLIP_FRAMES = 100
 
 
 @pytest.fixture(scope="module")
@@ -25,13 +27,21 @@ def clip(tmp_path_factory):
     import cv2
 
     path = tmp_path_factory.mktemp("clip") / "clip.avi"
-    people = test_live._scene(100)
+    people = test_live._scene(CLIP_FRAMES)
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), test_live.FPS,
                              tuple(test_live.CAMERA.image_size))
     for image in test_live._frames(len(people), people=people):
         writer.write(np.ascontiguousarray(image[..., ::-1]))  # RGB -> BGR
     writer.release()
     return path
+
+
+def test_kills_fall_one_in_each_stretch_of_the_video_the_same_for_one_seed():
+    moments = kill_moments(79.5, 5, seed=0)
+    stretch = 79.5 / 6
+    assert moments == sorted(moments) and len(moments) == 5
+    assert all(stretch * (k - 0.3) - 0.05 <= m <= stretch * (k + 0.3) + 0.05 for k, m in enumerate(moments, 1))
+    assert kill_moments(79.5, 5, seed=0) == moments != kill_moments(79.5, 5, seed=1)
 
 
 def test_the_closing_line_of_ray3d_live_is_read_and_a_killed_run_says_nothing():
@@ -64,7 +74,10 @@ def test_a_run_killed_and_started_again_on_its_store_records_nothing_twice(clip,
     assert main(["bench", "live", str(clip), "--mode", "restarts", "--camera", CAMERA, "--kills", "1",
                  "--out", str(out)]) == 0
     result = json.loads((out / "restarts.json").read_text())
-    assert len(result["kills after s"]) == 1 and result["runs"] == 2
+    (moment,) = kill_moments(CLIP_FRAMES / test_live.FPS, 1, 0)
+    assert len(result["killed at video s"]) == 1 and result["runs"] == 2
+    assert moment <= result["killed at video s"][0] < moment + 1.5  # where it was asked, within the store's commits
+    assert result["gaps"][0][0] == pytest.approx(result["killed at video s"][0], abs=0.6)
     assert result["ended"] == ["cut off", "ended"] and result["duplicated"] == 0
     assert set(result["counts"]) == {"uninterrupted", "uninterrupted again", "killed and restarted"}
     recorded, tracks = result["people recorded"], result["tracks"]

@@ -3,7 +3,8 @@ only a process can be killed), and measured from outside:
 
 - ``soak``: a video looped at its own rate for a long time, the page read by a client as a browser would; the
   process's memory every few seconds; every event written and in the store; the frames dropped and the latency;
-- ``restarts`` (``bench.restarts``): killed with SIGKILL at random moments and started again on the same store;
+- ``restarts`` (``bench.restarts``): killed with SIGKILL at moments of the video chosen by a seed and started again
+  on the same store;
 - ``rtsp``: the video served over RTSP on 127.0.0.1 (rtsp-server-perl fed by FFmpeg) and stopped for a few seconds
   several times: the run goes on, each outage a gap in the store, nobody counted across a gap;
 - ``cluster``: one and two cameras on a local Ray (``--address local``), the frames each keeps; and the same video

@@ -1,7 +1,7 @@
 """``ray3d bench live --mode restarts``: restarts lose nothing and count nothing twice. ``ray3d live`` on a video
 read as fast as it is processed (``--unpaced``), once uninterrupted (twice: the noise between two runs), and once
-killed with SIGKILL at random moments and started again each time with the same command on the same store until the
-video ends (``restarts``); then (``restarts_figures``):
+killed with SIGKILL at chosen moments of the video and started again each time with the same command on the same store
+until the video ends (``restarts``); then (``restarts_figures``):
 
 - the tracks (each "track started") and the people recorded (the tracks followed for ``--min-track``) of each store;
 - duplicates: events recorded twice (the same kind, place and moment, across the runs);
@@ -12,20 +12,23 @@ video ends (``restarts``); then (``restarts_figures``):
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import json
 import random
 import signal
+import sqlite3
 import subprocess
 import time
 from pathlib import Path
 
-from ray3d.bench.live import fresh_folder, live_command, run_to_end, track_spans
+from ray3d.bench.live import fresh_folder, live_command, run_to_end, track_spans, video_seconds
 from ray3d.site.events import LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT
 from ray3d.store import read_record
 
 START = "2026-12-01T09:00:00+00:00"  # every run's frame 0 (a file taken up goes on on this clock)
 AFTER_RESTART_S = 2.0  # a person in view at a restart is followed again within this
+LOOKED_AT_EVERY_S = 0.05  # how often a run to be killed has its store's progress read
 
 
 def _restarts_command(video: Path, camera: str, site: Path | None, out: Path) -> list[str]:
@@ -33,11 +36,48 @@ def _restarts_command(video: Path, camera: str, site: Path | None, out: Path) ->
                         "--every", "1h")
 
 
-def restarts(video: Path, camera: str, out: Path, site: Path | None = None, kills: int = 5, seed: int = 0,
-             first_kill_s: float = 8.0) -> dict:
-    """``ray3d live --unpaced`` on ``video`` uninterrupted (twice), and killed with SIGKILL ``kills`` times at
-    random moments (from ``first_kill_s``, when the models have loaded and frames flow) and started again each time
-    on the same store until the video ends; then ``restarts_figures`` of the stores."""
+def kill_moments(video_s: float, kills: int, seed: int) -> list[float]:
+    """Where in a video of ``video_s`` seconds the ``kills`` fall: one in each of ``kills`` equal stretches after
+    the first, at a place in its middle chosen by ``seed`` (seconds of the video, increasing)."""
+    chooser, stretch = random.Random(seed), video_s / (kills + 1)
+    return [round(stretch * (k + 1 + chooser.uniform(-0.3, 0.3)), 1) for k in range(kills)]
+
+
+def _committed_s(store: Path, origin: float) -> float:
+    """How far into the video the store's newest run has committed (seconds; -1: nothing yet)."""
+    try:
+        with contextlib.closing(sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0)) as database:
+            row = database.execute("SELECT last_at FROM runs ORDER BY run DESC LIMIT 1").fetchone()
+    except sqlite3.Error:  # not made yet, or its tables not yet
+        return -1.0
+    return -1.0 if row is None or row[0] is None else row[0] - origin
+
+
+def killed_at(command: list[str], store: Path, video_s: float, limit_s: float) -> float | None:
+    """Runs ``command`` until its store has committed the video up to ``video_s`` seconds, then kills it with
+    SIGKILL; the video second it was killed at, or None where it ended first (or ran past ``limit_s`` of wall time,
+    and was killed for it)."""
+    origin = datetime.datetime.fromisoformat(START).timestamp()
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + limit_s
+    try:
+        while process.poll() is None and time.monotonic() < deadline:
+            committed = _committed_s(store, origin)
+            if committed >= video_s:
+                process.send_signal(signal.SIGKILL)
+                return round(committed, 1)
+            time.sleep(LOOKED_AT_EVERY_S)
+        return None
+    finally:
+        if process.poll() is None:
+            process.kill()
+        process.wait()
+
+
+def restarts(video: Path, camera: str, out: Path, site: Path | None = None, kills: int = 5, seed: int = 0) -> dict:
+    """``ray3d live --unpaced`` on ``video`` uninterrupted (twice), and killed with SIGKILL ``kills`` times (each
+    once the store holds the video up to a moment of ``kill_moments``, so that a change is measured at the same
+    places) and started again each time on the same store until the video ends; then ``restarts_figures``."""
     out = fresh_folder(out)
     whole, again, killed = out / "uninterrupted", out / "uninterrupted-again", out / "killed"
     started = time.monotonic()
@@ -46,20 +86,14 @@ def restarts(video: Path, camera: str, out: Path, site: Path | None = None, kill
     # The same run again: how much two uninterrupted runs differ (the refinement runs on a thread of its own, so
     # when its answer lands varies with the machine's load): the noise the restarts' counts are read against.
     run_to_end(_restarts_command(video, camera, site, again))
-    chooser, kill_times = random.Random(seed), []
-    for _ in range(kills):
-        process = subprocess.Popen(_restarts_command(video, camera, site, killed), stdout=subprocess.DEVNULL,
-                                   stderr=subprocess.DEVNULL)
-        wait = chooser.uniform(first_kill_s, max(first_kill_s, one_run_s / (kills + 1)))
-        try:
-            process.wait(timeout=wait)
+    killed_at_s = []
+    for moment in kill_moments(video_seconds(video), kills, seed):
+        at = killed_at(_restarts_command(video, camera, site, killed), killed / "site.db", moment, 2 * one_run_s)
+        if at is None:
             break  # it ended before its kill: the video is done
-        except subprocess.TimeoutExpired:
-            process.send_signal(signal.SIGKILL)
-            process.wait()
-            kill_times.append(round(wait, 1))
+        killed_at_s.append(at)
     run_to_end(_restarts_command(video, camera, site, killed))
-    return {"mode": "restarts", "kills after s": kill_times, "one run s": round(one_run_s, 1),
+    return {"mode": "restarts", "killed at video s": killed_at_s, "one run s": round(one_run_s, 1),
             **restarts_figures(whole, again, killed)}
 
 
