@@ -136,6 +136,44 @@ def test_who_is_in_a_zone_is_one_rule_for_the_monitor_and_the_stores_record():
     assert monitor.occupants == {"room": {"1", "2"}}
 
 
+def test_a_track_is_announced_once_followed_long_enough_or_at_its_first_other_event():
+    """Live (``announced_after_s``, the job's shortest track): a track followed for a moment and gone says nothing;
+    one followed long enough is "track started" at its first frame, handed over when it has lasted that long; one
+    that crosses a line or enters a zone first is announced with it, before it; a person carried across a restart
+    was announced by the run before."""
+    from ray3d.site import SiteMonitor
+    from ray3d.site.events import CarriedPerson
+
+    def standing(x: float) -> np.ndarray:
+        return np.zeros((17, 3)) + [x, 0.0, 0.0]
+
+    monitor = SiteMonitor(Site((ROOM,), (DOOR,)), 10.0, announced_after_s=1.0)
+    said: dict[int, list] = {}
+    for frame in range(30):
+        people = {"long": standing(-3.0)}
+        if frame < 6:
+            people["moment"] = standing(-5.0)  # 0.6 s, never announced
+        if 10 <= frame < 14:
+            people["walks in"] = standing(-0.5 + (frame - 10) * 0.6)  # crosses the door at its 2nd frame
+        said[frame] = monitor.update(frame, people)
+        if frame == 5:
+            assert monitor.ended("moment") == []
+        if frame == 13:
+            said[frame] += monitor.ended("walks in")
+    named = {f: [(e["event"], e["track"], round(e["time_s"], 2)) for e in events]
+             for f, events in said.items() if events}
+    assert named == {9: [("track started", "long", 0.0)],
+                     11: [("track started", "walks in", 1.0), ("line crossed", "walks in", 1.08)],
+                     13: [("zone entered", "walks in", 1.3), ("track ended", "walks in", 1.3)]}
+    assert monitor.ended("long")[-1]["event"] == "track ended"
+    at_once = SiteMonitor(Site((ROOM,), ()), 10.0)  # a finished world's tracks: announced at their first frame
+    assert [e["event"] for e in at_once.update(0, {"a": standing(-3.0)})] == ["track started"]
+    assert [e["event"] for e in at_once.ended("a")] == ["track ended"]
+    carried = SiteMonitor(Site((ROOM,), ()), 10.0, [CarriedPerson("1-4", (-3.0, 0.0), 4.0, 4.2, {}, {})], 1.0)
+    assert carried.update(43, {"1-4": standing(-3.0)}) == []
+    assert [e["event"] for e in carried.ended("1-4")] == ["track ended"]
+
+
 def test_every_event_of_a_world_in_time_order_with_its_evidence():
     times, points = _walk(np.linspace(-2, 5, 71))
     joints = np.zeros((len(points), 17, 3))

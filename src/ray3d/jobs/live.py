@@ -181,7 +181,8 @@ def live_job(job: Job, out_dir: str | Path, options: LiveOptions = LiveOptions()
             said(f"live page: {url}")
             started(url)
 
-        summary = _followed_to_the_end(inputs, out_dir, site, options, stop, page, offsets_s, recorder, publisher)
+        summary = _followed_to_the_end(inputs, out_dir, site, options, stop, page, offsets_s, recorder, publisher,
+                                       job.video.min_track_s)
     finally:
         if summary is None:  # it failed before its streams or while they were followed
             if recorder is not None and inputs is None:  # a run that never opened its streams is taken out
@@ -223,7 +224,7 @@ def _let_go(followed) -> None:
 
 def _followed_to_the_end(inputs: LiveInputs, out_dir: Path, site: Site | None, options: LiveOptions,
                          stop: threading.Event, started, offsets_s: list[float] | None, recorder: RunRecorder | None,
-                         mqtt: MqttPublisher | None) -> LiveSummary:
+                         mqtt: MqttPublisher | None, min_track_s: float) -> LiveSummary:
     """``inputs`` followed (``live.runner.follow``), then a Ray the job started stopped and the tail written
     (``_tail``); the fused world, where it would be written over, refused before the streams are followed."""
     ends_in = out_dir / f"run{recorder.run}" if recorder is not None and recorder.continues else out_dir
@@ -231,7 +232,8 @@ def _followed_to_the_end(inputs: LiveInputs, out_dir: Path, site: Site | None, o
         if len(inputs.followed.cameras) > 1 and (ends_in / "world.json").exists():
             _let_go(inputs.followed)
             raise InputError(f"{ends_in / 'world.json'}: exists; ray3d live never writes over an output", ("out",))
-        summary = follow(inputs.followed, out_dir, site, options, stop, started, offsets_s, recorder, mqtt)
+        summary = follow(inputs.followed, out_dir, site, options, stop, started, offsets_s, recorder, mqtt,
+                         min_track_s)
     finally:
         if inputs.ray is not None:
             inputs.ray.shutdown()

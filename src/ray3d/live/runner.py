@@ -269,13 +269,15 @@ def _refused(cameras, error: InputError):
 
 def follow(cameras, out_dir: str | Path, site: Site | None = None, options: LiveOptions = LiveOptions(),
            stop: threading.Event | None = None, started=lambda url: None,
-           offsets_s: list[float] | None = None, recorder=None, mqtt=None) -> LiveSummary:
+           offsets_s: list[float] | None = None, recorder=None, mqtt=None, min_track_s: float = 0.0) -> LiveSummary:
     """The live loop over cameras already following their streams (``live.cameras.LocalCameras`` in
     this process, ``live.cluster.RayCameras`` on Ray): their people joined, the site's events, the event log,
     the webhook, MQTT (``mqtt``: a ``live.mqtt.MqttPublisher``), the page, each camera's world file and the
     site's store (``recorder``: a ``store.RunRecorder``; a run that continues a store's record appends to the
     event log and the world files its earlier runs wrote, first the events that closed what a killed run left open,
-    and MQTT's running counts go on from the store's)."""
+    and MQTT's running counts go on from the store's). A person is announced ("track started") once followed for
+    ``min_track_s`` (the job's shortest track) or at their first other event (``SiteMonitor``'s
+    ``announced_after_s``)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     events_path = out_dir / "events.jsonl"
@@ -289,7 +291,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         _refused(cameras, err)
     # The people a run cut off left in view go on where its tracker takes them up; those it has not after its
     # first seconds (and a margin for the frames held before they settle) are ended where they were left.
-    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else ())
+    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else (), min_track_s)
     giving_up_frames, first_settled = int(round((CLAIM_S + 2.0) * views.fps)), None
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],

@@ -74,8 +74,10 @@ class CarriedPerson:
     """A person in view when a run was cut off (killed outright), whose track the next run on the store may take
     up (``store.restart``): their id ``person``, their last ``place`` (x, y) on the floor, or None, at ``place_s``,
     and the run's last moment ``last_s`` (both on the stream clock, which a file taken up keeps), the zones they
-    were in, each with the stream time its visit began (``visits``), and the stream time they last crossed each
-    line (``crossed``)."""
+    were in, each with the stream time its visit began (``visits``), the stream time they last crossed each
+    line (``crossed``), and where their camera's tracker last placed them (``tracked``: x, y and its stream time;
+    None where unknown), in the terms the next run's tracker finds people in (``place`` is the lifted pelvis, the
+    site's)."""
 
     person: str
     place: tuple[float, float] | None
@@ -83,6 +85,7 @@ class CarriedPerson:
     last_s: float
     visits: dict = dataclasses.field(default_factory=dict)
     crossed: dict = dataclasses.field(default_factory=dict)
+    tracked: tuple[float, float, float] | None = None
 
     def closing(self) -> list[Event]:
         """What ends them when no run takes them up: each visit's "zone left", then "track ended", at ``last_s``
@@ -118,6 +121,8 @@ class _Person:
         self.dwell_reported: set[str] = set()
         self.next_fall_check = 0.0
         self.counted_lines: set[str] = set()  # taken up: lines crossed since their last place, counted already
+        self.first_frame = -1
+        self.unannounced: Event | None = None  # their "track started", until they have been followed long enough
 
 
 class SiteMonitor:
@@ -128,10 +133,17 @@ class SiteMonitor:
 
     ``carried``: the people a run cut off left in view (``CarriedPerson``), whose tracks this one may take up: one
     seen again goes on from where they were (no "track started"; their visits under way, no entry; a line crossed
-    since, counted); ``give_up()`` ends those not seen again."""
+    since, counted); ``give_up()`` ends those not seen again.
 
-    def __init__(self, site: Site, fps: float, carried=()):
-        self.site, self.fps = site, fps
+    ``announced_after_s``: a track's "track started" (dated at its first frame) is handed over once it has been
+    followed this long (``Track.too_short``'s measure, first to latest frame), or with its first other event,
+    whichever comes first; a track that ends before either says nothing. Live passes the job's shortest track, so
+    that a box on part of a person or on two people, followed for a moment, is not a person started and ended (the
+    world file and offline events leave such tracks out altogether); 0: at once (a finished world's tracks are
+    whole)."""
+
+    def __init__(self, site: Site, fps: float, carried=(), announced_after_s: float = 0.0):
+        self.site, self.fps, self.announced_after_s = site, fps, announced_after_s
         self._people: dict[str, _Person] = {}
         self._carried: dict[str, CarriedPerson] = {person.person: person for person in carried}
         self.counts = {**{zone.name: {"entered": 0, "left": 0} for zone in site.zones},
@@ -144,19 +156,26 @@ class SiteMonitor:
             state = self._people.get(track)
             if state is None and track in self._carried:
                 state = self._people[track] = self._taken_up(self._carried.pop(track), place)
+            found = []
             if state is None:
                 state = self._people[track] = _Person(int(round(FALL_WINDOW_S * self.fps)))
-                events.append(Event(TRACK_STARTED, track, now, place_m=_place(place), frames=[frame_index]))
+                state.first_frame = frame_index
+                state.unannounced = Event(TRACK_STARTED, track, now, place_m=_place(place), frames=[frame_index])
                 state.inside = {zone: now for zone, inside in in_zones(self.site, place).items() if inside[0]}
             else:
-                events += self._lines(track, state, frame_index, place)
-                events += self._zones(track, state, frame_index, place)
+                found += self._lines(track, state, frame_index, place)
+                found += self._zones(track, state, frame_index, place)
             state.frame, state.place = frame_index, place
             state.recent.append((now, joints))
-            events += self._dwell(track, state, now)
+            found += self._dwell(track, state, now)
             if now >= state.next_fall_check:
-                events += self._falls(track, state)
+                found += self._falls(track, state)
                 state.next_fall_check = now + FALL_CHECK_S
+            followed_s = (frame_index - state.first_frame + 1) / self.fps
+            if state.unannounced is not None and (found or followed_s >= self.announced_after_s):
+                events.append(state.unannounced)
+                state.unannounced = None
+            events += found
         return sorted(events, key=lambda e: (e["time_s"], e["track"]))
 
     def _taken_up(self, carried: CarriedPerson, place: np.ndarray) -> _Person:
@@ -204,12 +223,17 @@ class SiteMonitor:
 
     def ended(self, track: str) -> list[Event]:
         """The track's end (its last frame): a fall still to be found in its last seconds, then "track ended"; a
-        visit under way ends with it, unreported."""
+        visit under way ends with it, unreported. A track not announced yet (``announced_after_s``) with no fall
+        either ends unsaid."""
         state = self._people.pop(track, None)
         if state is None:
             return []
-        return self._falls(track, state) + [Event(TRACK_ENDED, track, state.frame / self.fps,
-                                                  place_m=_place(state.place), frames=[state.frame])]
+        found = self._falls(track, state)
+        if state.unannounced is not None and not found:
+            return []
+        started = [] if state.unannounced is None else [state.unannounced]
+        return started + found + [Event(TRACK_ENDED, track, state.frame / self.fps, place_m=_place(state.place),
+                                        frames=[state.frame])]
 
     def _lines(self, track: str, state: _Person, frame_index: int, place: np.ndarray) -> list[Event]:
         events = []
