@@ -20,6 +20,8 @@ from services import postgresql_server
 from ray3d import InputError
 from ray3d.geometry.uncertainty import PersonNow
 from ray3d.store import RunRecorder, read_record, schema
+from ray3d.store.database import connect
+from ray3d.store.restart import take_over_cut_off_runs
 
 
 def _person(track: str, x: float, y: float) -> PersonNow:
@@ -53,7 +55,7 @@ def test_a_run_is_read_back_as_written(tmp_path):
     recorder = _one_run(store)
     record = read_record(store)
     assert recorder.run == 1 and recorder.written == {"events": 2, "positions": 3, "people": 1, "gaps": 1,
-                                                      "floor": 0, "behind": 0, "carried": 0}
+                                                      "floor": 0, "behind": 0, "in_view": 0, "ended": 1}
     assert [e["event"] for e in record.events] == ["track started", "track ended"]
     assert record.events[1]["at"] == pytest.approx(1_000_000.0 + 2.9) and record.events[0]["track"] == "1-0"
     # one position per whole second of stream time: frames 0, 10 and 20
@@ -388,7 +390,9 @@ CUT_OFF_WRITER = textwrap.dedent("""
             if age < 30:
                 joints = np.zeros((17, 3))
                 joints[:, 0] = n + frame / 100
-                here.append(PersonNow(f"1-{n}", joints, np.array([0.1, 0.1]), 1.7))
+                # Where the tracker put them (odd people only: a fused person has none): beside the pelvis.
+                tracked = np.array([n + frame / 100 + 0.5, 1.0]) if n % 2 else None
+                here.append(PersonNow(f"1-{n}", joints, np.array([0.1, 0.1]), 1.7, tracked))
         recorder.events(events)
         recorder.positions(frame / 10, here, "cam")
         recorder.progress("cam", frame, frame / 10)
@@ -415,6 +419,20 @@ def test_a_run_killed_outright_has_what_it_left_open_closed_by_the_next_at_its_l
     last_place = {}
     for person, x, y in zip(before.positions["person"], before.positions["x"], before.positions["y"]):
         last_place[person] = [x, y]
+    with sqlite3.connect(store) as connection:  # the tracked, as the next run's tracker finds people: preferred
+        in_view = {person: [x, y] for person, x, y in connection.execute("SELECT person, x, y FROM in_view")}
+    assert set(in_view) == {t for t in open_tracks if int(t.split("-")[1]) % 2}  # those ended are let go
+    assert all(x == pytest.approx(last_place[t][0] + 0.5, abs=0.2) and y == 1.0 for t, (x, y) in in_view.items())
+    copy = tmp_path / "copy.db"  # where a run taking the same file up carries them: both places
+    with sqlite3.connect(store) as original, sqlite3.connect(copy) as copied:
+        original.backup(copied)
+    database = connect(copy)
+    _, carried = take_over_cut_off_runs(database, carry=True)
+    database.close()
+    assert {c.person for c in carried} == open_tracks
+    assert {c.person for c in carried if c.tracked} == set(in_view)
+    assert all(list(c.tracked[:2]) == pytest.approx(in_view[c.person], abs=1e-3) for c in carried if c.tracked)
+    assert all(list(c.place) == pytest.approx(last_place[c.person]) for c in carried)
 
     again = RunRecorder(store, "writer", ["cam"], [False])
     closed = again.closed
@@ -441,6 +459,8 @@ def test_a_run_killed_outright_has_what_it_left_open_closed_by_the_next_at_its_l
     assert sorted(e["track"] for e in ends) == sorted(started)  # every track started has its end
     assert all(e["run"] == 1 and e["at"] == pytest.approx(last_at) for e in after.events if "reason" in e)
     assert [r["ending"] for r in after.runs] == ["cut off", "ended"]
+    with sqlite3.connect(store) as connection:
+        assert connection.execute("SELECT COUNT(*) FROM in_view").fetchone() == (0,)
     third = RunRecorder(store, "writer", ["cam"], [False])  # nothing left open: nothing more closed
     assert third.closed == []
     third.close("ended")
@@ -454,12 +474,14 @@ def test_a_version_2_store_gains_the_falling_behind_table_and_a_run_records_its_
     with sqlite3.connect(store) as connection:
         connection.execute("DROP TABLE behind")
         connection.execute("DROP TABLE carried")
+        connection.execute("DROP TABLE in_view")
         connection.execute("UPDATE store_meta SET value = '2' WHERE name = 'schema_version'")
     record = read_record(store)
     assert len(record.events) == 2 and record.behind == []
     with sqlite3.connect(store) as connection:
-        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("4",)
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("5",)
         assert connection.execute("SELECT COUNT(*) FROM carried").fetchone() == (0,)  # and, in 4, the carried
+        assert connection.execute("SELECT COUNT(*) FROM in_view").fetchone() == (0,)  # in 5, who is in view
     recorder = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False], origin=2_000_000.0)
     recorder.behind("cam", 12.5, 20.0, 0.23)
     recorder.close("ended")

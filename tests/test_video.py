@@ -322,6 +322,26 @@ def test_tracker_gives_a_person_where_a_cut_off_run_left_somebody_their_id_in_it
     assert sorted(t.id for t in tracker.tracks()) == ["1-4", "2-0", "2-1"]
 
 
+def test_tracker_takes_a_carried_person_up_where_their_tracker_put_them_before_their_lifted_place():
+    """A carried person's lifted pelvis may lie a metre off where the tracker measured them (a far person): the
+    claim goes by the tracker's own place (``CarriedPerson.tracked``) where the store kept one, so the person
+    found there takes up the id, not the one found near the lifted place."""
+    from ray3d.site.events import CarriedPerson
+
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    here = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
+    carried = [CarriedPerson("1-4", (7.5, 0.0), 0.0, 0.0, tracked=(6.1, 0.0, 0.0))]
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+    for t in range(4):
+        tracker.update(t, [Detection(here, np.ones(17), 0.9)], frame)
+    assert [t.id for t in tracker.tracks()] == ["1-4"]
+    lifted_only = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-",
+                               carried=[CarriedPerson("1-4", (7.5, 0.0), 0.0, 0.0)])
+    for t in range(4):
+        lifted_only.update(t, [Detection(here, np.ones(17), 0.9)], frame)
+    assert [t.id for t in lifted_only.tracks()] == ["2-0"]  # 1.5 m from the lifted place at 0.3 s: out of reach
+
+
 def test_tracker_counts_dropped_frames_as_time_passing():
     """Live use drops frames: the filter moves people on for every frame since the last update, and a person
     unseen for longer than the gap in time (not in updates) has left."""

@@ -4,12 +4,12 @@ writer, so no other run is under way):
 - ``take_over_cut_off_runs``: a run cut off (killed outright, the machine stopped: its end never noted) left the
   people in view open: each "track started" without its "track ended", each "zone entered" of theirs without its
   "zone left". Where the new run takes up the same one file where the cut-off run stopped (its stream clock goes
-  on), they are *carried* (``site.events.CarriedPerson``: their last place and visits under way): the new run's
-  tracker gives a person it finds there in its first seconds the carried one's id, and its site monitor goes on
-  from their visits; the store keeps them in ``carried`` until their track ends, so a run cut off again carries
-  them again. Otherwise (a live stream, several inputs) each gets its ending events, dated at the cut-off run's
-  last commit, with ``reason`` "the service stopped" (``CarriedPerson.closing``). The cut-off runs are then noted
-  as ended ("cut off"): every track in the store ends.
+  on), they are *carried* (``site.events.CarriedPerson``: their last place, where their tracker last placed them
+  (``in_view``), their visits under way): the new run's tracker gives a person it finds there in its first seconds
+  the carried one's id, and its site monitor goes on from their visits; the store keeps them in ``carried`` until
+  their track ends, so a run cut off again carries them again. Otherwise (a live stream, several inputs) each gets
+  its ending events, dated at the cut-off run's last commit, with ``reason`` "the service stopped"
+  (``CarriedPerson.closing``). The cut-off runs are then noted as ended ("cut off"): every track in the store ends.
 - ``counts_so_far``: each zone's entries and exits and each line's crossings over every run, as a
   ``SiteMonitor`` counts them: MQTT's running counts go on from them."""
 
@@ -49,6 +49,7 @@ def take_over_cut_off_runs(database: Database, carry: bool = False) -> tuple[lis
                           [(newest, seq + k + 1, last_at, event["time_s"], event["event"], event["track"],
                             json.dumps(event)) for k, event in enumerate(closing)])
         database.execute("DELETE FROM carried")
+        database.execute("DELETE FROM in_view")  # every track is closed
     else:
         carried = open_people
         database.execute("DELETE FROM carried")
@@ -89,12 +90,15 @@ def _open(database: Database, started: dict[str, int], last_at: float) -> list[C
                                           (last_at - LAST_PLACE_S,)):
         if person in clock:
             place[person] = (round(float(x), 3), round(float(y), 3), float(at))
+    tracked = {person: (round(float(x), 3), round(float(y), 3), float(at) - clock[person])
+               for person, x, y, at in database.rows("SELECT person, x, y, at FROM in_view") if person in clock}
     people = []
     for person, origin in clock.items():
         x, y, at = place.get(person, (None, None, last_at))
         people.append(CarriedPerson(person, None if x is None else (x, y), at - origin, last_at - origin,
                                     {zone: entered - origin for zone, entered in visits.get(person, {}).items()},
-                                    {line: when - origin for line, when in crossed.get(person, {}).items()}))
+                                    {line: when - origin for line, when in crossed.get(person, {}).items()},
+                                    tracked.get(person)))
     return people
 
 

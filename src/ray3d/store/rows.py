@@ -10,17 +10,17 @@ from ray3d.refine.ankle_plane import SeenTwice
 from ray3d.site.events import TRACK_ENDED, TRACK_STARTED
 from ray3d.store.database import Database
 
-# The tables a run's rows wait for; "carried": the carried people whose tracks ended (their rows are deleted).
-WAITING_TABLES = ("events", "positions", "people", "gaps", "floor", "behind", "carried")
+# The tables a run's rows wait for; "in_view": each person's latest tracked floor point; "ended": the people whose
+# tracks ended (their rows of ``carried`` and ``in_view`` are deleted).
+WAITING_TABLES = ("events", "positions", "people", "gaps", "floor", "behind", "in_view", "ended")
 
 
-def event_rows(run: int, first_seq: int, origin: float, events: list[dict], carrying: set) -> tuple[list, list]:
+def event_rows(run: int, first_seq: int, origin: float, events: list[dict]) -> tuple[list, list]:
     """The ``events`` of run ``run`` as rows of ``events`` numbered from ``first_seq``, each dated at ``origin``
-    (Unix time of frame 0) plus its ``time_s``, and the rows of ``carried`` to delete: the people ``carrying``
-    whose tracks these events end."""
+    (Unix time of frame 0) plus its ``time_s``, and the people whose tracks these events end (rows of ``ended``)."""
     rows, ended = [], []
     for seq, event in enumerate(events, start=first_seq):
-        if event["event"] == TRACK_ENDED.name and event["track"] in carrying:
+        if event["event"] == TRACK_ENDED.name:
             ended.append((event["track"],))
         rows.append((run, seq, origin + float(event["time_s"]), float(event["time_s"]), event["event"],
                      str(event["track"]), json.dumps(event)))
@@ -74,7 +74,10 @@ def write_rows(database: Database, run: int, origin: float, first_at: float | No
                   [(person, run, last_at, stature, stature_class, rejoins, camera, first_at, person, TRACK_STARTED.name)
                    for person, run, first_at, last_at, stature, stature_class, rejoins, camera in rows["people"]])
     database.many("INSERT INTO gaps (run, camera, from_at, to_at, why) VALUES (?, ?, ?, ?, ?)", rows["gaps"])
-    database.many("DELETE FROM carried WHERE person = ?", rows["carried"])
+    database.many("INSERT INTO in_view (person, run, at, x, y) VALUES (?, ?, ?, ?, ?) ON CONFLICT (person) DO UPDATE "
+                  "SET run = excluded.run, at = excluded.at, x = excluded.x, y = excluded.y", rows["in_view"])
+    database.many("DELETE FROM carried WHERE person = ?", rows["ended"])
+    database.many("DELETE FROM in_view WHERE person = ?", rows["ended"])
     database.many("INSERT INTO behind (run, camera, from_at, to_at, dropped_share) VALUES (?, ?, ?, ?, ?)",
                   rows["behind"])
     database.many("INSERT INTO floor_evidence (run, camera, at, kind, camera_x, camera_y, camera_z, keypoints, "

@@ -25,11 +25,14 @@ beside them as the events carry it.
   its frames dropped over 10 s, ``live.health``): its camera, start and end (``from_at``, ``to_at``) and the share
   of its frames dropped over it; the counts of that time are uncertain (the store's report shades it).
 - ``carried`` (version 4): the people a run cut off left in view that a later run took up with their ids (``restart``),
-  each with the run their track began in, until their track ends."""
+  each with the run their track began in, until their track ends.
+- ``in_view`` (version 5): each person in view, where their camera's tracker last placed them on the floor (the
+  point between the ankles, ``x``, ``y``, at ``at``), until their track ends: where a run cut off left them, in the
+  terms the next run's tracker finds people in (``positions`` holds the lifted pelvis, once a second)."""
 
 from __future__ import annotations
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 FLOOR_EVIDENCE = (
     "CREATE TABLE IF NOT EXISTS floor_evidence (run INTEGER NOT NULL, camera TEXT NOT NULL, "
@@ -46,6 +49,9 @@ BEHIND = (
 )
 
 CARRIED = ("CREATE TABLE IF NOT EXISTS carried (person TEXT PRIMARY KEY, run INTEGER NOT NULL)",)
+
+IN_VIEW = ("CREATE TABLE IF NOT EXISTS in_view (person TEXT PRIMARY KEY, run INTEGER NOT NULL, "
+           "at DOUBLE PRECISION NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL)",)
 
 # ``{id}``: the dialect's auto-numbered primary key (SQLite's rowid alias; PostgreSQL's identity column).
 TABLES = (
@@ -71,7 +77,8 @@ TABLES = (
     *FLOOR_EVIDENCE,
     *BEHIND,
     *CARRIED,
+    *IN_VIEW,
 )
 
 # version -> the statements that take a store of that version to the next. Version 1 is the first.
-MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND, 3: CARRIED}
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND, 3: CARRIED, 4: IN_VIEW}

@@ -21,6 +21,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 from ray3d.site.events import CarriedPerson
 from ray3d.store.committer import Committer, WaitingRows
 from ray3d.store.database import Database, connect, shown, without_passwords
@@ -114,7 +116,6 @@ class RunRecorder:
         self.written = self._waiting.written  # each table's rows written so far
         self._seq = 0
         self._once_a_second = OncePerSecond()
-        self._carrying = {person.person for person in self.carried}
         self._committer = Committer(location, database, self._waiting, self.run, self.origin, commit_every_s, report)
 
     @property
@@ -130,14 +131,18 @@ class RunRecorder:
     # What the live loop hands over (any thread).
 
     def events(self, events: list[dict]) -> None:
-        rows, ended = event_rows(self.run, self._seq, self.origin, events, self._carrying)
+        rows, ended = event_rows(self.run, self._seq, self.origin, events)
         self._seq += len(rows)
         self._waiting.add("events", rows, at_most=max((r[2] for r in rows), default=None))
-        self._waiting.add("carried", ended)
+        self._waiting.add("ended", ended)
 
     def positions(self, time_s: float, people, camera: str) -> None:
-        """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time."""
+        """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time; where
+        their tracker placed them (``tracked``) kept as the latest, for a run that takes them up after a cut."""
         second, rows, camera = int(time_s // 1.0), [], without_passwords(camera)
+        self._waiting.add("in_view", [(person.track, self.run, self.origin + time_s, *map(float, person.tracked))
+                                      for person in people
+                                      if person.tracked is not None and np.isfinite(person.tracked).all()])
         for person in people:
             if not self._once_a_second.keep(person.track, second):
                 continue

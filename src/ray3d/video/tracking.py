@@ -100,7 +100,10 @@ class _CarriedIds:
     id, last place and its stream time), for tracks confirmed in the stream's first ``CLAIM_S`` seconds to take up."""
 
     def __init__(self, carried, dt: float):
-        self._carried = [person for person in carried if person.place is not None]
+        # Each one's last place as a tracker measures it: where theirs put them, else their lifted place.
+        self._carried = [(person.person, np.asarray(person.tracked[:2]), person.tracked[2]) if person.tracked
+                         else (person.person, np.asarray(person.place), person.place_s)
+                         for person in carried if person.tracked is not None or person.place is not None]
         self.dt = dt
         self._claim_until: int | None = None  # the last frame in which a carried person's id may be taken up
 
@@ -115,12 +118,12 @@ class _CarriedIds:
         if not self._carried or frame_index > self._claim_until:
             return None
         now = frame_index * self.dt
-        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - carried.place_s) for carried in self._carried]
-        distance = [float(np.hypot(*(here - np.asarray(carried.place)))) for carried in self._carried]
+        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - placed_s) for _, _, placed_s in self._carried]
+        distance = [float(np.hypot(*(here - place))) for _, place, _ in self._carried]
         within = [k for k in range(len(self._carried)) if distance[k] <= reach[k]]
         if not within:
             return None
-        return self._carried.pop(min(within, key=distance.__getitem__)).person
+        return self._carried.pop(min(within, key=distance.__getitem__))[0]
 
 
 class FloorTracker:
