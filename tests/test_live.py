@@ -123,6 +123,19 @@ def test_a_source_asked_for_every_third_frame_keeps_those_and_counts_the_rest_as
     assert source.read == 30 and source.dropped == 0 and source.skipped == 30 - len(taken)
 
 
+def test_files_read_as_fast_as_processed_are_taken_in_the_order_of_their_times_however_late_one_is_read():
+    """Several cameras' files that wait for their reader are taken in the order of their frames' times (on the
+    first camera's clock, ``offsets_s``), not of when a busy machine's threads read them: one camera's frames never
+    run ahead of another's, so the join of their people is the same every time."""
+    for offsets_s in ([0.0, 0.0], [0.0, 0.25]):
+        late = FrameSource(_frames(6, stall_after=2, stall_s=0.3), FPS, "late", waits=True)  # its reader held up
+        group = SourceGroup([late, FrameSource(_frames(6), FPS, "on time", waits=True)])
+        group.offsets_s = offsets_s
+        taken = [(view, frame.index) for view, frame in iter(group.next, None)]
+        assert taken == sorted(((v, k) for v in (0, 1) for k in range(6)), key=lambda f: (f[1] / FPS - offsets_s[f[0]],
+                                                                                           f[0]))
+
+
 def test_under_load_a_camera_takes_every_kth_frame_and_every_frame_again_once_the_work_fits():
     from ray3d.live.people import MOST_FRAMES_APART, PACE_WARM_UP, Pacing
 

@@ -1,7 +1,8 @@
 """The cameras a live run follows, each as who is in its frames: a camera's stream read, its people detected,
 tracked and lifted frame by frame (``CameraPeople``), and the tracks it lets go lifted again offline on a thread
 of their own (``Finisher``), as ``ray3d video`` lifts them. ``LocalCameras`` runs every camera in this process
-(the frames of all taken in the order they arrived); ``ray3d.live.cluster.RayCameras`` runs each in a Ray actor.
+(the frames of all taken in the order they arrived; files read as fast as processed, in the order of their times);
+``ray3d.live.cluster.RayCameras`` runs each in a Ray actor.
 Both give the run the same thing: ``next()`` -> (view, ``FrameResult``), and ``finish()`` at the end, and
 ``floor``, the pool of what their people show of their one floor (``live.floor.FloorPool``)."""
 
@@ -182,7 +183,8 @@ class CameraPeople:
 
 
 class LocalCameras:
-    """Every camera in this process: the frames of all taken from one ``SourceGroup`` in the order they arrived."""
+    """Every camera in this process: the frames of all taken from one ``SourceGroup`` in the order they arrived
+    (files read as fast as they are processed: in the order of their times)."""
 
     def __init__(self, group: SourceGroup, cameras: list[Camera], detectors: list, lifter: Lifter,
                  lift_options: LiftOptions | list[LiftOptions], following: VideoOptions, id_prefix: str = "",

@@ -185,6 +185,11 @@ class FrameSource:
         waiting = list(self._waiting)
         return waiting[0].arrived if waiting else np.inf
 
+    def oldest_time_s(self) -> float:
+        """The stream time of the oldest frame waiting (its number over the frame rate; infinity when none waits)."""
+        waiting = list(self._waiting)
+        return waiting[0].index / self.fps if waiting else np.inf
+
     def next(self) -> LiveFrame | None:
         """The newest frame not taken yet; None once the stream has ended or ``close`` was called."""
         with self._changed:
@@ -210,12 +215,19 @@ class SourceGroup:
     """Several sources (one per camera) taken as one: ``next()`` gives ``(view, frame)``, the frame that arrived
     first of those waiting in any source, waiting for one; None once every source has ended or the group was
     closed. ``StreamStalled`` when no source has given a frame for the longest of their stall timeouts. One
-    source is a group of one."""
+    source is a group of one.
+
+    Where every source open waits for its reader (``deadline_frames`` None: files read as fast as they are
+    processed), the frames are taken in the order of their stream times instead, on the first stream's clock
+    (``offsets_s``: each stream's clock ahead of the first's, set by whoever joins the cameras' people), the first
+    camera's first at a tie, waiting for every source's next frame: when the frames were read, which a busy
+    machine's threads decide, changes nothing that is found in them."""
 
     def __init__(self, sources: list[FrameSource]):
         self.sources = list(sources)
         self.name = " + ".join(source.name for source in self.sources)
         self.stall_s = max(source.stall_s for source in self.sources)
+        self.offsets_s = [0.0] * len(self.sources)
         self._changed = threading.Condition()
         self._open = set(range(len(self.sources)))
         self._closed = False
@@ -226,13 +238,27 @@ class SourceGroup:
         with self._changed:
             self._changed.notify_all()
 
+    def _in_time_order(self) -> bool:
+        return all(self.sources[v].deadline_frames is None for v in self._open)
+
+    def _ready(self) -> bool:
+        """Whether the next frame to take can be chosen: in time order, every open source's next frame is in (or
+        its end); otherwise any source's."""
+        ready = (self.sources[v].ready() for v in self._open)
+        return all(ready) if self._in_time_order() else any(ready)
+
+    def _first(self) -> int:
+        """The source whose frame is taken next (all open sources ready, in time order; one at least otherwise)."""
+        if self._in_time_order():  # an ended source (infinitely late: nothing waits) once it alone is left
+            return min(self._open, key=lambda v: (self.sources[v].oldest_time_s() - self.offsets_s[v], v))
+        return min((v for v in self._open if self.sources[v].ready()), key=lambda v: self.sources[v].oldest_arrival())
+
     def next(self) -> tuple[int, LiveFrame] | None:
         while True:
             with self._changed:
-                if not _wait_while_open(self, lambda: any(self.sources[v].ready() for v in self._open)):
+                if not _wait_while_open(self, self._ready):
                     return None
-                view = min((v for v in self._open if self.sources[v].ready()),
-                           key=lambda v: self.sources[v].oldest_arrival())
+                view = self._first()
             frame = self.sources[view].next()
             if frame is not None:
                 return view, frame
