@@ -342,6 +342,26 @@ def test_tracker_takes_a_carried_person_up_where_their_tracker_put_them_before_t
     assert [t.id for t in lifted_only.tracks()] == ["2-0"]  # 1.5 m from the lifted place at 0.3 s: out of reach
 
 
+def test_a_carried_person_far_away_is_reached_along_the_ray_as_far_as_the_floor_point_is_unsure_not_across_it():
+    """20 m from a camera 3 m high, a floor point is unsure by about half a metre along the ray (a pixel is 0.3 m
+    there) and little across it: a carried person left 1.4 m farther along the ray than where somebody is found is
+    taken up; one left 1.4 m to the side is not (the reach alone, 1 m after 0.1 s, takes neither)."""
+    from ray3d.site.events import CarriedPerson
+
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    far = CAMERA.project(_walker((20.0, 0.0), (0.0, 0.0), 1))[0]  # straight ahead: the ray runs along x
+    found = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3)
+    for t in range(3):
+        found.update(t, [Detection(far, np.ones(17), 0.9)], frame)
+    measured = found.tracks()[0].floor[-1]  # where a tracker puts them (their ankles' rays meet the floor)
+    for left_at, taken in ((measured + [1.4, 0.0], ["1-4"]), (measured + [0.0, 1.4], ["2-0"])):
+        carried = [CarriedPerson("1-4", (30.0, 0.0), 0.0, 0.0, tracked=(*left_at, 0.0))]
+        tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+        for t in range(4):
+            tracker.update(t, [Detection(far, np.ones(17), 0.9)], frame)
+        assert [t.id for t in tracker.tracks()] == taken, left_at
+
+
 def test_tracker_counts_dropped_frames_as_time_passing():
     """Live use drops frames: the filter moves people on for every frame since the last update, and a person
     unseen for longer than the gap in time (not in updates) has left."""

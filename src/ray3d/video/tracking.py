@@ -112,18 +112,22 @@ class _CarriedIds:
         if self._claim_until is None:
             self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
 
-    def claim(self, here: np.ndarray, frame_index: int) -> str | None:
-        """The id of the carried person nearest ``here`` (x, y metres), if they could have walked there since they
-        were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``) and it is still early enough; taken."""
+    def claim(self, here: np.ndarray, noise: np.ndarray, frame_index: int) -> str | None:
+        """The id of the carried person nearest ``here`` (x, y metres; ``noise`` its (2, 2) covariance), if they
+        could have walked there since they were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``, and two sd
+        of where the floor point may lie: metres along the ray for somebody far away) and it is still early enough;
+        taken."""
         if not self._carried or frame_index > self._claim_until:
             return None
         now = frame_index * self.dt
         reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - placed_s) for _, _, placed_s in self._carried]
-        distance = [float(np.hypot(*(here - place))) for _, place, _ in self._carried]
-        within = [k for k in range(len(self._carried)) if distance[k] <= reach[k]]
+        # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
+        apart = [float(d @ np.linalg.solve(r ** 2 * np.eye(2) + 4.0 * noise, d))
+                 for d, r in ((here - place, r) for (_, place, _), r in zip(self._carried, reach))]
+        within = [k for k in range(len(self._carried)) if apart[k] <= 1.0]
         if not within:
             return None
-        return self._carried.pop(min(within, key=distance.__getitem__))[0]
+        return self._carried.pop(min(within, key=apart.__getitem__))[0]
 
 
 class FloorTracker:
@@ -259,7 +263,7 @@ class FloorTracker:
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            track_id = self._carried.claim(person.filter.statePost[:2, 0], frame_index)
+            track_id = self._carried.claim(person.filter.statePost[:2, 0], noise[-1], frame_index)
             carried = track_id is not None
             if not carried:
                 track_id = f"{self.id_prefix}{self._confirmed}"
