@@ -152,7 +152,8 @@ def test_a_track_is_announced_once_followed_long_enough_or_at_its_first_other_ev
     for frame in range(30):
         people = {"long": standing(-3.0)}
         if frame < 6:
-            people["moment"] = standing(-5.0)  # 0.6 s, never announced
+            people["moment"] = standing(2.0)  # 0.6 s in the room from its first frame, never announced
+            assert monitor.occupants == {"room": set()} or frame == 0  # nobody in the room meanwhile
         if 10 <= frame < 14:
             people["walks in"] = standing(-0.5 + (frame - 10) * 0.6)  # crosses the door at its 2nd frame
         said[frame] = monitor.update(frame, people)

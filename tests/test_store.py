@@ -5,6 +5,7 @@ and migrated; what is not a store is refused in one line."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import signal
 import sqlite3
@@ -55,7 +56,7 @@ def test_a_run_is_read_back_as_written(tmp_path):
     recorder = _one_run(store)
     record = read_record(store)
     assert recorder.run == 1 and recorder.written == {"events": 2, "positions": 3, "people": 1, "gaps": 1,
-                                                      "floor": 0, "behind": 0, "in_view": 0, "ended": 1}
+                                                      "floor": 0, "behind": 0, "ended": 1}
     assert [e["event"] for e in record.events] == ["track started", "track ended"]
     assert record.events[1]["at"] == pytest.approx(1_000_000.0 + 2.9) and record.events[0]["track"] == "1-0"
     # one position per whole second of stream time: frames 0, 10 and 20
@@ -71,6 +72,28 @@ def test_a_run_is_read_back_as_written(tmp_path):
         assert connection.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
     # a period: only what lies in it
     assert [e["event"] for e in read_record(store, 1_000_001.0, 1_000_010.0).events] == ["track ended"]
+
+
+def test_who_is_in_view_waits_as_one_row_a_person_and_is_let_go_when_they_leave_announced_or_not(tmp_path):
+    """``in_view`` is state, not a record: each person's latest tracked floor point, one row a person however many
+    frames wait (a long outage never fills the waiting rows with it), gone once they leave, even unannounced."""
+    store = tmp_path / "site.db"
+    recorder = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False], origin=1_000_000.0,
+                           commit_every_s=3600.0)  # nothing committed until asked
+    for frame in range(50):
+        people = [dataclasses.replace(_person(name, 0.1 * frame, 1.0), tracked=np.array([0.1 * frame, 2.0]))
+                  for name in ("1-0", "1-1")]
+        recorder.positions(frame / 10, people, "cam")
+    assert recorder._waiting.left() == 10  # the positions, once a second each; in_view not counted
+    recorder.commit()
+    with sqlite3.connect(store) as connection:
+        assert sorted(connection.execute("SELECT person, x, y FROM in_view")) == [("1-0", pytest.approx(4.9), 2.0),
+                                                                               ("1-1", pytest.approx(4.9), 2.0)]
+    recorder.left(["1-1"])  # followed for a moment, never announced: no "track ended" to let them go
+    recorder.commit()
+    with sqlite3.connect(store) as connection:
+        assert [row[0] for row in connection.execute("SELECT person FROM in_view")] == ["1-0"]
+    recorder.close("ended")
 
 
 def test_a_run_started_again_appends_and_takes_a_file_up_where_it_was_left(tmp_path):

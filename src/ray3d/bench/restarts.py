@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import datetime
 import json
+import math
 import random
 import signal
 import sqlite3
@@ -23,6 +24,7 @@ import time
 from pathlib import Path
 
 from ray3d.bench.live import fresh_folder, live_command, run_to_end, track_spans, video_seconds
+from ray3d.errors import InputError
 from ray3d.site.events import LINE_CROSSED, TRACK_ENDED, TRACK_STARTED, ZONE_ENTERED, ZONE_LEFT
 from ray3d.store import read_record
 
@@ -43,30 +45,36 @@ def kill_moments(video_s: float, kills: int, seed: int) -> list[float]:
     return [round(stretch * (k + 1 + chooser.uniform(-0.3, 0.3)), 1) for k in range(kills)]
 
 
-def _committed_s(store: Path, origin: float) -> float:
-    """How far into the video the store's newest run has committed (seconds; -1: nothing yet)."""
+def _newest_run(store: Path) -> tuple[int, float]:
+    """The store's newest run and the Unix time it has committed up to ((0, -inf) before any)."""
     try:
         with contextlib.closing(sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0)) as database:
-            row = database.execute("SELECT last_at FROM runs ORDER BY run DESC LIMIT 1").fetchone()
+            row = database.execute("SELECT run, last_at FROM runs ORDER BY run DESC LIMIT 1").fetchone()
     except sqlite3.Error:  # not made yet, or its tables not yet
-        return -1.0
-    return -1.0 if row is None or row[0] is None else row[0] - origin
+        return 0, -math.inf
+    return (0, -math.inf) if row is None else (int(row[0]), -math.inf if row[1] is None else float(row[1]))
 
 
 def killed_at(command: list[str], store: Path, video_s: float, limit_s: float) -> float | None:
-    """Runs ``command`` until its store has committed the video up to ``video_s`` seconds, then kills it with
-    SIGKILL; the video second it was killed at, or None where it ended first (or ran past ``limit_s`` of wall time,
-    and was killed for it)."""
+    """Runs ``command`` until the run it begins on its store has committed the video up to ``video_s`` seconds,
+    then kills it with SIGKILL: the video second it was killed at; None where the video ended first. A run that
+    fails, or is still short of the moment after ``limit_s`` of wall time, is refused (``InputError``)."""
     origin = datetime.datetime.fromisoformat(START).timestamp()
+    before, _ = _newest_run(store)
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + limit_s
     try:
         while process.poll() is None and time.monotonic() < deadline:
-            committed = _committed_s(store, origin)
-            if committed >= video_s:
+            run, committed_at = _newest_run(store)
+            if run > before and committed_at - origin >= video_s:
                 process.send_signal(signal.SIGKILL)
-                return round(committed, 1)
+                return round(committed_at - origin, 1)
             time.sleep(LOOKED_AT_EVERY_S)
+        if process.poll() is None:
+            raise InputError(f"bench live restarts: ray3d live had not reached {video_s:g} s of the video after "
+                             f"{limit_s:.0f} s")
+        if process.returncode != 0:
+            raise InputError(f"bench live restarts: ray3d live ended with exit code {process.returncode}")
         return None
     finally:
         if process.poll() is None:

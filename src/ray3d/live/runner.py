@@ -34,7 +34,7 @@ from ray3d.site.analytics import TimeBuckets
 from ray3d.site.events import SiteMonitor
 from ray3d.site.files import EventLines
 from ray3d.site.places import Site
-from ray3d.video.tracking import CLAIM_S
+from ray3d.video.tracking import CLAIM_S, CONFIRM_FRAMES
 
 ENDINGS = ("ended", "stalled", "broke off", "stopped", "until")
 LATEST_EVENTS = 20  # events the page shows
@@ -291,7 +291,9 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         _refused(cameras, err)
     # The people a run cut off left in view go on where its tracker takes them up; those it has not after its
     # first seconds (and a margin for the frames held before they settle) are ended where they were left.
-    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else (), min_track_s)
+    # A person reaches the monitor at the frame that confirms their track, CONFIRM_FRAMES - 1 after it began.
+    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else (),
+                          max(0.0, min_track_s - (CONFIRM_FRAMES - 1) / views.fps))
     giving_up_frames, first_settled = int(round((CLAIM_S + 2.0) * views.fps)), None
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],
@@ -340,6 +342,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
                     events += monitor.ended(person)
                     trails.pop(person, None)
                 outputs.emit(events)
+                if recorder is not None:  # a track that ended unannounced has no "track ended" to say so
+                    recorder.left(list(leaving))
                 views.recorded(view, result)
                 for person in persons:
                     trail = trails.setdefault(person.track, deque(maxlen=max(2, int(options.trail_s * views.fps))))
@@ -360,6 +364,8 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         outputs.emit(monitor.give_up())
         for person, _ in leaving:
             outputs.emit(monitor.ended(person))
+        if recorder is not None:
+            recorder.left([person for person, _ in leaving])
         keeping.finish()
         if mqtt is not None:
             mqtt.health(keeping.state())

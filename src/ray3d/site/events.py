@@ -135,12 +135,12 @@ class SiteMonitor:
     seen again goes on from where they were (no "track started"; their visits under way, no entry; a line crossed
     since, counted); ``give_up()`` ends those not seen again.
 
-    ``announced_after_s``: a track's "track started" (dated at its first frame) is handed over once it has been
-    followed this long (``Track.too_short``'s measure, first to latest frame), or with its first other event,
-    whichever comes first; a track that ends before either says nothing. Live passes the job's shortest track, so
-    that a box on part of a person or on two people, followed for a moment, is not a person started and ended (the
-    world file and offline events leave such tracks out altogether); 0: at once (a finished world's tracks are
-    whole)."""
+    ``announced_after_s``: a track's "track started" (dated at its first frame here) is handed over once it has
+    been followed this long (first to latest frame), or with its first other event, whichever comes first; a track
+    that ends before either says nothing, and is nobody in a zone (``occupants``) meanwhile. Live passes the job's
+    shortest track, so that a box on part of a person or on two people, followed for a moment, is not a person
+    started and ended (the world file and offline events leave such tracks out altogether); 0: at once (a finished
+    world's tracks are whole)."""
 
     def __init__(self, site: Site, fps: float, carried=(), announced_after_s: float = 0.0):
         self.site, self.fps, self.announced_after_s = site, fps, announced_after_s
@@ -204,9 +204,10 @@ class SiteMonitor:
 
     @property
     def occupants(self) -> dict[str, set[str]]:
-        """Who is in each zone now: the people in view with a visit of it under way (``in_zones`` of their latest
-        place), those already in it when their track started too."""
-        return {zone.name: {track for track, state in self._people.items() if zone.name in state.inside}
+        """Who is in each zone now: the people in view, announced, with a visit of it under way (``in_zones`` of
+        their latest place), those already in it when their track started too."""
+        return {zone.name: {track for track, state in self._people.items()
+                            if zone.name in state.inside and state.unannounced is None}
                 for zone in self.site.zones}
 
     def time_in_zones(self, track: str) -> dict[str, float]:
@@ -259,7 +260,7 @@ class SiteMonitor:
                 self.counts[zone.name]["entered"] += 1
                 events.append(Event(ZONE_ENTERED, track, now, zone=zone.name, place_m=_place(place),
                                     frames=[state.frame, frame_index]))
-                occupants = self.occupants[zone.name]
+                occupants = self.occupants[zone.name] | {track}  # an entry announces the one entering
                 if zone.max_occupancy is not None and len(occupants) > zone.max_occupancy:
                     events.append(Event(OCCUPANCY_ABOVE_LIMIT, track, now, zone=zone.name, occupancy=len(occupants),
                                         limit=zone.max_occupancy, people=sorted(occupants)))

@@ -25,6 +25,7 @@ class WaitingRows:
         self.last_at: float | None = None
         self._rows: dict[str, list] = {table: [] for table in WAITING_TABLES}
         self._progress: dict[str, tuple[int, float]] = {}  # input -> (its last frame recorded, its Unix time)
+        self._in_view: dict[str, tuple] = {}  # person -> their latest row of ``in_view``: state, not counted
         self._lock = threading.Lock()
 
     def add(self, table: str, rows: list, at_most: float | None = None) -> None:
@@ -49,15 +50,28 @@ class WaitingRows:
             if self.first_at is None:
                 self.first_at = at
 
-    def taken(self) -> tuple[dict, dict, float | None]:
-        """A copy of what waits, for the committer: (each table's rows, each input's progress, ``last_at``)."""
+    def placed(self, rows: list[tuple]) -> None:
+        """Rows of ``in_view`` (person first): each person's latest replaces the one waiting (never more than one
+        a person, so never beyond ``max_waiting``)."""
         with self._lock:
-            return {table: list(rows) for table, rows in self._rows.items()}, dict(self._progress), self.last_at
+            self._in_view.update((row[0], row) for row in rows)
+
+    def taken(self) -> tuple[dict, dict, float | None]:
+        """A copy of what waits, for the committer: (each table's rows, ``in_view`` too, each input's progress,
+        ``last_at``)."""
+        with self._lock:
+            rows = {table: list(rows) for table, rows in self._rows.items()}
+            return {**rows, "in_view": list(self._in_view.values())}, dict(self._progress), self.last_at
 
     def written_out(self, rows: dict, progress: dict) -> None:
         """What ``taken`` gave, committed: let go and counted (rows and progress added since are kept)."""
         with self._lock:
             for table, written in rows.items():
+                if table == "in_view":  # let go where no newer row came since
+                    for row in written:
+                        if self._in_view.get(row[0]) == row:
+                            del self._in_view[row[0]]
+                    continue
                 del self._rows[table][:len(written)]
                 self.written[table] += len(written)
             for source, value in progress.items():

@@ -55,6 +55,8 @@ def take_over_cut_off_runs(database: Database, carry: bool = False) -> tuple[lis
         database.execute("DELETE FROM carried")
         database.many("INSERT INTO carried (person, run) VALUES (?, ?)",
                       [(person.person, started[person.person]) for person in open_people])
+        # Who else was placed (followed for a moment, never announced) is not taken up.
+        database.execute("DELETE FROM in_view WHERE person NOT IN (SELECT person FROM carried)")
     database.execute("UPDATE runs SET ending = ? WHERE ending IS NULL", (CUT_OFF,))
     return closing, carried
 

@@ -10,9 +10,9 @@ from ray3d.refine.ankle_plane import SeenTwice
 from ray3d.site.events import TRACK_ENDED, TRACK_STARTED
 from ray3d.store.database import Database
 
-# The tables a run's rows wait for; "in_view": each person's latest tracked floor point; "ended": the people whose
-# tracks ended (their rows of ``carried`` and ``in_view`` are deleted).
-WAITING_TABLES = ("events", "positions", "people", "gaps", "floor", "behind", "in_view", "ended")
+# The tables a run's rows wait for; "ended": the people whose tracks ended (their rows of ``carried`` and
+# ``in_view`` are deleted). ``in_view`` itself waits as each person's latest row only (``WaitingRows.placed``).
+WAITING_TABLES = ("events", "positions", "people", "gaps", "floor", "behind", "ended")
 
 
 def event_rows(run: int, first_seq: int, origin: float, events: list[dict]) -> tuple[list, list]:

@@ -140,9 +140,8 @@ class RunRecorder:
         """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time; where
         their tracker placed them (``tracked``) kept as the latest, for a run that takes them up after a cut."""
         second, rows, camera = int(time_s // 1.0), [], without_passwords(camera)
-        self._waiting.add("in_view", [(person.track, self.run, self.origin + time_s, *map(float, person.tracked))
-                                      for person in people
-                                      if person.tracked is not None and np.isfinite(person.tracked).all()])
+        self._waiting.placed([(person.track, self.run, self.origin + time_s, *map(float, person.tracked))
+                              for person in people if person.tracked is not None and np.isfinite(person.tracked).all()])
         for person in people:
             if not self._once_a_second.keep(person.track, second):
                 continue
@@ -150,6 +149,10 @@ class RunRecorder:
             rows.append((self.run, person.track, self.origin + time_s, float(person.joints[0, 0]),
                          float(person.joints[0, 1]), sd[0], sd[1], camera))
         self._waiting.add("positions", rows, at_most=self.origin + time_s if rows else None)
+
+    def left(self, people: list[str]) -> None:
+        """``people`` gone from view (their tracks ended, announced or not): no longer in ``in_view``."""
+        self._waiting.add("ended", [(person,) for person in people])
 
     def person(self, person: str, first_s: float, last_s: float, stature_m: float | None, stature_class: str,
                rejoins: int, camera: str) -> None:
