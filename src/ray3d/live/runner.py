@@ -34,7 +34,7 @@ from ray3d.site.analytics import TimeBuckets
 from ray3d.site.events import SiteMonitor
 from ray3d.site.files import EventLines
 from ray3d.site.places import Site
-from ray3d.video.tracking import CLAIM_S, CONFIRM_FRAMES
+from ray3d.video.tracking import CLAIM_S
 
 ENDINGS = ("ended", "stalled", "broke off", "stopped", "until")
 LATEST_EVENTS = 20  # events the page shows
@@ -291,9 +291,7 @@ def follow(cameras, out_dir: str | Path, site: Site | None = None, options: Live
         _refused(cameras, err)
     # The people a run cut off left in view go on where its tracker takes them up; those it has not after its
     # first seconds (and a margin for the frames held before they settle) are ended where they were left.
-    # A person reaches the monitor at the frame that confirms their track, CONFIRM_FRAMES - 1 after it began.
-    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else (),
-                          max(0.0, min_track_s - (CONFIRM_FRAMES - 1) / views.fps))
+    monitor = SiteMonitor(site, views.fps, recorder.carried if recorder is not None else (), min_track_s)
     giving_up_frames, first_settled = int(round((CLAIM_S + 2.0) * views.fps)), None
     buckets = TimeBuckets(site, options.every_s, options.start_time) if options.every_s else None
     board = LiveBoard({"zones": [{"name": z.name, "polygon": z.polygon.tolist()} for z in site.zones],

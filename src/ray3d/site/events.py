@@ -136,8 +136,11 @@ class SiteMonitor:
     since, counted); ``give_up()`` ends those not seen again.
 
     ``announced_after_s``: a track's "track started" (dated at its first frame here) is handed over once it has
-    been followed this long (first to latest frame), or with its first other event, whichever comes first; a track
-    that ends before either says nothing, and is nobody in a zone (``occupants``) meanwhile. Live passes the job's
+    been here this long (first to latest frame), or with its first other event, whichever comes first; a track
+    that ends before either says nothing, and is nobody in a zone (``occupants``) meanwhile. Live, a person comes
+    here from the frame that confirms their track (``CONFIRM_FRAMES`` after it began) to one frame after their last
+    detection, so a track that lasted just over the shortest kept (``Track.too_short``), 0.1 s more at 10 frames/s,
+    may end unannounced (with no event either) though the world file keeps it. Live passes the job's
     shortest track, so that a box on part of a person or on two people, followed for a moment, is not a person
     started and ended (the world file and offline events leave such tracks out altogether); 0: at once (a finished
     world's tracks are whole)."""
