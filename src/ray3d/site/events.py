@@ -121,7 +121,6 @@ class _Person:
         self.dwell_reported: set[str] = set()
         self.next_fall_check = 0.0
         self.counted_lines: set[str] = set()  # taken up: lines crossed since their last place, counted already
-        self.first_frame = -1
         self.unannounced: Event | None = None  # their "track started", until they have been followed long enough
 
 
@@ -137,13 +136,13 @@ class SiteMonitor:
 
     ``announced_after_s``: a track's "track started" (dated at its first frame here) is handed over once it has
     been here this long (first to latest frame), or with its first other event, whichever comes first; a track
-    that ends before either says nothing, and is nobody in a zone (``occupants``) meanwhile. Live, a person comes
-    here from the frame that confirms their track (``CONFIRM_FRAMES`` after it began) to one frame after their last
-    detection, so a track that lasted just over the shortest kept (``Track.too_short``), 0.1 s more at 10 frames/s,
-    may end unannounced (with no event either) though the world file keeps it. Live passes the job's
-    shortest track, so that a box on part of a person or on two people, followed for a moment, is not a person
-    started and ended (the world file and offline events leave such tracks out altogether); 0: at once (a finished
-    world's tracks are whole)."""
+    that ends before either says nothing, and is nobody in a zone (``occupants``) meanwhile; 0: at once (a finished
+    world's tracks are whole). Live passes the job's shortest track, so that a box on part of a person or on two
+    people, followed for a moment, is not a person started and ended (the world file and offline events leave such
+    tracks out altogether). A live person comes here from the frame that confirms their track (``CONFIRM_FRAMES``
+    after it began) to one frame after their last detection, so a track that lasted just over the shortest kept
+    (``Track.too_short``), 0.1 s more at 10 frames/s, may end unannounced (with no event either) though the world
+    file keeps it."""
 
     def __init__(self, site: Site, fps: float, carried=(), announced_after_s: float = 0.0):
         self.site, self.fps, self.announced_after_s = site, fps, announced_after_s
@@ -162,7 +161,6 @@ class SiteMonitor:
             found = []
             if state is None:
                 state = self._people[track] = _Person(int(round(FALL_WINDOW_S * self.fps)))
-                state.first_frame = frame_index
                 state.unannounced = Event(TRACK_STARTED, track, now, place_m=_place(place), frames=[frame_index])
                 state.inside = {zone: now for zone, inside in in_zones(self.site, place).items() if inside[0]}
             else:
@@ -174,12 +172,16 @@ class SiteMonitor:
             if now >= state.next_fall_check:
                 found += self._falls(track, state)
                 state.next_fall_check = now + FALL_CHECK_S
-            followed_s = (frame_index - state.first_frame + 1) / self.fps
-            if state.unannounced is not None and (found or followed_s >= self.announced_after_s):
+            if state.unannounced is not None and (
+                    found or self._followed_s(state, frame_index) >= self.announced_after_s):
                 events.append(state.unannounced)
                 state.unannounced = None
             events += found
         return sorted(events, key=lambda e: (e["time_s"], e["track"]))
+
+    def _followed_s(self, state: _Person, frame_index: int) -> float:
+        """How long an unannounced person has been here: from the frame their "track started" names."""
+        return (frame_index - state.unannounced["frames"][0] + 1) / self.fps
 
     def _taken_up(self, carried: CarriedPerson, place: np.ndarray) -> _Person:
         """A carried person's state where the run cut off left it (their last place; here, if it is unknown)."""

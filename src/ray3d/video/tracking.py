@@ -122,8 +122,8 @@ class _CarriedIds:
         now = frame_index * self.dt
         reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - placed_s) for _, _, placed_s in self._carried]
         # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
-        apart = [float(d @ np.linalg.solve(r ** 2 * np.eye(2) + 4.0 * noise, d))
-                 for d, r in ((here - place, r) for (_, place, _), r in zip(self._carried, reach))]
+        apart = [float((here - place) @ np.linalg.solve(r ** 2 * np.eye(2) + 4.0 * noise, here - place))
+                 for (_, place, _), r in zip(self._carried, reach)]
         within = [k for k in range(len(self._carried)) if apart[k] <= 1.0]
         if not within:
             return None
