@@ -81,14 +81,14 @@ def test_who_is_in_view_waits_as_one_row_a_person_and_is_let_go_when_they_leave_
     recorder = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False], origin=1_000_000.0,
                            commit_every_s=3600.0)  # nothing committed until asked
     for frame in range(50):
-        people = [dataclasses.replace(_person(name, 0.1 * frame, 1.0), tracked=np.array([0.1 * frame, 2.0]))
+        people = [dataclasses.replace(_person(name, 0.1 * frame, 1.0), tracked=np.array([0.1 * frame, 2.0, 1.0, 0.0]))
                   for name in ("1-0", "1-1")]
         recorder.positions(frame / 10, people, "cam")
     assert recorder._waiting.left() == 10  # the positions, once a second each; in_view not counted
     recorder.commit()
     with sqlite3.connect(store) as connection:
-        assert sorted(connection.execute("SELECT person, x, y FROM in_view")) == [("1-0", pytest.approx(4.9), 2.0),
-                                                                               ("1-1", pytest.approx(4.9), 2.0)]
+        assert sorted(connection.execute("SELECT person, x, y, vx, vy, clothes FROM in_view")) == [
+            ("1-0", pytest.approx(4.9), 2.0, 1.0, 0.0, None), ("1-1", pytest.approx(4.9), 2.0, 1.0, 0.0, None)]
     recorder.left(["1-1"])  # followed for a moment, never announced: no "track ended" to let them go
     recorder.commit()
     with sqlite3.connect(store) as connection:
@@ -413,9 +413,11 @@ CUT_OFF_WRITER = textwrap.dedent("""
             if age < 30:
                 joints = np.zeros((17, 3))
                 joints[:, 0] = n + frame / 100
-                # Where the tracker put them (odd people only: a fused person has none): beside the pelvis.
-                tracked = np.array([n + frame / 100 + 0.5, 1.0]) if n % 2 else None
-                here.append(PersonNow(f"1-{n}", joints, np.array([0.1, 0.1]), 1.7, tracked))
+                # Where the tracker put them, walking at 0.1 m/s in clothes of their own (odd people only: a fused
+                # person has none): beside the pelvis.
+                tracked = np.array([n + frame / 100 + 0.5, 1.0, 0.1, 0.0]) if n % 2 else None
+                clothes = np.eye(64)[n] if n % 2 else None
+                here.append(PersonNow(f"1-{n}", joints, np.array([0.1, 0.1]), 1.7, tracked, clothes))
         recorder.events(events)
         recorder.positions(frame / 10, here, "cam")
         recorder.progress("cam", frame, frame / 10)
@@ -455,6 +457,9 @@ def test_a_run_killed_outright_has_what_it_left_open_closed_by_the_next_at_its_l
     assert {c.person for c in carried} == open_tracks
     assert {c.person for c in carried if c.tracked} == set(in_view)
     assert all(list(c.tracked[:2]) == pytest.approx(in_view[c.person], abs=1e-3) for c in carried if c.tracked)
+    assert all(c.walk == (0.1, 0.0) and c.clothes == tuple(np.eye(64)[int(c.person.split("-")[1])])
+               for c in carried if c.tracked)
+    assert all(c.walk is None and c.clothes is None for c in carried if not c.tracked)
     assert all(list(c.place) == pytest.approx(last_place[c.person]) for c in carried)
 
     again = RunRecorder(store, "writer", ["cam"], [False])
@@ -502,7 +507,8 @@ def test_a_version_2_store_gains_the_falling_behind_table_and_a_run_records_its_
     record = read_record(store)
     assert len(record.events) == 2 and record.behind == []
     with sqlite3.connect(store) as connection:
-        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("5",)
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == (
+            str(schema.SCHEMA_VERSION),)
         assert connection.execute("SELECT COUNT(*) FROM carried").fetchone() == (0,)  # and, in 4, the carried
         assert connection.execute("SELECT COUNT(*) FROM in_view").fetchone() == (0,)  # in 5, who is in view
     recorder = RunRecorder(store, "ray3d live clip.avi", ["clip.avi"], [False], origin=2_000_000.0)
@@ -510,6 +516,25 @@ def test_a_version_2_store_gains_the_falling_behind_table_and_a_run_records_its_
     recorder.close("ended")
     assert read_record(store).behind == [{"camera": "cam", "from_at": 2_000_012.5, "to_at": 2_000_020.0,
                                           "dropped_share": 0.23, "run": recorder.run}]
+
+
+def test_a_version_5_store_gains_walks_and_clothes_in_view_its_record_kept_its_old_state_let_go(tmp_path):
+    """Schema 5 -> 6 (issue 67): ``in_view`` is made anew with the walk and clothes the next run claims people by;
+    it is state, so a version 5 row goes (a run cut off under version 5 has its people taken up by place alone)."""
+    store = tmp_path / "site.db"
+    _one_run(store)
+    with sqlite3.connect(store) as connection:
+        connection.execute("DROP TABLE in_view")
+        connection.execute("CREATE TABLE in_view (person TEXT PRIMARY KEY, run INTEGER NOT NULL, "
+                           "at DOUBLE PRECISION NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL)")
+        connection.execute("INSERT INTO in_view VALUES ('1-0', 1, 5.0, 1.0, 2.0)")
+        connection.execute("UPDATE store_meta SET value = '5' WHERE name = 'schema_version'")
+    assert len(read_record(store).events) == 2
+    with sqlite3.connect(store) as connection:
+        assert connection.execute("SELECT value FROM store_meta WHERE name = 'schema_version'").fetchone() == ("6",)
+        assert [row[1] for row in connection.execute("PRAGMA table_info(in_view)")] == [
+            "person", "run", "at", "x", "y", "vx", "vy", "clothes"]
+        assert connection.execute("SELECT COUNT(*) FROM in_view").fetchone() == (0,)
 
 
 def test_the_records_occupancy_is_the_live_monitors_at_each_recorded_second(tmp_path):

@@ -5,6 +5,7 @@ landmark network runs when the video extra is installed."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from importlib import resources
 from pathlib import Path
@@ -340,6 +341,50 @@ def test_tracker_takes_a_carried_person_up_where_their_tracker_put_them_before_t
     for t in range(4):
         lifted_only.update(t, [Detection(here, np.ones(17), 0.9)], frame)
     assert [t.id for t in lifted_only.tracks()] == ["2-0"]  # 1.5 m from the lifted place at 0.3 s: out of reach
+
+
+def test_of_two_carried_people_the_one_whose_walk_led_there_is_taken_up_and_their_walk_goes_on():
+    """Two people in view at a cut: one standing 0.8 m from where somebody is found, the other last placed 1.3 m
+    away 0.8 s before, walking towards there at 1.5 m/s. The walker is taken up (their walk led within 0.15 m), and
+    the track goes on with the walk read before the cut, not only what its first three frames say."""
+    from ray3d.site.events import CarriedPerson
+
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    walker = CAMERA.project(_walker((6.0, -0.2), (0.0, 1.5), 4))
+    standing = CarriedPerson("1-4", (6.0, 0.6), -0.8, 0.0, tracked=(6.0, 0.6, -0.8), walk=(0.0, 0.0))
+    walking = CarriedPerson("1-7", (6.0, -1.5), -0.8, 0.0, tracked=(6.0, -1.5, -0.8), walk=(0.0, 1.5))
+
+    def taken_up(*carried: CarriedPerson):
+        tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+        for t in range(3):
+            tracker.update(t, [Detection(walker[t], np.ones(17), 0.9)], frame)
+        return tracker.tracks()[0]
+
+    track = taken_up(standing, walking)
+    assert track.id == "1-7"
+    placed_only = [dataclasses.replace(person, walk=None) for person in (standing, walking)]
+    assert taken_up(*placed_only).id == "1-4"  # by place alone, the nearer
+    assert abs(track.walk[1] - 1.5) < 0.3 < abs(taken_up(*placed_only).walk[1] - 1.5)
+
+
+def test_of_two_carried_people_near_somebody_found_the_one_in_their_clothes_is_taken_up():
+    """Two people left 0.2 and 0.5 m from where somebody in blue is found: the nearer wore red, the other blue.
+    The one in blue is taken up; nobody in clothes unlike theirs is, however near."""
+    from ray3d.site.events import CarriedPerson
+
+    def dressed(rgb) -> tuple:
+        return tuple(clothes_colour(np.full((SIZE[1], SIZE[0], 3), rgb, np.uint8), np.array([0, 0, 50, 50]),
+                                    np.array([0, 0, 50, 50])))
+
+    blue = np.full((SIZE[1], SIZE[0], 3), (30, 60, 200), np.uint8)
+    here = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
+    in_red = CarriedPerson("1-4", (6.2, 0.0), 0.0, 0.0, tracked=(6.2, 0.0, 0.0), clothes=dressed((200, 30, 30)))
+    in_blue = CarriedPerson("1-7", (6.0, 0.5), 0.0, 0.0, tracked=(6.0, 0.5, 0.0), clothes=dressed((30, 60, 200)))
+    for carried, taken in (((in_red, in_blue), "1-7"), ((in_red,), "2-0")):
+        tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+        for t in range(3):
+            tracker.update(t, [Detection(here, np.ones(17), 0.9)], blue)
+        assert [t.id for t in tracker.tracks()] == [taken]
 
 
 def test_a_carried_person_far_away_is_reached_along_the_ray_as_far_as_the_floor_point_is_unsure_not_across_it():

@@ -134,7 +134,7 @@ class LiveFusion:
         if track.person is not None:
             self._people[track.person].members.add(key)
             for joined in (track, other) if other is not None else (track,):
-                self.decided += [(at, dataclasses.replace(now, track=track.person, tracked=None))
+                self.decided += [(at, dataclasses.replace(now, track=track.person, tracked=None, clothes=None))
                                  for at, now in joined.undecided]
                 joined.undecided = []
 

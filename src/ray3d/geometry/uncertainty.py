@@ -83,12 +83,14 @@ class Positioned:
 @dataclasses.dataclass(frozen=True)
 class PersonNow(Positioned):
     """One person in the frame a live run just processed: their track id, world joints (17, 3), the root's
-    standard deviation along and across its ray (2,), their stature so far (None before the first refinement) and
-    where their camera's tracker placed them on the floor (``tracked``: (2,) x, y, the point between the ankles;
-    None for a person fused from several cameras)."""
+    standard deviation along and across its ray (2,), their stature so far (None before the first refinement),
+    where their camera's tracker placed them on the floor and how it read their walk (``tracked``: (4,) x, y, the
+    point between the ankles, and vx, vy in m/s) and their clothes' colours as it holds them (``clothes``: its
+    histogram); both None for a person fused from several cameras."""
 
     track: str
     joints: np.ndarray
     position_sd: np.ndarray
     stature_m: float | None
     tracked: np.ndarray | None = None
+    clothes: np.ndarray | None = None

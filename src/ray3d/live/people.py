@@ -162,14 +162,16 @@ class LivePeople:
                 # A stream that waits for us (a file read as fast as it is processed) has no deadline to keep:
                 # the answer is awaited, so that the same file gives the same people and events every time.
                 self._refining.result()
-        people, tracked = [], {track.id: track.floor[-1] for track in self.tracker.tracks()}
+        people, tracks = [], {track.id: track for track in self.tracker.tracks()}
         for (track_id, following), raw in zip(waiting, answers):
             joints = scale_about(raw[None], self.camera.center, np.array([following.scale]))[0]
             step_s = (frame.index - following.answered) / self.fps if following.answered is not None else 0.0
             joints, following.answered = following.smoother(joints, step_s), frame.index
             sd = following.position_sd if following.position_sd is not None else \
                 network_position_sd(raw[None], self.camera, self.config)[0]
-            following.latest = PersonNow(track_id, joints, sd, following.stature_m, tracked[track_id])
+            track = tracks[track_id]
+            following.latest = PersonNow(track_id, joints, sd, following.stature_m,
+                                         np.concatenate([track.floor[-1], track.walk]), track.colour)
             people.append(following.latest)
         people += [self._following[t.id].latest for t in self.tracker.tracks()
                    if t.frames[-1] == self._last_frame and self._following[t.id].latest is not None]

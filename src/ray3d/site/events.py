@@ -77,7 +77,8 @@ class CarriedPerson:
     were in, each with the stream time its visit began (``visits``), the stream time they last crossed each
     line (``crossed``), and where their camera's tracker last placed them (``tracked``: x, y and its stream time;
     None where unknown), in the terms the next run's tracker finds people in (``place`` is the lifted pelvis, the
-    site's)."""
+    site's), with the walk it read there (``walk``: vx, vy m/s) and their clothes' colours (``clothes``, the
+    tracker's histogram), each None where unknown."""
 
     person: str
     place: tuple[float, float] | None
@@ -86,6 +87,8 @@ class CarriedPerson:
     visits: dict = dataclasses.field(default_factory=dict)
     crossed: dict = dataclasses.field(default_factory=dict)
     tracked: tuple[float, float, float] | None = None
+    walk: tuple[float, float] | None = None
+    clothes: tuple[float, ...] | None = None
 
     def closing(self) -> list[Event]:
         """What ends them when no run takes them up: each visit's "zone left", then "track ended", at ``last_s``

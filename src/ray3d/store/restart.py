@@ -4,8 +4,8 @@ writer, so no other run is under way):
 - ``take_over_cut_off_runs``: a run cut off (killed outright, the machine stopped: its end never noted) left the
   people in view open: each "track started" without its "track ended", each "zone entered" of theirs without its
   "zone left". Where the new run takes up the same one file where the cut-off run stopped (its stream clock goes
-  on), they are *carried* (``site.events.CarriedPerson``: their last place, where their tracker last placed them
-  (``in_view``), their visits under way): the new run's tracker gives a person it finds there in its first seconds
+  on), they are *carried* (``site.events.CarriedPerson``: their last place, where their tracker last placed them,
+  how they walked and what they wore (``in_view``), their visits under way): the new run's tracker gives a person it finds there in its first seconds
   the carried one's id, and its site monitor goes on from their visits; the store keeps them in ``carried`` until
   their track ends, so a run cut off again carries them again. Otherwise (a live stream, several inputs) each gets
   its ending events, dated at the cut-off run's last commit, with ``reason`` "the service stopped"
@@ -92,15 +92,19 @@ def _open(database: Database, started: dict[str, int], last_at: float) -> list[C
                                           (last_at - LAST_PLACE_S,)):
         if person in clock:
             place[person] = (round(float(x), 3), round(float(y), 3), float(at))
-    tracked = {person: (round(float(x), 3), round(float(y), 3), float(at) - clock[person])
-               for person, x, y, at in database.rows("SELECT person, x, y, at FROM in_view") if person in clock}
+    tracked, walk, clothes = {}, {}, {}
+    for person, x, y, at, vx, vy, colours in database.rows("SELECT person, x, y, at, vx, vy, clothes FROM in_view"):
+        if person in clock:
+            tracked[person] = (round(float(x), 3), round(float(y), 3), float(at) - clock[person])
+            walk[person] = None if vx is None or vy is None else (float(vx), float(vy))
+            clothes[person] = None if colours is None else tuple(json.loads(colours))
     people = []
     for person, origin in clock.items():
         x, y, at = place.get(person, (None, None, last_at))
         people.append(CarriedPerson(person, None if x is None else (x, y), at - origin, last_at - origin,
                                     {zone: entered - origin for zone, entered in visits.get(person, {}).items()},
                                     {line: when - origin for line, when in crossed.get(person, {}).items()},
-                                    tracked.get(person)))
+                                    tracked.get(person), walk.get(person), clothes.get(person)))
     return people
 
 

@@ -74,8 +74,9 @@ def write_rows(database: Database, run: int, origin: float, first_at: float | No
                   [(person, run, last_at, stature, stature_class, rejoins, camera, first_at, person, TRACK_STARTED.name)
                    for person, run, first_at, last_at, stature, stature_class, rejoins, camera in rows["people"]])
     database.many("INSERT INTO gaps (run, camera, from_at, to_at, why) VALUES (?, ?, ?, ?, ?)", rows["gaps"])
-    database.many("INSERT INTO in_view (person, run, at, x, y) VALUES (?, ?, ?, ?, ?) ON CONFLICT (person) DO UPDATE "
-                  "SET run = excluded.run, at = excluded.at, x = excluded.x, y = excluded.y", rows["in_view"])
+    database.many("INSERT INTO in_view (person, run, at, x, y, vx, vy, clothes) VALUES (?, ?, ?, ?, ?, ?, ?, ?) "
+                  "ON CONFLICT (person) DO UPDATE SET run = excluded.run, at = excluded.at, x = excluded.x, "
+                  "y = excluded.y, vx = excluded.vx, vy = excluded.vy, clothes = excluded.clothes", rows["in_view"])
     database.many("DELETE FROM carried WHERE person = ?", rows["ended"])
     database.many("DELETE FROM in_view WHERE person = ?", rows["ended"])
     database.many("INSERT INTO behind (run, camera, from_at, to_at, dropped_share) VALUES (?, ?, ?, ?, ?)",

@@ -28,11 +28,15 @@ beside them as the events carry it.
   each with the run their track began in, until their track ends.
 - ``in_view`` (version 5): each person in view, where their camera's tracker last placed them on the floor (the
   point between the ankles, ``x``, ``y``, at ``at``), until their track ends: where a run cut off left them, in the
-  terms the next run's tracker finds people in (``positions`` holds the lifted pelvis, once a second)."""
+  terms the next run's tracker finds people in (``positions`` holds the lifted pelvis, once a second); since
+  version 6 also the walk it read there (``vx``, ``vy``, m/s) and their clothes' colours (``clothes``: the tracker's
+  histogram as a JSON list), so that the next run knows who is who among people near each other. Its rows are
+  state, not record: version 6 makes it anew (a store cut off under version 5 has its people taken up by their
+  places alone)."""
 
 from __future__ import annotations
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 
 FLOOR_EVIDENCE = (
     "CREATE TABLE IF NOT EXISTS floor_evidence (run INTEGER NOT NULL, camera TEXT NOT NULL, "
@@ -51,7 +55,8 @@ BEHIND = (
 CARRIED = ("CREATE TABLE IF NOT EXISTS carried (person TEXT PRIMARY KEY, run INTEGER NOT NULL)",)
 
 IN_VIEW = ("CREATE TABLE IF NOT EXISTS in_view (person TEXT PRIMARY KEY, run INTEGER NOT NULL, "
-           "at DOUBLE PRECISION NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL)",)
+           "at DOUBLE PRECISION NOT NULL, x DOUBLE PRECISION NOT NULL, y DOUBLE PRECISION NOT NULL, "
+           "vx DOUBLE PRECISION, vy DOUBLE PRECISION, clothes TEXT)",)
 
 # ``{id}``: the dialect's auto-numbered primary key (SQLite's rowid alias; PostgreSQL's identity column).
 TABLES = (
@@ -81,4 +86,5 @@ TABLES = (
 )
 
 # version -> the statements that take a store of that version to the next. Version 1 is the first.
-MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND, 3: CARRIED, 4: IN_VIEW}
+MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND, 3: CARRIED, 4: IN_VIEW,
+                                          5: ("DROP TABLE in_view", *IN_VIEW)}

@@ -138,9 +138,11 @@ class RunRecorder:
 
     def positions(self, time_s: float, people, camera: str) -> None:
         """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time; where
-        their tracker placed them (``tracked``) kept as the latest, for a run that takes them up after a cut."""
+        their tracker placed them, their walk and clothes (``tracked``, ``clothes``) kept as the latest, for a run
+        that takes them up after a cut."""
         second, rows, camera = int(time_s // 1.0), [], without_passwords(camera)
-        self._waiting.placed([(person.track, self.run, self.origin + time_s, *map(float, person.tracked))
+        self._waiting.placed([(person.track, self.run, self.origin + time_s, *map(float, person.tracked),
+                               None if person.clothes is None else json.dumps(np.round(person.clothes, 4).tolist()))
                               for person in people if person.tracked is not None and np.isfinite(person.tracked).all()])
         for person in people:
             if not self._once_a_second.keep(person.track, second):

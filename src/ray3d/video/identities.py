@@ -146,11 +146,14 @@ def likeliest_continued(identities: list[Track], track: Track, fps: float, withi
 
 
 def join(identity: Track, track: Track, rejoin: Rejoin) -> None:
-    """``track``'s frames appended to ``identity``'s, its clothes' colours averaged in by frames, the re-join kept."""
+    """``track``'s frames appended to ``identity``'s, its clothes' colours averaged in by frames, its walk the latest,
+    the re-join kept."""
     if track.colour is not None:
         seen, now = len(identity.frames), len(track.frames)
         identity.colour = track.colour if identity.colour is None else \
             (identity.colour * seen + track.colour * now) / (seen + now)
+    if track.walk is not None:
+        identity.walk = track.walk
     identity.frames += track.frames
     identity.detections += track.detections
     identity.floor += track.floor

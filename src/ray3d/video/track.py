@@ -15,8 +15,9 @@ from ray3d.video.detectors import Detection
 class Track:
     """One person: the frame indices they were detected in, their detections there, where each put them on the
     floor (x, y metres; NaN where the camera could not) with that point's covariance (2, 2), their clothes'
-    colours (hue-saturation histograms of the torso and the legs), and the gaps across which it was taken up again
-    (``rejoins``: one person, the frames between unseen)."""
+    colours (hue-saturation histograms of the torso and the legs), the tracker's latest reading of their walk
+    (``walk``: vx, vy in m/s) and the gaps across which it was taken up again (``rejoins``: one person, the frames
+    between unseen)."""
 
     id: str  # the one type of a track id, from here to the world file and the events
     frames: list[int] = dataclasses.field(default_factory=list)
@@ -25,6 +26,7 @@ class Track:
     colour: np.ndarray | None = None
     floor_noise: list[np.ndarray] = dataclasses.field(default_factory=list)
     rejoins: list = dataclasses.field(default_factory=list)  # the ``identities.Rejoin``s that made it, in order
+    walk: np.ndarray | None = None
     carried: bool = False  # a person in view when an earlier run on the stream was cut off, taken up by this track
 
     def seconds(self, fps: float) -> float:

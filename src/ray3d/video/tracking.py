@@ -37,10 +37,14 @@ CONFIRM_FRAMES = 3  # detections in a row before a person counts (one-off false 
 # Frames given in a row a followed person may be missed in and keep their track, however far apart the frames given.
 MISSES_KEPT = 2
 # A person in view when a run was cut off is taken up by a track confirmed in the next run's first CLAIM_S
-# seconds within CLAIM_GATE_M of their last place, plus a brisk walk since it.
+# seconds within CLAIM_GATE_M of where their walk led from their last place, plus a brisk walk since it (who
+# stopped or turned is still within it), in clothes of their colours.
 CLAIM_S = 3.0
 CLAIM_GATE_M = 0.8
 CLAIM_SPEED_M_S = 2.0
+# How far a walk read before a cut still tells the walk after it (m/s, sd): a walker changes pace and heading by
+# about this much over the second or two a restart takes.
+CARRIED_WALK_SD_M_S = 0.5
 TOGETHER_M = 3.0  # two people one box may hold: side by side, or one passing a few metres behind the other
 # How much of each one's last box lies inside a box that holds both: a box merged as two people pass is a compromise
 # that may leave more than half of the narrower one outside (vtest.avi, frame 768: 46 %).
@@ -88,6 +92,17 @@ class _Person:
         """Their clothes seen again where nobody else's can be mixed in."""
         self.colour = 0.8 * self.colour + 0.2 * colour
 
+    def walk_on(self, walk: np.ndarray) -> None:
+        """Their walk as read before a cut (vx, vy m/s), known to ``CARRIED_WALK_SD_M_S``, weighed with the one the
+        filter read from its own few frames since (a Kalman update of the velocity alone)."""
+        velocity = np.eye(2, 4, 2)  # the state's vx, vy
+        covariance = self.filter.errorCovPost
+        gain = covariance @ velocity.T @ np.linalg.inv(velocity @ covariance @ velocity.T
+                                                       + CARRIED_WALK_SD_M_S ** 2 * np.eye(2))
+        self.filter.statePost = self.filter.statePost + gain @ (np.asarray(walk, np.float64).reshape(2, 1)
+                                                                 - velocity @ self.filter.statePost)
+        self.filter.errorCovPost = (np.eye(4) - gain @ velocity) @ covariance
+
     def coast(self, frames: int = 1) -> None:
         """No detection for ``frames`` frames: the prediction stands."""
         self.filter.statePost = self.filter.statePre.copy()
@@ -96,14 +111,13 @@ class _Person:
 
 
 class _CarriedIds:
-    """The ids of the people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``:
-    id, last place and its stream time), for tracks confirmed in the stream's first ``CLAIM_S`` seconds to take up."""
+    """The people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``: id, last
+    place and its stream time, walk and clothes), for tracks confirmed in the stream's first ``CLAIM_S`` seconds to
+    take up."""
 
     def __init__(self, carried, dt: float):
         # Each one's last place as a tracker measures it: where theirs put them, else their lifted place.
-        self._carried = [(person.person, np.asarray(person.tracked[:2]), person.tracked[2]) if person.tracked
-                         else (person.person, np.asarray(person.place), person.place_s)
-                         for person in carried if person.tracked is not None or person.place is not None]
+        self._carried = [person for person in carried if person.tracked is not None or person.place is not None]
         self.dt = dt
         self._claim_until: int | None = None  # the last frame in which a carried person's id may be taken up
 
@@ -112,22 +126,26 @@ class _CarriedIds:
         if self._claim_until is None:
             self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
 
-    def claim(self, here: np.ndarray, noise: np.ndarray, frame_index: int) -> str | None:
-        """The id of the carried person nearest ``here`` (x, y metres; ``noise`` its (2, 2) covariance), if they
-        could have walked there since they were last placed (``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S``, and two sd
-        of where the floor point may lie: metres along the ray for somebody far away) and it is still early enough;
-        taken."""
+    def claim(self, here: np.ndarray, noise: np.ndarray, colour: np.ndarray, frame_index: int):
+        """The carried person (``CarriedPerson``) likeliest to be the one confirmed ``here`` (x, y metres; ``noise``
+        its (2, 2) covariance) in clothes of ``colour``, of those who could have walked there since they were last
+        placed (within ``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S`` of where their walk led, and two sd of where the
+        floor point may lie: metres along the ray for somebody far away) in clothes not unlike theirs, if it is still
+        early enough; taken. None: nobody."""
         if not self._carried or frame_index > self._claim_until:
             return None
-        now = frame_index * self.dt
-        reach = [CLAIM_GATE_M + CLAIM_SPEED_M_S * max(0.0, now - placed_s) for _, _, placed_s in self._carried]
-        # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
-        apart = [float((here - place) @ np.linalg.solve(r ** 2 * np.eye(2) + 4.0 * noise, here - place))
-                 for (_, place, _), r in zip(self._carried, reach)]
-        within = [k for k in range(len(self._carried)) if apart[k] <= 1.0]
-        if not within:
-            return None
-        return self._carried.pop(min(within, key=apart.__getitem__))[0]
+        now, scored = frame_index * self.dt, []
+        for k, person in enumerate(self._carried):
+            x, y, placed_s = person.tracked if person.tracked else (*person.place, person.place_s)
+            since = max(0.0, now - placed_s)
+            led = np.array([x, y]) + (np.asarray(person.walk) * since if person.walk else 0.0)
+            reach = CLAIM_GATE_M + CLAIM_SPEED_M_S * since
+            # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
+            apart = float((here - led) @ np.linalg.solve(reach ** 2 * np.eye(2) + 4.0 * noise, here - led))
+            unlike = 0.5 if person.clothes is None else colour_distance(np.asarray(person.clothes), colour)
+            if apart <= 1.0 and unlike < COLOUR_GATE:
+                scored.append((np.sqrt(apart) + unlike, k))
+        return self._carried.pop(min(scored)[1]) if scored else None
 
 
 class FloorTracker:
@@ -142,8 +160,9 @@ class FloorTracker:
         acceleration: how hard people change speed, m/s^2 (standard deviation).
         id_prefix: written before each track's number (a stream taken up again keeps apart from its old ids).
         carried: people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``:
-            id, last place and its stream time): a track confirmed within ``CLAIM_S`` of the first frame where one of
-            them could have walked to takes up their id (the nearest), the others are numbered as usual.
+            id, last place and its stream time, walk, clothes): a track confirmed within ``CLAIM_S`` of the first
+            frame where one of them could have walked to, in clothes like theirs, takes up their id (the likeliest)
+            and their walk, the others are numbered as usual.
         rejoin_s: how long a person let go may be taken up again by a track confirmed after them (the re-join
             rule of ``video.identities``); 0: never (offline, where the whole tracks are re-joined after).
     """
@@ -258,17 +277,22 @@ class FloorTracker:
             person.track.detections.append(detection)
             person.track.floor.append(floor)
             person.track.floor_noise.append(noise)
-            person.track.colour = person.colour
+            person.track.colour, person.track.walk = person.colour, person.filter.statePost[2:, 0].copy()
             return
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            track_id = self._carried.claim(person.filter.statePost[:2, 0], noise[-1], frame_index)
-            carried = track_id is not None
-            if not carried:
+            taken_up = self._carried.claim(person.filter.statePost[:2, 0], noise[-1], person.colour, frame_index)
+            carried = taken_up is not None
+            if carried:
+                track_id = taken_up.person
+                if taken_up.walk:
+                    person.walk_on(taken_up.walk)
+            else:
                 track_id = f"{self.id_prefix}{self._confirmed}"
                 self._confirmed += 1
-            person.track = Track(track_id, frames, detections, floor, person.colour, noise, carried=carried)
+            person.track = Track(track_id, frames, detections, floor, person.colour, noise,
+                                 walk=person.filter.statePost[2:, 0].copy(), carried=carried)
             continued = None if carried or not self.rejoin_s else likeliest_continued(
                 [track for track in self._tracks if not any(p.track is track for p in self._active)], person.track,
                 1 / self.dt, self.rejoin_s)
