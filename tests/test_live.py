@@ -136,6 +136,82 @@ def test_files_read_as_fast_as_processed_are_taken_in_the_order_of_their_times_h
                                                                                            f[0]))
 
 
+class _Answer:
+    """A step's answer on ``_StepsOnAClock``: ``value`` once the virtual clock reaches ``at``."""
+
+    def __init__(self, at: float, value):
+        self.at, self.value = at, value
+
+
+class _StepsOnAClock:
+    """A stand-in for Ray as ``RayCameras`` calls it: each actor a scripted camera whose every step takes
+    ``step_s`` of a virtual clock (``ray.wait`` gives the step finished first on it), answering frames 0 ..
+    ``frames`` - 1 and then its stream's end."""
+
+    class exceptions:
+        class RayError(Exception):
+            pass
+
+        class RayActorError(RayError):
+            pass
+
+    def __init__(self):
+        self.now = 0.0
+
+    def remote(self, **_):
+        clock = self
+
+        class Actor:
+            def __init__(self, frames=0, step_s=1.0, fps=FPS, name="", floor=None, **_):
+                self.frames, self.step_s, self.fps, self.name, self.taken = frames, step_s, fps, name, 0
+                self.describe = self._call(lambda: (CAMERA, self.fps, self.name))
+                self.step = self._call(self._step, self.step_s)
+                self.finish = self._call(lambda: ([], []))
+                self.close_source = self._call(lambda: None)
+
+            def _step(self):
+                from ray3d.live.cameras import FrameResult
+
+                if self.taken == self.frames:
+                    return "ended", f"{self.name}: the stream ended"
+                self.taken += 1
+                return FrameResult(self.taken - 1, time.monotonic(), [], [], [])
+
+            def _call(self, answer, takes_s=0.0):
+                return types.SimpleNamespace(remote=lambda *a: _Answer(clock.now + takes_s, answer()))
+
+        return lambda cls: types.SimpleNamespace(remote=lambda **arguments: Actor(**arguments))
+
+    def wait(self, refs, num_returns=1, timeout=None):
+        first = min(refs, key=lambda ref: ref.at)
+        self.now = max(self.now, first.at)
+        return [first], [ref for ref in refs if ref is not first]
+
+    def get(self, ref):
+        return ref.value
+
+    def kill(self, actor):
+        pass
+
+
+@pytest.mark.parametrize("played", [False, True])
+def test_on_ray_files_read_as_fast_as_processed_are_taken_in_the_order_of_their_times_however_quick_an_actor(
+        played):
+    """On Ray one camera's actor may answer three times as fast as another's: where both read their files as fast
+    as they are processed, their frames are still taken in the order of their times (on the first camera's clock),
+    so their people are joined at the moments they were seen; played streams are taken as they come."""
+    from ray3d.live.cluster import RayCameras
+
+    arguments = [{"frames": 6, "step_s": 3.0, "name": "slow"}, {"frames": 6, "step_s": 1.0, "name": "quick"}]
+    cameras = RayCameras(_StepsOnAClock(), arguments, ["slow.avi", "quick.avi"], [played, played])
+    cameras.set_clocks([0.0, 0.25])
+    taken = [(view, result.index) for view, result in iter(cameras.next, None)]
+    in_time = sorted(((v, k) for v in (0, 1) for k in range(6)), key=lambda f: (f[1] / FPS - [0.0, 0.25][f[0]], f[0]))
+    assert sorted(taken) == sorted(in_time)  # every frame once
+    assert (taken == in_time) is not played
+    assert len(cameras.finish()) == 2
+
+
 def test_under_load_a_camera_takes_every_kth_frame_and_every_frame_again_once_the_work_fits():
     from ray3d.live.people import MOST_FRAMES_APART, PACE_WARM_UP, Pacing
 
@@ -526,7 +602,8 @@ def test_several_cameras_settle_each_frame_once_in_order_whichever_camera_comes_
 
     facing = cameras.h36m("S9", "55011271")
     fake = types.SimpleNamespace(cameras=[CAMERA, facing], fps=[FPS, FPS], names=["front", "facing"],
-                                 sources=["front", "facing"], finish=lambda: [([], []), ([], [])])
+                                 sources=["front", "facing"], finish=lambda: [([], []), ([], [])],
+                                 set_clocks=lambda offsets_s: None)
     views = Views(fake, tmp_path, None)
     pose = demo_clip()[0] - demo_clip()[0, :1] * [1, 1, 0]
     walk = [SPOT + (0.05 + 0.03 * k) * ACROSS for k in range(30)]  # slowly, over the door

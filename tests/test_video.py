@@ -367,6 +367,23 @@ def test_of_two_carried_people_the_one_whose_walk_led_there_is_taken_up_and_thei
     assert abs(track.walk[1] - 1.5) < 0.3 < abs(taken_up(*placed_only).walk[1] - 1.5)
 
 
+def test_somebody_new_confirmed_first_beside_a_carried_person_does_not_take_their_id_from_them():
+    """At a restart somebody new, seen a frame earlier, is confirmed first 0.6 m from where a carried person was
+    left, within reach; the carried person, found again 0.05 m from there, is still being confirmed. The id goes
+    by the likeliest assignment of both, not to whoever is confirmed first: the carried person keeps it."""
+    from ray3d.site.events import CarriedPerson
+
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    new = CAMERA.project(_walker((6.0, 0.6), (0.0, 0.0), 1))[0]
+    back = CAMERA.project(_walker((6.05, 0.0), (0.0, 0.0), 1))[0]
+    carried = [CarriedPerson("1-4", (6.0, 0.0), 0.0, 0.0, tracked=(6.0, 0.0, 0.0), walk=(0.0, 0.0))]
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+    for t in range(4):
+        tracker.update(t, [Detection(new, np.ones(17), 0.9)] + ([Detection(back, np.ones(17), 0.9)] if t else []),
+                       frame)
+    assert {t.id: t.frames[0] for t in tracker.tracks()} == {"2-0": 0, "1-4": 1}
+
+
 def test_of_two_carried_people_near_somebody_found_the_one_in_their_clothes_is_taken_up():
     """Two people left 0.2 and 0.5 m from where somebody in blue is found: the nearer wore red, the other blue.
     The one in blue is taken up; nobody in clothes unlike theirs is, however near."""

@@ -2,7 +2,7 @@
 tracked and lifted frame by frame (``CameraPeople``), and the tracks it lets go lifted again offline on a thread
 of their own (``Finisher``), as ``ray3d video`` lifts them. ``LocalCameras`` runs every camera in this process
 (the frames of all taken in the order they arrived; files read as fast as processed, in the order of their times);
-``ray3d.live.cluster.RayCameras`` runs each in a Ray actor.
+``ray3d.live.cluster.RayCameras`` runs each in a Ray actor (the same order).
 Both give the run the same thing: ``next()`` -> (view, ``FrameResult``), and ``finish()`` at the end, and
 ``floor``, the pool of what their people show of their one floor (``live.floor.FloorPool``)."""
 
@@ -202,6 +202,10 @@ class LocalCameras:
         self.views = [CameraPeople(c, d, lifter, source.fps, source.deadline_frames, o, following, id_prefix,
                                    self.floor, carried if len(cameras) == 1 else ())
                       for c, d, source, o in zip(cameras, detectors, group.sources, options)]
+
+    def set_clocks(self, offsets_s: list[float]) -> None:
+        """Each camera's clock ahead of the first's (``SourceGroup.offsets_s``)."""
+        self.group.offsets_s = list(offsets_s)
 
     def next(self) -> tuple[int, FrameResult] | None:
         taken = self.group.next()

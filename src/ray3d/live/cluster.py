@@ -9,7 +9,9 @@ after the last one processed, or, played at its rate, from where the play has go
 it is now); the frames it missed are said once, as a dropped stretch, and the people it was following end there.
 A stream that ends, stalls or breaks off ends its worker. One step of each worker is in flight at a time: a worker
 keeps only its newest frames (those pushed out counted per camera), so nothing queues between the actors and
-this process.
+this process. Files read as fast as they are processed are taken in the order of their frames' times, as in
+this process (``live.source.SourceGroup``): each worker's answer is held until every other's is in, whichever
+actor was quicker, so that the cameras' people are joined at the moments they were seen.
 
 The cameras' lifts pool what their people show of the run's one floor (``live.floor.FloorPool``) through a pool
 in a Ray actor of its own (``RemoteFloorPool``), which the run's loop adds the people two cameras saw at once to."""
@@ -143,6 +145,13 @@ class RayCameras:
         self.dropped_stretches: list[str] = []
         self._closed = False
         self._in_flight = {worker.actor.step.remote(): view for view, worker in enumerate(self.workers)}
+        # Files read as fast as processed: each worker's answer, held until every other's is in.
+        self._held: dict[int, FrameResult] = {}
+        self.offsets_s = [0.0] * len(self.workers)
+
+    def set_clocks(self, offsets_s: list[float]) -> None:
+        """Each camera's clock ahead of the first's (``live.source.SourceGroup.offsets_s``)."""
+        self.offsets_s = list(offsets_s)
 
     def _described(self, worker: _Worker) -> tuple:
         try:
@@ -158,8 +167,19 @@ class RayCameras:
             raise InputError(f"{worker.source}: its camera worker could not start "
                              f"({lines[-1] if lines else type(err).__name__})", ("source",)) from None
 
+    def _in_time_order(self) -> bool:
+        return not any(worker.played for worker in self.workers if worker.ended is None)
+
     def next(self) -> tuple[int, FrameResult] | None:
-        while self._in_flight and not self._closed:
+        while (self._in_flight or self._held) and not self._closed:
+            if self._held and all(v in self._held or w.ended is not None for v, w in enumerate(self.workers)):
+                # The earliest on the first camera's clock, the first camera's at a tie; its worker steps on.
+                view = min(self._held, key=lambda v: (self._held[v].index / self.fps[v] - self.offsets_s[v], v))
+                worker = self.workers[view]
+                self._in_flight[worker.actor.step.remote()] = view
+                return view, self._taken(worker, self._held.pop(view))
+            if not self._in_flight:
+                break
             ready, _ = self.ray.wait(list(self._in_flight), num_returns=1, timeout=STEP_WAIT_S)
             if not ready:
                 continue
@@ -174,6 +194,9 @@ class RayCameras:
                 continue
             if isinstance(out, tuple):
                 worker.ended = out
+                continue
+            if self._in_time_order():
+                self._held[view] = out
                 continue
             self._in_flight[worker.actor.step.remote()] = view
             return view, self._taken(worker, out)
@@ -225,6 +248,9 @@ class RayCameras:
             if worker.ended is None:
                 worker.actor.close_source.remote()
         swallowed: dict[int, list[FrameResult]] = {}
+        for view, result in self._held.items():  # answers held for the others' when the run stopped
+            swallowed.setdefault(view, []).append(self._taken(self.workers[view], result))
+        self._held = {}
         for ref, view in self._in_flight.items():  # steps under way when the run stopped
             try:
                 out = self.ray.get(ref)

@@ -35,8 +35,7 @@ class Views:
         self.offsets_s = list(offsets_s) if offsets_s is not None else [0.0] * count
         if len(self.offsets_s) != count:
             raise InputError(f"offsets: {len(self.offsets_s)} given for {count} cameras", ("offsets",))
-        if (group := getattr(cameras, "group", None)) is not None:  # files read as fast as processed: in time order
-            group.offsets_s = list(self.offsets_s)
+        cameras.set_clocks(self.offsets_s)  # files read as fast as processed are taken in time order on these
         self.world_paths = [out_dir / "world.csv"] if not self.several else \
             [out_dir / f"camera{k + 1}_{_file_name(name)}" / "world.csv" for k, name in enumerate(cameras.names)]
         self.joined_path = out_dir / JOINED_FILE

@@ -5,11 +5,12 @@ writer, so no other run is under way):
   people in view open: each "track started" without its "track ended", each "zone entered" of theirs without its
   "zone left". Where the new run takes up the same one file where the cut-off run stopped (its stream clock goes
   on), they are *carried* (``site.events.CarriedPerson``: their last place, where their tracker last placed them,
-  how they walked and what they wore (``in_view``), their visits under way): the new run's tracker gives a person it finds there in its first seconds
-  the carried one's id, and its site monitor goes on from their visits; the store keeps them in ``carried`` until
-  their track ends, so a run cut off again carries them again. Otherwise (a live stream, several inputs) each gets
-  its ending events, dated at the cut-off run's last commit, with ``reason`` "the service stopped"
-  (``CarriedPerson.closing``). The cut-off runs are then noted as ended ("cut off"): every track in the store ends.
+  how they walked and what they wore (``in_view``), their visits under way): the new run's tracker gives a person
+  it finds there in its first seconds the carried one's id, and its site monitor goes on from their visits; the
+  store keeps them in ``carried`` until their track ends, so a run cut off again carries them again. Otherwise (a
+  live stream, several inputs) each gets its ending events, dated at the cut-off run's last commit, with ``reason``
+  "the service stopped" (``CarriedPerson.closing``). The cut-off runs are then noted as ended ("cut off"): every
+  track in the store ends.
 - ``counts_so_far``: each zone's entries and exits and each line's crossings over every run, as a
   ``SiteMonitor`` counts them: MQTT's running counts go on from them."""
 

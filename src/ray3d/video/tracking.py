@@ -126,26 +126,39 @@ class _CarriedIds:
         if self._claim_until is None:
             self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
 
-    def claim(self, here: np.ndarray, noise: np.ndarray, colour: np.ndarray, frame_index: int):
-        """The carried person (``CarriedPerson``) likeliest to be the one confirmed ``here`` (x, y metres; ``noise``
-        its (2, 2) covariance) in clothes of ``colour``, of those who could have walked there since they were last
-        placed (within ``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S`` of where their walk led, and two sd of where the
-        floor point may lie: metres along the ray for somebody far away) in clothes not unlike theirs, if it is still
-        early enough; taken. None: nobody."""
+    def claim(self, seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]], frame_index: int):
+        """The carried person (``CarriedPerson``) the first of ``seen`` is, if it is still early enough: of
+        everybody ``seen`` now and not followed yet (each where they were found, x, y metres, with that point's
+        (2, 2) covariance, and the colours of their clothes; the first confirmed as a person this frame), the
+        likeliest assignment to the carried people gives it (the Hungarian method on each pair's ``_unlikeness``;
+        anybody may be somebody new). Taken; None: nobody (or somebody seen too late)."""
         if not self._carried or frame_index > self._claim_until:
             return None
-        now, scored = frame_index * self.dt, []
-        for k, person in enumerate(self._carried):
-            x, y, placed_s = person.tracked if person.tracked else (*person.place, person.place_s)
-            since = max(0.0, now - placed_s)
-            led = np.array([x, y]) + (np.asarray(person.walk) * since if person.walk else 0.0)
-            reach = CLAIM_GATE_M + CLAIM_SPEED_M_S * since
-            # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
-            apart = float((here - led) @ np.linalg.solve(reach ** 2 * np.eye(2) + 4.0 * noise, here - led))
-            unlike = 0.5 if person.clothes is None else colour_distance(np.asarray(person.clothes), colour)
-            if apart <= 1.0 and unlike < COLOUR_GATE:
-                scored.append((np.sqrt(apart) + unlike, k))
-        return self._carried.pop(min(scored)[1]) if scored else None
+        now = frame_index * self.dt
+        somebody_new = 1.0 + COLOUR_GATE  # costlier than any pair within the gates: one within them is taken
+        cost = np.full((len(seen), len(self._carried) + len(seen)), np.inf)
+        for r, (here, noise, colour) in enumerate(seen):
+            cost[r, :len(self._carried)] = [_unlikeness(person, here, noise, colour, now) for person in self._carried]
+            cost[r, len(self._carried) + r] = somebody_new
+        rows, columns = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
+        taken = int(columns[list(rows).index(0)])
+        return self._carried.pop(taken) if taken < len(self._carried) else None
+
+
+def _unlikeness(person, here: np.ndarray, noise: np.ndarray, colour: np.ndarray, now_s: float) -> float:
+    """How unlikely a carried person (``CarriedPerson``) is the one found ``here`` (x, y metres; ``noise`` its (2, 2)
+    covariance) in clothes of ``colour`` at stream time ``now_s``: how far from where their walk led since they were
+    last placed, in reaches (within ``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S`` since, and two sd of where the floor
+    point may lie: metres along the ray for somebody far away), plus how unlike their clothes; infinite beyond
+    either gate."""
+    x, y, placed_s = person.tracked if person.tracked else (*person.place, person.place_s)
+    since = max(0.0, now_s - placed_s)
+    led = np.array([x, y]) + (np.asarray(person.walk) * since if person.walk else 0.0)
+    reach = CLAIM_GATE_M + CLAIM_SPEED_M_S * since
+    # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
+    apart = float((here - led) @ np.linalg.solve(reach ** 2 * np.eye(2) + 4.0 * noise, here - led))
+    unlike = 0.5 if person.clothes is None else colour_distance(np.asarray(person.clothes), colour)
+    return np.sqrt(apart) + unlike if apart <= 1.0 and unlike < COLOUR_GATE else np.inf
 
 
 class FloorTracker:
@@ -161,8 +174,8 @@ class FloorTracker:
         id_prefix: written before each track's number (a stream taken up again keeps apart from its old ids).
         carried: people in view when an earlier run on this stream was cut off (``site.events.CarriedPerson``:
             id, last place and its stream time, walk, clothes): a track confirmed within ``CLAIM_S`` of the first
-            frame where one of them could have walked to, in clothes like theirs, takes up their id (the likeliest)
-            and their walk, the others are numbered as usual.
+            frame where one of them could have walked to, in clothes like theirs, takes up their id and their walk
+            (the likeliest assignment of everybody not followed yet to them), the others are numbered as usual.
         rejoin_s: how long a person let go may be taken up again by a track confirmed after them (the re-join
             rule of ``video.identities``); 0: never (offline, where the whole tracks are re-joined after).
     """
@@ -282,7 +295,9 @@ class FloorTracker:
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            taken_up = self._carried.claim(person.filter.statePost[:2, 0], noise[-1], person.colour, frame_index)
+            unfollowed = [other for other in self._active if other.track is None and other is not person]
+            taken_up = self._carried.claim([(p.filter.statePost[:2, 0], p.waiting[-1][3], p.colour)
+                                            for p in (person, *unfollowed)], frame_index)
             carried = taken_up is not None
             if carried:
                 track_id = taken_up.person
