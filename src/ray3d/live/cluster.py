@@ -118,6 +118,38 @@ class _Worker:
     run_prefix: str = ""           # the run's track id prefix, before each restart's
 
 
+class _TimeOrder:
+    """The answers of cameras reading files as fast as they are processed (``held``: camera -> its answer), each
+    held until every other open camera's is in, then handed out in the order of their frames' times on the first
+    camera's clock (``offsets_s``: each camera's clock ahead of the first's, ``live.source.SourceGroup``'s), the
+    first camera's at a tie."""
+
+    def __init__(self, fps: list[float]):
+        self.fps, self.offsets_s, self.held = fps, [0.0] * len(fps), {}
+
+    def earliest(self, ended: list[bool]) -> int | None:
+        """The camera whose answer is handed out next; None while an open camera's (not ``ended``) is not in."""
+        if not self.held or not all(view in self.held or done for view, done in enumerate(ended)):
+            return None
+        return min(self.held, key=lambda view: (self.held[view].index / self.fps[view] - self.offsets_s[view], view))
+
+
+def _described(ray, worker: _Worker, actors: list) -> tuple:
+    """A worker's (camera, fps, name), or every one of the run's ``actors`` stopped and an ``InputError`` saying
+    why it could not start."""
+    try:
+        return ray.get(worker.actor.describe.remote())
+    except ray.exceptions.RayError as err:
+        for actor in actors:
+            ray.kill(actor)
+        cause = getattr(err, "cause", None)
+        if isinstance(cause, InputError):
+            raise InputError(cause.message, cause.arguments) from None
+        lines = [line for line in str(err).splitlines() if line.strip()]
+        raise InputError(f"{worker.source}: its camera worker could not start "
+                         f"({lines[-1] if lines else type(err).__name__})", ("source",)) from None
+
+
 class RayCameras:
     """Every camera in a ``CameraWorker`` actor on the initialised ``ray``, each reserving ``cpus_per_camera``;
     a worker that dies is started again up to ``restarts`` times. Per camera: ``CameraWorker``'s keyword
@@ -135,7 +167,8 @@ class RayCameras:
         arguments = [{**a, "floor": self.floor} for a in arguments]
         self.workers = [_Worker(dict(a), self._remote.remote(**a), str(source), on, run_prefix=a.get("id_prefix", ""))
                         for a, source, on in zip(arguments, sources, played)]
-        described = [self._described(worker) for worker in self.workers]
+        described = [_described(ray, worker, [w.actor for w in self.workers] + [self.floor.actor])
+                     for worker in self.workers]
         self.cameras = [camera for camera, _, _ in described]
         self.fps = [fps for _, fps, _ in described]
         self.names = [camera.name or name for camera, _, name in described]
@@ -145,39 +178,17 @@ class RayCameras:
         self.dropped_stretches: list[str] = []
         self._closed = False
         self._in_flight = {worker.actor.step.remote(): view for view, worker in enumerate(self.workers)}
-        # Files read as fast as processed: each worker's answer, held until every other's is in.
-        self._held: dict[int, FrameResult] = {}
-        self.offsets_s = [0.0] * len(self.workers)
+        self._order = _TimeOrder(self.fps)
 
     def set_clocks(self, offsets_s: list[float]) -> None:
-        """Each camera's clock ahead of the first's (``live.source.SourceGroup.offsets_s``)."""
-        self.offsets_s = list(offsets_s)
-
-    def _described(self, worker: _Worker) -> tuple:
-        try:
-            return self.ray.get(worker.actor.describe.remote())
-        except self.ray.exceptions.RayError as err:
-            for other in self.workers:
-                self.ray.kill(other.actor)
-            self.ray.kill(self.floor.actor)
-            cause = getattr(err, "cause", None)
-            if isinstance(cause, InputError):
-                raise InputError(cause.message, cause.arguments) from None
-            lines = [line for line in str(err).splitlines() if line.strip()]
-            raise InputError(f"{worker.source}: its camera worker could not start "
-                             f"({lines[-1] if lines else type(err).__name__})", ("source",)) from None
-
-    def _in_time_order(self) -> bool:
-        return not any(worker.played for worker in self.workers if worker.ended is None)
+        self._order.offsets_s = list(offsets_s)
 
     def next(self) -> tuple[int, FrameResult] | None:
-        while (self._in_flight or self._held) and not self._closed:
-            if self._held and all(v in self._held or w.ended is not None for v, w in enumerate(self.workers)):
-                # The earliest on the first camera's clock, the first camera's at a tie; its worker steps on.
-                view = min(self._held, key=lambda v: (self._held[v].index / self.fps[v] - self.offsets_s[v], v))
-                worker = self.workers[view]
+        while (self._in_flight or self._order.held) and not self._closed:
+            if (view := self._order.earliest([w.ended is not None for w in self.workers])) is not None:
+                worker = self.workers[view]  # its answer handed out, it steps on
                 self._in_flight[worker.actor.step.remote()] = view
-                return view, self._taken(worker, self._held.pop(view))
+                return view, self._taken(worker, self._order.held.pop(view))
             if not self._in_flight:
                 break
             ready, _ = self.ray.wait(list(self._in_flight), num_returns=1, timeout=STEP_WAIT_S)
@@ -195,8 +206,8 @@ class RayCameras:
             if isinstance(out, tuple):
                 worker.ended = out
                 continue
-            if self._in_time_order():
-                self._held[view] = out
+            if not any(w.played for w in self.workers if w.ended is None):  # files read as fast as processed
+                self._order.held[view] = out
                 continue
             self._in_flight[worker.actor.step.remote()] = view
             return view, self._taken(worker, out)
@@ -248,9 +259,9 @@ class RayCameras:
             if worker.ended is None:
                 worker.actor.close_source.remote()
         swallowed: dict[int, list[FrameResult]] = {}
-        for view, result in self._held.items():  # answers held for the others' when the run stopped
+        for view, result in self._order.held.items():  # answers held for the others' when the run stopped
             swallowed.setdefault(view, []).append(self._taken(self.workers[view], result))
-        self._held = {}
+        self._order.held = {}
         for ref, view in self._in_flight.items():  # steps under way when the run stopped
             try:
                 out = self.ray.get(ref)

@@ -126,6 +126,30 @@ class _Person:
         self.counted_lines: set[str] = set()  # taken up: lines crossed since their last place, counted already
         self.unannounced: Event | None = None  # their "track started", until they have been followed long enough
 
+    def overstays(self, track: str, zones, now: float) -> list[Event]:
+        """Their visits under way past a zone's ``max_dwell_s`` at stream time ``now``, each said once a visit."""
+        events = []
+        for zone in zones:
+            entered = self.inside.get(zone.name)
+            if zone.max_dwell_s is None or entered is None or zone.name in self.dwell_reported:
+                continue
+            if now - entered > zone.max_dwell_s:
+                self.dwell_reported.add(zone.name)
+                events.append(Event(DWELL_ABOVE_LIMIT, track, round(entered + zone.max_dwell_s, 3), zone=zone.name,
+                                    dwell_s=round(now - entered, 3), limit_s=zone.max_dwell_s))
+        return events
+
+    def unsaid_falls(self, track: str) -> list[Event]:
+        """The falls in their recent frames not said yet."""
+        if len(self.recent) < 2:
+            return []
+        times = np.array([t for t, _ in self.recent])
+        found = [fall for fall in falls(times, np.stack([j for _, j in self.recent]))
+                 if fall["time_s"] > self.falls_reported_until]
+        if found:
+            self.falls_reported_until = max(fall["lying_from_s"] + FALL_STILL_S for fall in found)
+        return [Event(FALL, track, **fall) for fall in found]
+
 
 class SiteMonitor:
     """``update(frame index, {track: world joints (17, 3)})`` -> the events of that frame; ``ended(track)`` -> a
@@ -171,20 +195,17 @@ class SiteMonitor:
                 found += self._zones(track, state, frame_index, place)
             state.frame, state.place = frame_index, place
             state.recent.append((now, joints))
-            found += self._dwell(track, state, now)
+            found += state.overstays(track, self.site.zones, now)
             if now >= state.next_fall_check:
-                found += self._falls(track, state)
+                found += state.unsaid_falls(track)
                 state.next_fall_check = now + FALL_CHECK_S
-            if state.unannounced is not None and (
-                    found or self._followed_s(state, frame_index) >= self.announced_after_s):
+            # Announced with their first other event, or once here long enough since the frame it names.
+            if state.unannounced is not None and (found or (frame_index - state.unannounced["frames"][0] + 1)
+                                                  / self.fps >= self.announced_after_s):
                 events.append(state.unannounced)
                 state.unannounced = None
             events += found
         return sorted(events, key=lambda e: (e["time_s"], e["track"]))
-
-    def _followed_s(self, state: _Person, frame_index: int) -> float:
-        """How long an unannounced person has been here: from the frame their "track started" names."""
-        return (frame_index - state.unannounced["frames"][0] + 1) / self.fps
 
     def _taken_up(self, carried: CarriedPerson, place: np.ndarray) -> _Person:
         """A carried person's state where the run cut off left it (their last place; here, if it is unknown)."""
@@ -237,7 +258,7 @@ class SiteMonitor:
         state = self._people.pop(track, None)
         if state is None:
             return []
-        found = self._falls(track, state)
+        found = state.unsaid_falls(track)
         if state.unannounced is not None and not found:
             return []
         started = [] if state.unannounced is None else [state.unannounced]
@@ -280,28 +301,6 @@ class SiteMonitor:
                 events.append(Event(ZONE_LEFT, track, now, zone=zone.name, place_m=_place(place),
                                     dwell_s=round(dwell, 3), frames=[state.frame, frame_index]))
         return events
-
-    def _dwell(self, track: str, state: _Person, now: float) -> list[Event]:
-        events = []
-        for zone in self.site.zones:
-            entered = state.inside.get(zone.name)
-            if zone.max_dwell_s is None or entered is None or zone.name in state.dwell_reported:
-                continue
-            if now - entered > zone.max_dwell_s:
-                state.dwell_reported.add(zone.name)
-                events.append(Event(DWELL_ABOVE_LIMIT, track, round(entered + zone.max_dwell_s, 3), zone=zone.name,
-                                    dwell_s=round(now - entered, 3), limit_s=zone.max_dwell_s))
-        return events
-
-    def _falls(self, track: str, state: _Person) -> list[Event]:
-        if len(state.recent) < 2:
-            return []
-        times = np.array([t for t, _ in state.recent])
-        found = [fall for fall in falls(times, np.stack([j for _, j in state.recent]))
-                 if fall["time_s"] > state.falls_reported_until]
-        if found:
-            state.falls_reported_until = max(fall["lying_from_s"] + FALL_STILL_S for fall in found)
-        return [Event(FALL, track, **fall) for fall in found]
 
 
 @dataclasses.dataclass

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from ray3d.refine.ankle_plane import SeenTwice
 from ray3d.site.events import TRACK_ENDED, TRACK_STARTED
 from ray3d.store.database import Database
@@ -25,6 +27,15 @@ def event_rows(run: int, first_seq: int, origin: float, events: list[dict]) -> t
         rows.append((run, seq, origin + float(event["time_s"]), float(event["time_s"]), event["event"],
                      str(event["track"]), json.dumps(event)))
     return rows, ended
+
+
+def in_view_rows(run: int, at: float, people) -> list[tuple]:
+    """Rows of ``in_view`` for the people of a settled frame (``PersonNow``) at Unix time ``at``: where their
+    tracker placed them, the walk it read and their clothes' colours (a JSON list); none for a person fused from
+    several cameras, or whom their tracker could not place."""
+    return [(person.track, run, at, *map(float, person.tracked),
+             None if person.clothes is None else json.dumps(np.round(person.clothes, 4).tolist()))
+            for person in people if person.tracked is not None and np.isfinite(person.tracked).all()]
 
 
 def floor_rows(run: int, camera: str, at: float, centre, evidence, keypoints: str | None) -> list[tuple]:

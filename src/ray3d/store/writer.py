@@ -21,15 +21,13 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-
 from ray3d.site.events import CarriedPerson
 from ray3d.store.committer import Committer, WaitingRows
 from ray3d.store.database import Database, connect, shown, without_passwords
 from ray3d.store.lock import WriterLock, lock_path
 from ray3d.store.reader import remembered_floor
 from ray3d.store.restart import counts_so_far, take_over_cut_off_runs
-from ray3d.store.rows import OncePerSecond, event_rows, floor_rows
+from ray3d.store.rows import OncePerSecond, event_rows, floor_rows, in_view_rows
 
 DOWN_BETWEEN_RUNS = "the service was down"
 
@@ -137,13 +135,10 @@ class RunRecorder:
         self._waiting.add("ended", ended)
 
     def positions(self, time_s: float, people, camera: str) -> None:
-        """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time; where
-        their tracker placed them, their walk and clothes (``tracked``, ``clothes``) kept as the latest, for a run
-        that takes them up after a cut."""
+        """The people of a settled frame (``PersonNow``), each kept once per whole second of stream time, and in
+        view (``in_view_rows``) as the latest, for a run that takes them up after a cut."""
         second, rows, camera = int(time_s // 1.0), [], without_passwords(camera)
-        self._waiting.placed([(person.track, self.run, self.origin + time_s, *map(float, person.tracked),
-                               None if person.clothes is None else json.dumps(np.round(person.clothes, 4).tolist()))
-                              for person in people if person.tracked is not None and np.isfinite(person.tracked).all()])
+        self._waiting.placed(in_view_rows(self.run, self.origin + time_s, people))
         for person in people:
             if not self._once_a_second.keep(person.track, second):
                 continue

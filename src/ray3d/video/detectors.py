@@ -107,23 +107,20 @@ class PeopleDetector:
                  finder: MoveNetPeople | None = None,
                  full_frame_every: int = 1, empty_every: int = 1):
         self.camera, self.min_score, self.full_frame_every = camera, min_score, max(1, int(full_frame_every))
-        self.empty_every = max(1, int(empty_every))
-        self._frames_seen = 0
+        self.empty_every, self._frames_seen = max(1, int(empty_every)), 0
         self.name = "combined" if finder is not None else "people"
-        self._landmarks = BlazePoseLandmarks(threads)
-        self._finder = finder
+        self._landmarks, self._finder = BlazePoseLandmarks(threads), finder
         self._proposals = ForegroundProposals(camera)
         self._previous: list[Detection] = []
         self._left_out: list[Detection] = []    # people of an earlier frame not looked at in the last one
         self.crop_s = 0.015                     # the landmark network's time per crop, as measured
-        self._empty: deque = deque(maxlen=EMPTY_RUN)  # regions where crops found nobody, by frame
-        self._empty_now: list[np.ndarray] = []
+        self._empty = _EmptyMotion()
         self.postponed = 0                      # people left for the next frame so far (with ``time_left_s``)
 
     def prepare(self, frames: list[np.ndarray]) -> None:
         self._proposals = ForegroundProposals(self.camera, median_background(frames) if frames else None)
         self._previous, self._left_out = [], []
-        self._empty.clear()
+        self._empty = _EmptyMotion()
 
     def __call__(self, frame: np.ndarray, time_left_s: float | None = None) -> list[Detection]:
         # The people of the last frame are looked for where they were (also when they stopped, or merged with
@@ -144,8 +141,8 @@ class PeopleDetector:
         boxes = np.array([d.box for d in followed]).reshape(-1, 4)
         fresh = proposed[~_near(proposed, known) & ~_inside(proposed[:, :2], boxes) & ~_near(proposed, new)
                          & ~_inside_regions(proposed, new)]
-        stale = self._still_empty(fresh) if self._frames_seen % self.empty_every else np.zeros(len(fresh), bool)
-        self._empty_now = [fresh[stale]]  # not looked at: presumed empty still, until the next look tells
+        stale = self._empty.still(fresh) if self._frames_seen % self.empty_every else np.zeros(len(fresh), bool)
+        self._empty.now = [fresh[stale]]  # not looked at: presumed empty still, until the next look tells
         fresh = fresh[~stale]
         # A region the full-frame detector found one person in may hold a person wider than motion's
         # proposals allow (arms and legs spread).
@@ -174,15 +171,8 @@ class PeopleDetector:
         self._previous = _without_duplicates(found)
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
-        self._empty.append(np.concatenate(self._empty_now))
+        self._empty.frames.append(np.concatenate(self._empty.now))
         return self._previous
-
-    def _still_empty(self, regions: np.ndarray) -> np.ndarray:
-        """(N,) whether each of ``regions`` (N, 4) is near a region crops found nobody in, in each of the last
-        ``EMPTY_RUN`` frames."""
-        if len(self._empty) < EMPTY_RUN:
-            return np.zeros(len(regions), bool)
-        return np.logical_and.reduce([_near(regions, empty) for empty in list(self._empty)[-EMPTY_RUN:]])
 
     def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
                         seconds: float) -> np.ndarray:
@@ -192,7 +182,7 @@ class PeopleDetector:
         the others as time allows: the last frame's people, largest first, then the proposals where crops
         lately found nobody."""
         previous = np.arange(len(self._previous))
-        recently_empty = np.concatenate(list(self._empty)) if self._empty else np.zeros((0, 4))
+        recently_empty = np.concatenate(list(self._empty.frames)) if self._empty.frames else np.zeros((0, 4))
         doubtful = known + new + np.flatnonzero(_near(fresh, recently_empty))
         optional = np.concatenate([previous[np.argsort(-regions[previous, 2], kind="stable")], doubtful])
         room = max(0, int(seconds / self.crop_s) - (len(regions) - len(optional)))
@@ -206,11 +196,11 @@ class PeopleDetector:
         if len(regions):  # the time per crop, followed slowly: one busy moment (a new batch size) does not decide it
             per_crop = min((time.perf_counter() - started) / len(regions), 2 * self.crop_s)
             self.crop_s += 0.1 * (per_crop - self.crop_s)
-        self._empty_now.append(as_regions(regions)[scores < self.min_score])
+        self._empty.now.append(as_regions(regions)[scores < self.min_score])
         vouched = np.zeros(len(regions), bool) if vouched is None else vouched
         found = [(Detection(p, c, float(s), f if self._finder is not None else None), v)
                  for p, c, s, f, v in zip(pixels, confidences, scores, following, vouched) if s >= self.min_score]
-        return [d for d, v in found if self._person_sized(d, v)]
+        return [d for d, v in found if _person_sized(self._proposals, d, v)]
 
     def _unposed(self, boxes: np.ndarray, keypoints: np.ndarray, scores: np.ndarray,
                  posed: list[Detection]) -> list[Detection]:
@@ -225,7 +215,8 @@ class PeopleDetector:
         pixels, confidences = as_blazepose(keypoints)
         regions = person_regions(boxes, keypoints)
         found = [Detection(p, c, float(s), r) for p, c, s, r in zip(pixels, confidences, scores, regions)]
-        return [d for d in found if (d.confidences >= 0.5).sum() >= MIN_UNPOSED_JOINTS and self._person_sized(d, True)]
+        return [d for d in found
+                if (d.confidences >= 0.5).sum() >= MIN_UNPOSED_JOINTS and _person_sized(self._proposals, d, True)]
 
     def _region_around(self, detection: Detection) -> np.ndarray:
         """(4,) the crop region (centre u, centre v, side, rotation) for looking again at a person found in the last
@@ -237,14 +228,32 @@ class PeopleDetector:
         tall = max(y1 - y0, 0.8 * float(np.nan_to_num(self._proposals.person_height([(x0 + x1) / 2, y1]))))
         return np.array([(x0 + x1) / 2, y0 + tall / 2, ROI_MARGIN * max(tall, x1 - x0), 0.0])
 
-    def _person_sized(self, detection: Detection, vouched: bool = False) -> bool:
-        """Whether the detection is between a third and twice a person's height at its feet, and not wider
-        than most of it (joints strewn over two people), or, where the full-frame detector ``vouched`` for one
-        person, than one and a half times it."""
-        x0, y0, x1, y1 = detection.box
-        expected = float(self._proposals.person_height([(x0 + x1) / 2, y1]))
-        widest = (1.5 if vouched else 0.75) * expected
-        return bool(np.isfinite(expected)) and expected / 3 <= y1 - y0 <= 2 * expected and x1 - x0 <= widest
+
+
+class _EmptyMotion:
+    """Where crops found nobody, frame by frame (``frames``: the regions (N, 4) of each of the last ``EMPTY_RUN``;
+    ``now``: this frame's so far): motion proposed there again (a passing car) is looked at less often."""
+
+    def __init__(self):
+        self.frames: deque = deque(maxlen=EMPTY_RUN)
+        self.now: list[np.ndarray] = []
+
+    def still(self, regions: np.ndarray) -> np.ndarray:
+        """(N,) whether each of ``regions`` (N, 4) is near a region crops found nobody in, in each of the last
+        ``EMPTY_RUN`` frames."""
+        if len(self.frames) < EMPTY_RUN:
+            return np.zeros(len(regions), bool)
+        return np.logical_and.reduce([_near(regions, empty) for empty in self.frames])
+
+
+def _person_sized(proposals: ForegroundProposals, detection: Detection, vouched: bool = False) -> bool:
+    """Whether the detection is between a third and twice a person's height at its feet (``proposals``' camera
+    geometry), and not wider than most of it (joints strewn over two people), or, where the full-frame detector
+    ``vouched`` for one person, than one and a half times it."""
+    x0, y0, x1, y1 = detection.box
+    expected = float(proposals.person_height([(x0 + x1) / 2, y1]))
+    widest = (1.5 if vouched else 0.75) * expected
+    return bool(np.isfinite(expected)) and expected / 3 <= y1 - y0 <= 2 * expected and x1 - x0 <= widest
 
 
 def _near(regions: np.ndarray, others: np.ndarray) -> np.ndarray:

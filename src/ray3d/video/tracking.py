@@ -126,23 +126,30 @@ class _CarriedIds:
         if self._claim_until is None:
             self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
 
-    def claim(self, seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]], frame_index: int):
-        """The carried person (``CarriedPerson``) the first of ``seen`` is, if it is still early enough: of
-        everybody ``seen`` now and not followed yet (each where they were found, x, y metres, with that point's
-        (2, 2) covariance, and the colours of their clothes; the first confirmed as a person this frame), the
-        likeliest assignment to the carried people gives it (the Hungarian method on each pair's ``_unlikeness``;
-        anybody may be somebody new). Taken; None: nobody (or somebody seen too late)."""
+    def claim(self, person: _Person, active: list[_Person], frame_index: int) -> str | None:
+        """The id of the carried person (``CarriedPerson``) ``person`` is, just confirmed, if it is still early
+        enough; taken, and their walk given to its filter. Of everybody not followed yet in ``active`` (each where
+        they were found, with that point's covariance, and the colours of their clothes), the likeliest assignment
+        to the carried people decides (the Hungarian method on each pair's ``_unlikeness``; anybody may be somebody
+        new). None: nobody (or somebody seen too late)."""
         if not self._carried or frame_index > self._claim_until:
             return None
-        now = frame_index * self.dt
+        seen = [person] + [other for other in active if other.track is None and other is not person]
         somebody_new = 1.0 + COLOUR_GATE  # costlier than any pair within the gates: one within them is taken
         cost = np.full((len(seen), len(self._carried) + len(seen)), np.inf)
-        for r, (here, noise, colour) in enumerate(seen):
-            cost[r, :len(self._carried)] = [_unlikeness(person, here, noise, colour, now) for person in self._carried]
+        for r, other in enumerate(seen):
+            cost[r, :len(self._carried)] = [_unlikeness(carried, other.filter.statePost[:2, 0], other.waiting[-1][3],
+                                                        other.colour, frame_index * self.dt)
+                                            for carried in self._carried]
             cost[r, len(self._carried) + r] = somebody_new
         rows, columns = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
         taken = int(columns[list(rows).index(0)])
-        return self._carried.pop(taken) if taken < len(self._carried) else None
+        if taken >= len(self._carried):
+            return None
+        carried = self._carried.pop(taken)
+        if carried.walk:
+            person.walk_on(carried.walk)
+        return carried.person
 
 
 def _unlikeness(person, here: np.ndarray, noise: np.ndarray, colour: np.ndarray, now_s: float) -> float:
@@ -295,15 +302,9 @@ class FloorTracker:
         person.waiting.append((frame_index, detection, floor, noise))
         if person.hits >= self.confirm_hits:
             frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            unfollowed = [other for other in self._active if other.track is None and other is not person]
-            taken_up = self._carried.claim([(p.filter.statePost[:2, 0], p.waiting[-1][3], p.colour)
-                                            for p in (person, *unfollowed)], frame_index)
-            carried = taken_up is not None
-            if carried:
-                track_id = taken_up.person
-                if taken_up.walk:
-                    person.walk_on(taken_up.walk)
-            else:
+            track_id = self._carried.claim(person, self._active, frame_index)
+            carried = track_id is not None
+            if not carried:
                 track_id = f"{self.id_prefix}{self._confirmed}"
                 self._confirmed += 1
             person.track = Track(track_id, frames, detections, floor, person.colour, noise,
