@@ -384,6 +384,22 @@ def test_somebody_new_confirmed_first_beside_a_carried_person_does_not_take_thei
     assert {t.id: t.frames[0] for t in tracker.tracks()} == {"2-0": 0, "1-4": 1}
 
 
+def test_a_stray_detection_of_an_earlier_frame_does_not_take_a_carried_persons_id():
+    """A one-off detection right where a carried person was left, in the frame before somebody 0.3 m away is
+    confirmed: only the people seen in the frame of the claim compete for the id, so the one confirmed takes it up."""
+    from ray3d.site.events import CarriedPerson
+
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
+    back = CAMERA.project(_walker((6.3, 0.0), (0.0, 0.0), 1))[0]
+    stray = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
+    carried = [CarriedPerson("1-4", (6.0, 0.0), 0.0, 0.0, tracked=(6.0, 0.0, 0.0), walk=(0.0, 0.0))]
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+    for t in range(3):
+        tracker.update(t, [Detection(back, np.ones(17), 0.9)] + ([Detection(stray, np.ones(17), 0.9)] if t == 1
+                                                                  else []), frame)
+    assert [(t.id, t.frames) for t in tracker.tracks()] == [("1-4", [0, 1, 2])]
+
+
 def test_of_two_carried_people_near_somebody_found_the_one_in_their_clothes_is_taken_up():
     """Two people left 0.2 and 0.5 m from where somebody in blue is found: the nearer wore red, the other blue.
     The one in blue is taken up; nobody in clothes unlike theirs is, however near."""

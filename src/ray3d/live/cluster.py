@@ -11,7 +11,9 @@ A stream that ends, stalls or breaks off ends its worker. One step of each worke
 keeps only its newest frames (those pushed out counted per camera), so nothing queues between the actors and
 this process. Files read as fast as they are processed are taken in the order of their frames' times, as in
 this process (``live.source.SourceGroup``): each worker's answer is held until every other's is in, whichever
-actor was quicker, so that the cameras' people are joined at the moments they were seen.
+actor was quicker, so that the cameras' people are joined at the moments they were seen; one camera steps at a
+time then, as in this process (files to get through faster on a cluster: play them at their rate, or ``ray3d
+batch``).
 
 The cameras' lifts pool what their people show of the run's one floor (``live.floor.FloorPool``) through a pool
 in a Ray actor of its own (``RemoteFloorPool``), which the run's loop adds the people two cameras saw at once to."""

@@ -87,4 +87,4 @@ TABLES = (
 
 # version -> the statements that take a store of that version to the next. Version 1 is the first.
 MIGRATIONS: dict[int, tuple[str, ...]] = {1: FLOOR_EVIDENCE, 2: BEHIND, 3: CARRIED, 4: IN_VIEW,
-                                          5: ("DROP TABLE in_view", *IN_VIEW)}
+                                          5: ("DROP TABLE IF EXISTS in_view", *IN_VIEW)}

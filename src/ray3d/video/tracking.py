@@ -38,7 +38,7 @@ CONFIRM_FRAMES = 3  # detections in a row before a person counts (one-off false 
 MISSES_KEPT = 2
 # A person in view when a run was cut off is taken up by a track confirmed in the next run's first CLAIM_S
 # seconds within CLAIM_GATE_M of where their walk led from their last place, plus a brisk walk since it (who
-# stopped or turned is still within it), in clothes of their colours.
+# stopped or turned aside is still within it), in clothes of their colours.
 CLAIM_S = 3.0
 CLAIM_GATE_M = 0.8
 CLAIM_SPEED_M_S = 2.0
@@ -126,15 +126,15 @@ class _CarriedIds:
         if self._claim_until is None:
             self._claim_until = frame_index + int(round(CLAIM_S / self.dt))
 
-    def claim(self, person: _Person, active: list[_Person], frame_index: int) -> str | None:
+    def claim(self, person: _Person, seen: list[_Person], frame_index: int) -> str | None:
         """The id of the carried person (``CarriedPerson``) ``person`` is, just confirmed, if it is still early
-        enough; taken, and their walk given to its filter. Of everybody not followed yet in ``active`` (each where
-        they were found, with that point's covariance, and the colours of their clothes), the likeliest assignment
-        to the carried people decides (the Hungarian method on each pair's ``_unlikeness``; anybody may be somebody
-        new). None: nobody (or somebody seen too late)."""
+        enough; taken, and their walk given to its filter. Of everybody ``seen`` in this frame and not followed yet
+        (each where they were found, with that point's covariance, and the colours of their clothes), the likeliest
+        assignment to the carried people decides (the Hungarian method on each pair's ``_unlikeness``; anybody may
+        be somebody new). None: nobody (or somebody seen too late)."""
         if not self._carried or frame_index > self._claim_until:
             return None
-        seen = [person] + [other for other in active if other.track is None and other is not person]
+        seen = [person] + [other for other in seen if other.track is None and other is not person]
         somebody_new = 1.0 + COLOUR_GATE  # costlier than any pair within the gates: one within them is taken
         cost = np.full((len(seen), len(self._carried) + len(seen)), np.inf)
         for r, other in enumerate(seen):
@@ -216,7 +216,8 @@ class FloorTracker:
         for person in self._active:
             person.predict(elapsed)
         matched_detections = _held_together(self._active, detections, measured, usable)
-        matched_people = self._match(detections, measured, [i for i in usable if i not in matched_detections])
+        matched_people = _matched(self._active, detections, measured,
+                                  [i for i in usable if i not in matched_detections])
         matched_detections |= set(matched_people.values())
         for r, i in matched_people.items():
             floor, noise, colour, alone = measured[i]
@@ -241,32 +242,11 @@ class FloorTracker:
                 person = _Person(floor, noise, colour, self.dt, self.acceleration)
                 survivors.append(person)
                 self._record(person, frame_index, detections[i], floor, noise)
+        # Confirmed once everybody seen in this frame is known: a carried person's id goes to the likeliest of them.
+        for person in survivors:
+            if person.track is None and person.hits >= self.confirm_hits:
+                self._confirm(person, survivors, frame_index)
         self._active = survivors
-
-    def _match(self, detections: list[Detection], measured: list[FloorPoint | None], free: list[int]
-               ) -> dict[int, int]:
-        """People (their rows in ``_active``) -> the detection each is given, of the ``free`` ones, their filters
-        corrected by it. A matching cascade: people seen in the last frame choose first, then those missed for one
-        frame, and so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
-        person in front, who is still being seen."""
-        def priority(person: _Person) -> tuple[bool, int]:
-            return person.track is None, person.missed
-
-        matched: dict[int, int] = {}
-        for level in sorted({priority(p) for p in self._active}):
-            rows = [r for r, p in enumerate(self._active) if priority(p) == level]
-            cols = [i for i in free if i not in matched.values()]
-            if not cols:
-                break
-            cost = _assignment_cost([self._active[r] for r in rows], [detections[i] for i in cols],
-                                    [measured[i] for i in cols])
-            chosen_rows, chosen_cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
-            for a, b in zip(chosen_rows, chosen_cols):
-                if np.isfinite(cost[a, b]):
-                    r, i = rows[a], cols[b]
-                    matched[r] = i
-                    self._active[r].correct(*measured[i][:2])
-        return matched
 
     def tracks(self) -> list[Track]:
         """Every confirmed track so far (less those ``finished`` handed over), in the order they were confirmed."""
@@ -300,24 +280,52 @@ class FloorTracker:
             person.track.colour, person.track.walk = person.colour, person.filter.statePost[2:, 0].copy()
             return
         person.waiting.append((frame_index, detection, floor, noise))
-        if person.hits >= self.confirm_hits:
-            frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
-            track_id = self._carried.claim(person, self._active, frame_index)
-            carried = track_id is not None
-            if not carried:
-                track_id = f"{self.id_prefix}{self._confirmed}"
-                self._confirmed += 1
-            person.track = Track(track_id, frames, detections, floor, person.colour, noise,
-                                 walk=person.filter.statePost[2:, 0].copy(), carried=carried)
-            continued = None if carried or not self.rejoin_s else likeliest_continued(
-                [track for track in self._tracks if not any(p.track is track for p in self._active)], person.track,
-                1 / self.dt, self.rejoin_s)
-            if continued is None:
-                self._tracks.append(person.track)
-            else:  # somebody let go, taken up again: their track goes on
-                identity, rejoin = continued
-                join(identity, person.track, rejoin)
-                person.track = identity
+
+    def _confirm(self, person: _Person, seen: list[_Person], frame_index: int) -> None:
+        """A person detected ``confirm_hits`` times becomes a track: a carried person's (of everybody ``seen`` in
+        this frame), or one let go taken up again, or somebody new."""
+        frames, detections, floor, noise = (list(column) for column in zip(*person.waiting))
+        track_id = self._carried.claim(person, seen, frame_index)
+        carried = track_id is not None
+        if not carried:
+            track_id = f"{self.id_prefix}{self._confirmed}"
+            self._confirmed += 1
+        person.track = Track(track_id, frames, detections, floor, person.colour, noise,
+                             walk=person.filter.statePost[2:, 0].copy(), carried=carried)
+        continued = None if carried or not self.rejoin_s else likeliest_continued(
+            [track for track in self._tracks if not any(p.track is track for p in self._active)], person.track,
+            1 / self.dt, self.rejoin_s)
+        if continued is None:
+            self._tracks.append(person.track)
+        else:  # somebody let go, taken up again: their track goes on
+            identity, rejoin = continued
+            join(identity, person.track, rejoin)
+            person.track = identity
+
+
+def _matched(people: list[_Person], detections: list[Detection], measured: list[FloorPoint | None],
+             free: list[int]) -> dict[int, int]:
+    """People (their rows in ``people``) -> the detection each is given, of the ``free`` ones, their filters
+    corrected by it. A matching cascade: people seen in the last frame choose first, then those missed for one
+    frame, and so on, tentative tracks last; a person coasting behind somebody cannot take the detection of the
+    person in front, who is still being seen."""
+    def priority(person: _Person) -> tuple[bool, int]:
+        return person.track is None, person.missed
+
+    matched: dict[int, int] = {}
+    for level in sorted({priority(p) for p in people}):
+        rows = [r for r, p in enumerate(people) if priority(p) == level]
+        cols = [i for i in free if i not in matched.values()]
+        if not cols:
+            break
+        cost = _assignment_cost([people[r] for r in rows], [detections[i] for i in cols], [measured[i] for i in cols])
+        chosen_rows, chosen_cols = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e6))
+        for a, b in zip(chosen_rows, chosen_cols):
+            if np.isfinite(cost[a, b]):
+                r, i = rows[a], cols[b]
+                matched[r] = i
+                people[r].correct(*measured[i][:2])
+    return matched
 
 
 def _assignment_cost(people: list[_Person], detections: list[Detection], measured: list[FloorPoint]) -> np.ndarray:
