@@ -37,8 +37,8 @@ CONFIRM_FRAMES = 3  # detections in a row before a person counts (one-off false 
 # Frames given in a row a followed person may be missed in and keep their track, however far apart the frames given.
 MISSES_KEPT = 2
 # A person in view when a run was cut off is taken up by a track confirmed in the next run's first CLAIM_S
-# seconds within CLAIM_GATE_M of where their walk led from their last place, plus a brisk walk since it (who
-# stopped or turned aside is still within it), in clothes of their colours.
+# seconds within CLAIM_GATE_M, plus a brisk walk since, of where their walk led from their last place or of that
+# place itself (a young track's walk may be far off; who stopped or turned is within it), in clothes of their colours.
 CLAIM_S = 3.0
 CLAIM_GATE_M = 0.8
 CLAIM_SPEED_M_S = 2.0
@@ -155,15 +155,17 @@ class _CarriedIds:
 def _unlikeness(person, here: np.ndarray, noise: np.ndarray, colour: np.ndarray, now_s: float) -> float:
     """How unlikely a carried person (``CarriedPerson``) is the one found ``here`` (x, y metres; ``noise`` its (2, 2)
     covariance) in clothes of ``colour`` at stream time ``now_s``: how far from where their walk led since they were
-    last placed, in reaches (within ``CLAIM_GATE_M`` and ``CLAIM_SPEED_M_S`` since, and two sd of where the floor
-    point may lie: metres along the ray for somebody far away), plus how unlike their clothes; infinite beyond
-    either gate."""
+    last placed, or from that place (whichever is nearer), in reaches (within ``CLAIM_GATE_M`` and
+    ``CLAIM_SPEED_M_S`` since, and two sd of where the floor point may lie: metres along the ray for somebody far
+    away), plus how unlike their clothes; infinite beyond either gate."""
     x, y, placed_s = person.tracked if person.tracked else (*person.place, person.place_s)
     since = max(0.0, now_s - placed_s)
-    led = np.array([x, y]) + (np.asarray(person.walk) * since if person.walk else 0.0)
+    left = np.array([x, y])
     reach = CLAIM_GATE_M + CLAIM_SPEED_M_S * since
     # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
-    apart = float((here - led) @ np.linalg.solve(reach ** 2 * np.eye(2) + 4.0 * noise, here - led))
+    spread = reach ** 2 * np.eye(2) + 4.0 * noise
+    apart = min(float((here - at) @ np.linalg.solve(spread, here - at))
+                for at in (left, left + np.asarray(person.walk) * since if person.walk else left))
     unlike = 0.5 if person.clothes is None else colour_distance(np.asarray(person.clothes), colour)
     return np.sqrt(apart) + unlike if apart <= 1.0 and unlike < COLOUR_GATE else np.inf
 
