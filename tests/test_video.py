@@ -303,6 +303,16 @@ def test_tracker_needs_several_hits_before_a_track_exists():
     assert [t.frames for t in tracker.tracks()] == [[2, 3, 4]]
 
 
+def _restarted(carried, people_by_frame, frame=None) -> list:
+    """The tracks of a run's tracker that takes ``carried`` people up (its own ids "2-..."), given each frame's
+    people ((17, 2) pixels each) from frame 0 on, in a grey frame unless ``frame`` is given."""
+    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8) if frame is None else frame
+    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
+    for t, people in enumerate(people_by_frame):
+        tracker.update(t, [Detection(p, np.ones(17), 0.9) for p in people], frame)
+    return tracker.tracks()
+
+
 def test_tracker_gives_a_person_where_a_cut_off_run_left_somebody_their_id_in_its_first_seconds_only():
     """Issue 67, item 3: of the people a run cut off left in view, one found again where they could have walked to
     takes up their id; a stranger elsewhere gets a new one, and so does somebody found where a carried person
@@ -329,18 +339,11 @@ def test_tracker_takes_a_carried_person_up_where_their_tracker_put_them_before_t
     found there takes up the id, not the one found near the lifted place."""
     from ray3d.site.events import CarriedPerson
 
-    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
     here = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
-    carried = [CarriedPerson("1-4", (7.5, 0.0), 0.0, 0.0, tracked=(6.1, 0.0, 0.0))]
-    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
-    for t in range(4):
-        tracker.update(t, [Detection(here, np.ones(17), 0.9)], frame)
-    assert [t.id for t in tracker.tracks()] == ["1-4"]
-    lifted_only = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-",
-                               carried=[CarriedPerson("1-4", (7.5, 0.0), 0.0, 0.0)])
-    for t in range(4):
-        lifted_only.update(t, [Detection(here, np.ones(17), 0.9)], frame)
-    assert [t.id for t in lifted_only.tracks()] == ["2-0"]  # 1.5 m from the lifted place at 0.3 s: out of reach
+    tracked = [CarriedPerson("1-4", (7.5, 0.0), 0.0, 0.0, tracked=(6.1, 0.0, 0.0))]
+    assert [t.id for t in _restarted(tracked, [[here]] * 4)] == ["1-4"]
+    lifted_only = [CarriedPerson("1-4", (7.5, 0.0), 0.0, 0.0)]
+    assert [t.id for t in _restarted(lifted_only, [[here]] * 4)] == ["2-0"]  # 1.5 m from it at 0.3 s: out of reach
 
 
 def test_of_two_carried_people_the_one_whose_walk_led_there_is_taken_up_and_their_walk_goes_on():
@@ -373,13 +376,9 @@ def test_a_carried_person_whose_walk_was_read_wrong_is_still_taken_up_near_where
     holds from the place they were left as from where their walk led), not numbered anew."""
     from ray3d.site.events import CarriedPerson
 
-    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
     back = CAMERA.project(_walker((6.0, 0.75), (0.0, 0.5), 4))
     left = CarriedPerson("1-4", (6.0, 0.0), -0.5, 0.0, tracked=(6.0, 0.0, -0.5), walk=(0.0, -2.0))
-    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=[left])
-    for t in range(3):
-        tracker.update(t, [Detection(back[t], np.ones(17), 0.9)], frame)
-    assert [t.id for t in tracker.tracks()] == ["1-4"]
+    assert [t.id for t in _restarted([left], [[back[t]] for t in range(3)])] == ["1-4"]
 
 
 def test_somebody_new_confirmed_first_beside_a_carried_person_does_not_take_their_id_from_them():
@@ -388,15 +387,11 @@ def test_somebody_new_confirmed_first_beside_a_carried_person_does_not_take_thei
     by the likeliest assignment of both, not to whoever is confirmed first: the carried person keeps it."""
     from ray3d.site.events import CarriedPerson
 
-    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
     new = CAMERA.project(_walker((6.0, 0.6), (0.0, 0.0), 1))[0]
     back = CAMERA.project(_walker((6.05, 0.0), (0.0, 0.0), 1))[0]
     carried = [CarriedPerson("1-4", (6.0, 0.0), 0.0, 0.0, tracked=(6.0, 0.0, 0.0), walk=(0.0, 0.0))]
-    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
-    for t in range(4):
-        tracker.update(t, [Detection(new, np.ones(17), 0.9)] + ([Detection(back, np.ones(17), 0.9)] if t else []),
-                       frame)
-    assert {t.id: t.frames[0] for t in tracker.tracks()} == {"2-0": 0, "1-4": 1}
+    tracks = _restarted(carried, [[new]] + [[new, back]] * 3)
+    assert {t.id: t.frames[0] for t in tracks} == {"2-0": 0, "1-4": 1}
 
 
 def test_a_stray_detection_of_an_earlier_frame_does_not_take_a_carried_persons_id():
@@ -404,15 +399,10 @@ def test_a_stray_detection_of_an_earlier_frame_does_not_take_a_carried_persons_i
     confirmed: only the people seen in the frame of the claim compete for the id, so the one confirmed takes it up."""
     from ray3d.site.events import CarriedPerson
 
-    frame = np.full((SIZE[1], SIZE[0], 3), 60, np.uint8)
     back = CAMERA.project(_walker((6.3, 0.0), (0.0, 0.0), 1))[0]
     stray = CAMERA.project(_walker((6.0, 0.0), (0.0, 0.0), 1))[0]
     carried = [CarriedPerson("1-4", (6.0, 0.0), 0.0, 0.0, tracked=(6.0, 0.0, 0.0), walk=(0.0, 0.0))]
-    tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
-    for t in range(3):
-        tracker.update(t, [Detection(back, np.ones(17), 0.9)] + ([Detection(stray, np.ones(17), 0.9)] if t == 1
-                                                                  else []), frame)
-    assert [(t.id, t.frames) for t in tracker.tracks()] == [("1-4", [0, 1, 2])]
+    assert [(t.id, t.frames) for t in _restarted(carried, [[back], [back, stray], [back]])] == [("1-4", [0, 1, 2])]
 
 
 def test_of_two_carried_people_near_somebody_found_the_one_in_their_clothes_is_taken_up():
@@ -429,10 +419,7 @@ def test_of_two_carried_people_near_somebody_found_the_one_in_their_clothes_is_t
     in_red = CarriedPerson("1-4", (6.2, 0.0), 0.0, 0.0, tracked=(6.2, 0.0, 0.0), clothes=dressed((200, 30, 30)))
     in_blue = CarriedPerson("1-7", (6.0, 0.5), 0.0, 0.0, tracked=(6.0, 0.5, 0.0), clothes=dressed((30, 60, 200)))
     for carried, taken in (((in_red, in_blue), "1-7"), ((in_red,), "2-0")):
-        tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
-        for t in range(3):
-            tracker.update(t, [Detection(here, np.ones(17), 0.9)], blue)
-        assert [t.id for t in tracker.tracks()] == [taken]
+        assert [t.id for t in _restarted(carried, [[here]] * 3, blue)] == [taken]
 
 
 def test_a_carried_person_far_away_is_reached_along_the_ray_as_far_as_the_floor_point_is_unsure_not_across_it():
@@ -449,10 +436,7 @@ def test_a_carried_person_far_away_is_reached_along_the_ray_as_far_as_the_floor_
     measured = found.tracks()[0].floor[-1]  # where a tracker puts them (their ankles' rays meet the floor)
     for left_at, taken in ((measured + [1.4, 0.0], ["1-4"]), (measured + [0.0, 1.4], ["2-0"])):
         carried = [CarriedPerson("1-4", (30.0, 0.0), 0.0, 0.0, tracked=(*left_at, 0.0))]
-        tracker = FloorTracker(CAMERA, FPS, "h36m17", confirm_hits=3, id_prefix="2-", carried=carried)
-        for t in range(4):
-            tracker.update(t, [Detection(far, np.ones(17), 0.9)], frame)
-        assert [t.id for t in tracker.tracks()] == taken, left_at
+        assert [t.id for t in _restarted(carried, [[far]] * 4)] == taken, left_at
 
 
 def test_tracker_counts_dropped_frames_as_time_passing():
