@@ -171,7 +171,7 @@ class PeopleDetector:
         self._previous = _without_duplicates(found)
         self._left_out = [d for d in left_out if not len(self._previous) or
                           box_overlap(d.box[None], np.stack([k.box for k in self._previous])).max() < 0.5]
-        self._empty.frames.append(np.concatenate(self._empty.now))
+        self._empty.close_frame()
         return self._previous
 
     def _left_for_later(self, regions: np.ndarray, known: int, new: int, fresh: np.ndarray,
@@ -182,8 +182,7 @@ class PeopleDetector:
         the others as time allows: the last frame's people, largest first, then the proposals where crops
         lately found nobody."""
         previous = np.arange(len(self._previous))
-        recently_empty = np.concatenate(list(self._empty.frames)) if self._empty.frames else np.zeros((0, 4))
-        doubtful = known + new + np.flatnonzero(_near(fresh, recently_empty))
+        doubtful = known + new + np.flatnonzero(_near(fresh, self._empty.recent()))
         optional = np.concatenate([previous[np.argsort(-regions[previous, 2], kind="stable")], doubtful])
         room = max(0, int(seconds / self.crop_s) - (len(regions) - len(optional)))
         return optional[room:]
@@ -244,6 +243,14 @@ class _EmptyMotion:
         if len(self.frames) < EMPTY_RUN:
             return np.zeros(len(regions), bool)
         return np.logical_and.reduce([_near(regions, empty) for empty in self.frames])
+
+    def close_frame(self) -> None:
+        """This frame's regions kept, the oldest let go."""
+        self.frames.append(np.concatenate(self.now))
+
+    def recent(self) -> np.ndarray:
+        """(N, 4) every region crops found nobody in over the frames kept."""
+        return np.concatenate(list(self.frames)) if self.frames else np.zeros((0, 4))
 
 
 def _person_sized(proposals: ForegroundProposals, detection: Detection, vouched: bool = False) -> bool:

@@ -164,8 +164,8 @@ def _unlikeness(person, here: np.ndarray, noise: np.ndarray, colour: np.ndarray,
     reach = CLAIM_GATE_M + CLAIM_SPEED_M_S * since
     # How many reaches away, the floor point's doubt added: d' (r^2 I + 4 noise)^-1 d, within at 1.
     spread = reach ** 2 * np.eye(2) + 4.0 * noise
-    apart = min(float((here - at) @ np.linalg.solve(spread, here - at))
-                for at in (left, left + np.asarray(person.walk) * since if person.walk else left))
+    places = [left] + ([left + np.asarray(person.walk) * since] if person.walk else [])
+    apart = min(float((here - at) @ np.linalg.solve(spread, here - at)) for at in places)
     unlike = 0.5 if person.clothes is None else colour_distance(np.asarray(person.clothes), colour)
     return np.sqrt(apart) + unlike if apart <= 1.0 and unlike < COLOUR_GATE else np.inf
 
